@@ -12,9 +12,7 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 /// A point in robot time: nanoseconds since the epoch of the [`Clock`] that stamped it.
-#[derive(
-    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
-)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct Timestamp(pub u64);
 
@@ -24,11 +22,7 @@ impl Timestamp {
 
     /// A timestamp from seconds since the epoch (negative and non-finite values give zero).
     pub fn from_secs_f64(secs: f64) -> Self {
-        if secs.is_finite() && secs > 0.0 {
-            Timestamp((secs * 1e9).round() as u64)
-        } else {
-            Timestamp(0)
-        }
+        if secs.is_finite() && secs > 0.0 { Timestamp((secs * 1e9).round() as u64) } else { Timestamp(0) }
     }
 
     /// Seconds since the epoch.
@@ -73,13 +67,18 @@ impl Clock {
 
     /// The current robot time.
     pub fn now(&self) -> Timestamp {
-        let d = Instant::now().saturating_duration_since(self.epoch);
-        Timestamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+        self.stamp_of(Instant::now())
     }
 
     /// The tokio instant of a timestamp of this clock, for `sleep_until` and intervals.
     pub fn instant_of(&self, t: Timestamp) -> Instant {
         self.epoch + Duration::from_nanos(t.0)
+    }
+
+    /// The timestamp of a tokio instant (zero before the epoch).
+    pub fn stamp_of(&self, at: Instant) -> Timestamp {
+        let d = at.saturating_duration_since(self.epoch);
+        Timestamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
     }
 
     /// The epoch as a tokio instant.

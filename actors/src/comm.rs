@@ -28,9 +28,7 @@ use std::fmt::Debug;
 ///
 /// Implement it with [`comm_object!`]. The identifier has the form `namespace.Name/version`; bump
 /// the version whenever the serialised form changes incompatibly.
-pub trait CommObject:
-    Serialize + DeserializeOwned + Clone + Debug + Send + Sync + 'static
-{
+pub trait CommObject: Serialize + DeserializeOwned + Clone + Debug + Send + Sync + 'static {
     /// The stable identifier of this type, e.g. `orsa.DistanceScan/1`.
     const ID: &'static str;
 }

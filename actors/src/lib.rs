@@ -1,6 +1,55 @@
-//! orsa-actors: the framework core (work in progress this session).
+//! # orsa-actors: the framework core
+//!
+//! orsa builds robot control software out of supervised actors that talk only through a small
+//! set of **communication patterns** with fixed semantics, carrying typed **communication
+//! objects**. This crate is that core, on [ractor](https://docs.rs/ractor) and tokio.
+//!
+//! | pattern | file | what it does |
+//! |---|---|---|
+//! | Send | [`send`] | one-way command |
+//! | Query | [`query`] | request/response, awaited or collected later |
+//! | Push newest | [`push_newest`] | every subscriber gets each new value |
+//! | Push timed | [`push_timed`] | the server produces on its period; `subscribe(n)` gets every n-th |
+//! | Event | [`event`] | the server fires when a client's condition holds |
+//! | State | [`state`] | a master sets a slave's main state; activities hold substates |
+//! | Wiring | [`wiring`] | a master reconnects a component's client ports at run time |
+//!
+//! Around them:
+//! - [`comm`]: communication objects and their stable identifiers; [`stamped`]: the envelope
+//!   (sequence number, timestamp) every object travels in.
+//! - [`component`]: a component is a named actor hosting services, ports, state and
+//!   subscriptions; a restarted instance keeps all of them.
+//! - [`registry`]: addresses (`component/service`) and the directory that resolves them, with the
+//!   type check between client and service; [`transport`]: the seam for other processes.
+//! - [`supervision`]: OTP-style supervisors on ractor.
+//! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
+//!   a whole system deterministically.
+//! - [`sink`]: where patterns deliver (a component's mailbox, a channel); [`error`]: the status
+//!   values of every operation.
+
 pub mod clock;
 pub mod comm;
+pub mod component;
+pub mod error;
+pub mod event;
+mod push;
+pub mod push_newest;
+pub mod push_timed;
+pub mod query;
+pub mod registry;
+pub mod send;
+pub mod sink;
+pub mod stamped;
+pub mod state;
 pub mod supervision;
+pub mod transport;
+pub mod wiring;
+
 pub use clock::{Clock, Timestamp};
 pub use comm::{CommObject, Empty};
+pub use component::{Component, ComponentError, ComponentHandle, Ctx};
+pub use error::{PatternError, PatternResult};
+pub use push::PushStats;
+pub use registry::{PatternKind, Registry, ServiceAddr, ServiceInfo};
+pub use sink::{Mailbox, Sink, Undeliverable};
+pub use stamped::{Stamped, Update};

@@ -1,0 +1,473 @@
+//! Components: named, supervised actors that host services, activities, state and wiring.
+//!
+//! A component is what the original system called a component: a unit whose interface is a list
+//! of services, each a pattern plus a communication object. In orsa it has two parts:
+//! - a **shell** that lives as long as the component is part of the system: its name in the
+//!   [`Registry`], its [`Mailbox`], its services, its wireable ports, its
+//!   [`State`](crate::state) slave and its subscriptions;
+//! - an **instance**: a ractor actor running the user's [`Component`] code, which a supervisor
+//!   may kill and restart. A new instance re-runs [`Component::setup`], finds its services,
+//!   ports and subscriptions where the old one left them (declaring them again gives them back,
+//!   with the same wiring and the same `every`), and receives again through the same mailbox.
+//!   Nobody has to re-wire or re-subscribe it.
+//!
+//! Everything a component does with other components goes through its [`Ctx`]: declaring
+//! servers, connecting clients, subscribing, declaring ports and states. A component never calls
+//! another component's methods.
+//!
+//! ```
+//! use orsa_actors::{Component, ComponentError, Ctx, Registry, Stamped, component::spawn};
+//!
+//! /// Doubles every number sent to `doubler/input` and pushes it on `doubler/output`.
+//! struct Doubler;
+//! enum Msg { Input(Stamped<u64>) }
+//!
+//! impl Component for Doubler {
+//!     type Msg = Msg;
+//!     type State = orsa_actors::push_newest::PushNewestServer<u64>;
+//!     async fn setup(&self, ctx: &Ctx<Msg>) -> Result<Self::State, ComponentError> {
+//!         ctx.send_server::<u64>("input", Msg::Input)?;
+//!         Ok(ctx.push_newest_server::<u64>("output")?)
+//!     }
+//!     async fn handle(&self, _ctx: &Ctx<Msg>, out: &mut Self::State, msg: Msg) -> Result<(), ComponentError> {
+//!         let Msg::Input(n) = msg;
+//!         out.put(n.value * 2);
+//!         Ok(())
+//!     }
+//! }
+//!
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! let doubler = spawn(&registry, "doubler", Doubler).await?;
+//! let out = orsa_actors::push_newest::PushNewestClient::<u64>::connect(&registry, "doubler/output")?;
+//! out.subscribe()?;
+//! orsa_actors::send::SendClient::<u64>::connect(&registry, "doubler/input")?.send(21)?;
+//! assert_eq!(out.get_update_wait().await?.value, 42);
+//! doubler.stop().await;
+//! # Ok(()) }
+//! ```
+
+use crate::clock::{Clock, Timestamp};
+use crate::comm::CommObject;
+use crate::error::{PatternError, PatternResult};
+use crate::event::{EventClient, EventServer};
+use crate::push_newest::{PushNewestClient, PushNewestServer};
+use crate::push_timed::{PushTimedClient, PushTimedServer, Tick};
+use crate::query::{QueryClient, QueryRequest, QueryServer};
+use crate::registry::{IntoAddr, Registry, ServiceAddr};
+use crate::send::{SendClient, SendServer};
+use crate::sink::Mailbox;
+use crate::stamped::{Stamped, Update};
+use crate::state::{Cancel, StateHandle, StateSlave, StateSpec};
+use crate::wiring::{QueryPort, SendPort, WiringSlave};
+use parking_lot::Mutex;
+use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef};
+use std::any::Any;
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The error a component's code returns; the instance fails and its supervisor decides.
+pub type ComponentError = ActorProcessingErr;
+
+/// The code of a component. Configuration lives in `self`; mutable state in [`Self::State`],
+/// built by [`setup`](Self::setup) on every (re)start.
+pub trait Component: Send + Sync + Sized + 'static {
+    /// The messages the component's services and subscriptions deliver to it.
+    type Msg: ractor::Message;
+    /// The instance's mutable state.
+    type State: Send + 'static;
+
+    /// Declares services, ports, states and subscriptions, and builds the state.
+    fn setup(&self, ctx: &Ctx<Self::Msg>)
+    -> impl Future<Output = Result<Self::State, ComponentError>> + Send;
+
+    /// Handles one message.
+    fn handle(
+        &self,
+        ctx: &Ctx<Self::Msg>,
+        state: &mut Self::State,
+        msg: Self::Msg,
+    ) -> impl Future<Output = Result<(), ComponentError>> + Send;
+
+    /// Runs when the instance stops normally (not when it fails or is killed).
+    fn teardown(&self, ctx: &Ctx<Self::Msg>, state: &mut Self::State) -> impl Future<Output = ()> + Send {
+        let _ = (ctx, state);
+        async {}
+    }
+}
+
+struct Shell<M> {
+    name: String,
+    registry: Registry,
+    mailbox: Mailbox<M>,
+    state: Arc<StateSlave>,
+    wiring: Arc<WiringSlave>,
+    declared: Mutex<BTreeMap<String, Arc<dyn Any + Send + Sync>>>,
+    stoppers: Mutex<Vec<Box<dyn Fn() + Send + Sync>>>,
+}
+
+/// A component's access to the system: everything it declares or connects goes through here.
+pub struct Ctx<M> {
+    shell: Arc<Shell<M>>,
+}
+
+impl<M> Clone for Ctx<M> {
+    fn clone(&self) -> Self {
+        Ctx { shell: Arc::clone(&self.shell) }
+    }
+}
+
+impl<M: ractor::Message> Ctx<M> {
+    fn new(registry: &Registry, name: &str) -> PatternResult<Self> {
+        registry.register_component(name)?;
+        let made = (|| {
+            let state = StateSlave::register(registry, name, StateSpec::new())?;
+            let wiring = WiringSlave::register_with_cancel(registry, name, Some(state.cancel_token()))?;
+            Ok::<_, PatternError>((state, wiring))
+        })();
+        let (state, wiring) = match made {
+            Ok(v) => v,
+            Err(e) => {
+                registry.unregister_component(name);
+                return Err(e);
+            }
+        };
+        Ok(Ctx {
+            shell: Arc::new(Shell {
+                name: name.to_string(),
+                registry: registry.clone(),
+                mailbox: Mailbox::new(),
+                state,
+                wiring,
+                declared: Mutex::new(BTreeMap::new()),
+                stoppers: Mutex::new(Vec::new()),
+            }),
+        })
+    }
+
+    /// The component's name.
+    pub fn name(&self) -> &str {
+        &self.shell.name
+    }
+
+    /// The address of one of this component's services.
+    pub fn addr(&self, service: &str) -> ServiceAddr {
+        ServiceAddr::new(self.shell.name.clone(), service)
+    }
+
+    /// The system's registry.
+    pub fn registry(&self) -> &Registry {
+        &self.shell.registry
+    }
+
+    /// The system's clock.
+    pub fn clock(&self) -> Clock {
+        self.shell.registry.clock()
+    }
+
+    /// The current robot time.
+    pub fn now(&self) -> Timestamp {
+        self.shell.registry.now()
+    }
+
+    /// The component's mailbox (bound to the running instance).
+    pub fn mailbox(&self) -> &Mailbox<M> {
+        &self.shell.mailbox
+    }
+
+    /// The running instance, if any.
+    pub fn myself(&self) -> Option<ActorRef<M>> {
+        self.shell.mailbox.current()
+    }
+
+    /// The activity-side handle of the component's State slave.
+    pub fn state(&self) -> StateHandle {
+        self.shell.state.handle()
+    }
+
+    /// Declares the component's main states (see [`crate::state`]).
+    pub fn declare_states(&self, spec: StateSpec) -> PatternResult<()> {
+        self.shell.state.declare(spec)
+    }
+
+    /// The token that aborts this component's blocking calls when its master deactivates it.
+    pub fn cancel(&self) -> Cancel {
+        self.shell.state.cancel_token()
+    }
+
+    /// Gets back what `key` declared before (same type), or makes and records it.
+    fn declared<X: Clone + Send + Sync + 'static>(
+        &self,
+        key: String,
+        make: impl FnOnce() -> PatternResult<X>,
+    ) -> PatternResult<X> {
+        let mut declared = self.shell.declared.lock();
+        if let Some(existing) = declared.get(&key) {
+            return existing.downcast_ref::<X>().cloned().ok_or_else(|| {
+                PatternError::AlreadyRegistered(format!("{key} of '{}' with another type", self.shell.name))
+            });
+        }
+        let made = make()?;
+        declared.insert(key, Arc::new(made.clone()));
+        Ok(made)
+    }
+
+    /// Declares a Send service; each message arrives as `map(message)`.
+    pub fn send_server<T: CommObject>(
+        &self,
+        service: &str,
+        map: impl Fn(Stamped<T>) -> M + Send + Sync + 'static,
+    ) -> PatternResult<SendServer<T>> {
+        self.declared(format!("service {service}"), || {
+            SendServer::register(&self.shell.registry, self.addr(service), self.shell.mailbox.sink(map))
+        })
+    }
+
+    /// Declares a Query service; each request arrives as `map(request)`.
+    pub fn query_server<Req: CommObject, Ans: CommObject>(
+        &self,
+        service: &str,
+        map: impl Fn(QueryRequest<Req, Ans>) -> M + Send + Sync + 'static,
+    ) -> PatternResult<QueryServer<Req, Ans>> {
+        self.declared(format!("service {service}"), || {
+            QueryServer::register(&self.shell.registry, self.addr(service), self.shell.mailbox.sink(map))
+        })
+    }
+
+    /// Declares a Push newest service.
+    pub fn push_newest_server<T: CommObject>(&self, service: &str) -> PatternResult<PushNewestServer<T>> {
+        self.declared(format!("service {service}"), || {
+            PushNewestServer::register(&self.shell.registry, self.addr(service))
+        })
+    }
+
+    /// Declares a Push timed service producing every `period`; each tick arrives as `map(tick)`.
+    /// It starts stopped: call [`PushTimedServer::start`] (starting again is harmless).
+    pub fn push_timed_server<T: CommObject>(
+        &self,
+        service: &str,
+        period: Duration,
+        map: impl Fn(Tick) -> M + Send + Sync + 'static,
+    ) -> PatternResult<PushTimedServer<T>> {
+        self.declared(format!("service {service}"), || {
+            let server = PushTimedServer::register(
+                &self.shell.registry,
+                self.addr(service),
+                period,
+                self.shell.mailbox.sink(map),
+            )?;
+            let stopper = server.clone();
+            self.shell.stoppers.lock().push(Box::new(move || stopper.stop()));
+            Ok(server)
+        })
+    }
+
+    /// Declares an Event service with its condition test (see [`EventServer::register`]).
+    pub fn event_server<P: CommObject, E: CommObject, S: 'static>(
+        &self,
+        service: &str,
+        test: impl Fn(&P, &S) -> Option<E> + Send + Sync + 'static,
+    ) -> PatternResult<EventServer<P, E, S>> {
+        self.declared(format!("service {service}"), || {
+            EventServer::register(&self.shell.registry, self.addr(service), test)
+        })
+    }
+
+    /// A Send client to `addr`.
+    pub fn send_client<T: CommObject>(&self, addr: impl IntoAddr) -> PatternResult<SendClient<T>> {
+        SendClient::connect(&self.shell.registry, addr)
+    }
+
+    /// A Query client to `addr`, whose waits this component's deactivation aborts.
+    pub fn query_client<Req: CommObject, Ans: CommObject>(
+        &self,
+        addr: impl IntoAddr,
+    ) -> PatternResult<QueryClient<Req, Ans>> {
+        Ok(QueryClient::connect(&self.shell.registry, addr)?.with_cancel(self.cancel()))
+    }
+
+    /// An Event client to `addr`, whose waits this component's deactivation aborts.
+    pub fn event_client<P: CommObject, E: CommObject>(
+        &self,
+        addr: impl IntoAddr,
+    ) -> PatternResult<EventClient<P, E>> {
+        Ok(EventClient::connect(&self.shell.registry, addr)?.with_cancel(self.cancel()))
+    }
+
+    /// Subscribes to a Push newest service; each update arrives as `map(update)`. The
+    /// subscription belongs to the component and survives restarts of its instance.
+    pub fn subscribe_newest<T: CommObject>(
+        &self,
+        addr: impl IntoAddr,
+        map: impl Fn(Update<T>) -> M + Send + Sync + 'static,
+    ) -> PatternResult<Arc<PushNewestClient<T>>> {
+        let addr = addr.into_addr()?;
+        self.declared(format!("subscription {addr}"), || {
+            let client = PushNewestClient::build(
+                &self.shell.registry,
+                &addr,
+                Some(self.shell.mailbox.sink(map)),
+                Some(self.cancel()),
+            )?;
+            client.subscribe()?;
+            Ok(Arc::new(client))
+        })
+    }
+
+    /// Subscribes to every `every`-th update of a Push timed service; each arrives as
+    /// `map(update)`. The subscription belongs to the component and survives restarts of its
+    /// instance; declaring it again with another `every` re-subscribes with that one.
+    pub fn subscribe_timed<T: CommObject>(
+        &self,
+        addr: impl IntoAddr,
+        every: u32,
+        map: impl Fn(Update<T>) -> M + Send + Sync + 'static,
+    ) -> PatternResult<Arc<PushTimedClient<T>>> {
+        let addr = addr.into_addr()?;
+        let client: Arc<PushTimedClient<T>> = self.declared(format!("subscription {addr}"), || {
+            let client = PushTimedClient::build(
+                &self.shell.registry,
+                &addr,
+                Some(self.shell.mailbox.sink(map)),
+                Some(self.cancel()),
+            )?;
+            Ok(Arc::new(client))
+        })?;
+        let key = format!("every {addr}");
+        let mut declared = self.shell.declared.lock();
+        let same = declared.get(&key).and_then(|e| e.downcast_ref::<u32>().copied()) == Some(every);
+        if !same || !client.is_subscribed() {
+            client.subscribe(every)?;
+            declared.insert(key, Arc::new(every));
+        }
+        Ok(client)
+    }
+
+    /// Declares (or gets back, still wired) a wireable Send port.
+    pub fn send_port<T: CommObject>(&self, port: &str) -> PatternResult<SendPort<T>> {
+        self.shell.wiring.send_port(port)
+    }
+
+    /// Declares (or gets back, still wired) a wireable Query port.
+    pub fn query_port<Req: CommObject, Ans: CommObject>(
+        &self,
+        port: &str,
+    ) -> PatternResult<QueryPort<Req, Ans>> {
+        self.shell.wiring.query_port(port)
+    }
+}
+
+struct Instance<C: Component> {
+    component: Arc<C>,
+    ctx: Ctx<C::Msg>,
+}
+
+impl<C: Component> Actor for Instance<C> {
+    type Msg = C::Msg;
+    type State = C::State;
+    type Arguments = ();
+
+    async fn pre_start(&self, myself: ActorRef<C::Msg>, _: ()) -> Result<C::State, ActorProcessingErr> {
+        self.ctx.shell.mailbox.bind(myself);
+        self.component.setup(&self.ctx).await
+    }
+
+    async fn handle(
+        &self,
+        _myself: ActorRef<C::Msg>,
+        msg: C::Msg,
+        state: &mut C::State,
+    ) -> Result<(), ActorProcessingErr> {
+        self.component.handle(&self.ctx, state, msg).await
+    }
+
+    async fn post_stop(
+        &self,
+        myself: ActorRef<C::Msg>,
+        state: &mut C::State,
+    ) -> Result<(), ActorProcessingErr> {
+        self.ctx.shell.mailbox.unbind(&myself);
+        self.component.teardown(&self.ctx, state).await;
+        Ok(())
+    }
+}
+
+/// A component that is part of a system: its shell and the way to start instances of it.
+pub struct ComponentHandle<C: Component> {
+    component: Arc<C>,
+    ctx: Ctx<C::Msg>,
+}
+
+impl<C: Component> Clone for ComponentHandle<C> {
+    fn clone(&self) -> Self {
+        ComponentHandle { component: Arc::clone(&self.component), ctx: self.ctx.clone() }
+    }
+}
+
+impl<C: Component> ComponentHandle<C> {
+    /// Adds a component named `name` to the system without starting it: its state and wiring
+    /// services exist from now on.
+    pub fn new(registry: &Registry, name: &str, component: C) -> PatternResult<Self> {
+        Ok(ComponentHandle { component: Arc::new(component), ctx: Ctx::new(registry, name)? })
+    }
+
+    /// Starts an instance, linked to `supervisor` if given. A supervisor calls this again to
+    /// restart the component.
+    pub async fn start(&self, supervisor: Option<ActorCell>) -> Result<ActorCell, ractor::SpawnErr> {
+        let instance = Instance { component: Arc::clone(&self.component), ctx: self.ctx.clone() };
+        let (actor, _join) = match supervisor {
+            Some(sup) => Actor::spawn_linked(None, instance, (), sup).await?,
+            None => Actor::spawn(None, instance, ()).await?,
+        };
+        Ok(actor.get_cell())
+    }
+
+    /// The component's name.
+    pub fn name(&self) -> &str {
+        self.ctx.name()
+    }
+
+    /// The component's context (as its instances see it).
+    pub fn ctx(&self) -> &Ctx<C::Msg> {
+        &self.ctx
+    }
+
+    /// The running instance, if any.
+    pub fn instance(&self) -> Option<ActorRef<C::Msg>> {
+        self.ctx.myself()
+    }
+
+    /// Stops the running instance gracefully and removes the component from the system: its
+    /// timed services stop and its services are unregistered.
+    pub async fn stop(&self) {
+        if let Some(actor) = self.ctx.myself() {
+            // An instance that is already gone has nothing to stop.
+            let _ = actor.stop_and_wait(None, None).await;
+        }
+        self.remove();
+    }
+
+    /// Removes the component from the system without touching its instance.
+    pub fn remove(&self) {
+        for stop in self.ctx.shell.stoppers.lock().iter() {
+            stop();
+        }
+        self.ctx.shell.registry.unregister_component(self.ctx.name());
+    }
+}
+
+/// Adds a component to the system and starts one unsupervised instance of it.
+pub async fn spawn<C: Component>(
+    registry: &Registry,
+    name: &str,
+    component: C,
+) -> PatternResult<ComponentHandle<C>> {
+    let handle = ComponentHandle::new(registry, name, component)?;
+    if let Err(e) = handle.start(None).await {
+        handle.remove();
+        return Err(PatternError::Unavailable(ServiceAddr::new(name, format!("(start failed: {e})"))));
+    }
+    Ok(handle)
+}

@@ -1,0 +1,271 @@
+//! **Event**: the server fires to a client when the client's condition holds.
+//!
+//! Semantics: a client [`activate`](EventClient::activate)s an event with parameters (its
+//! condition, e.g. "distance below 0.5 m") in one of two modes: [`EventMode::Single`] fires once
+//! and then ends the activation, [`EventMode::Continuous`] fires every time the condition holds
+//! until the client deactivates it. The server calls [`EventServer::put`] with its new state on
+//! every state change; the server's test function is evaluated for each activation against that
+//! state, and an event is sent only to activations it matches. An activation made after a
+//! state change is tested at the next one. Events carry the activation's id, a sequence number
+//! and a timestamp.
+//!
+//! ```
+//! # use orsa_actors::{Registry, event::{EventClient, EventMode, EventServer}};
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! // fire with the distance when it drops below the client's threshold
+//! let server = EventServer::<f64, f64, f64>::register(&registry, "nomad200/near", |limit, d| {
+//!     (*d < *limit).then_some(*d)
+//! })?;
+//! let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near")?;
+//! let mut near = client.activate(EventMode::Single, 0.5)?;
+//! server.put(&0.8); // no event
+//! server.put(&0.4); // fires once
+//! server.put(&0.3); // single-shot: already done
+//! assert_eq!(near.next().await?.event.value, 0.4);
+//! # Ok(()) }
+//! ```
+
+use crate::clock::Clock;
+use crate::comm::CommObject;
+use crate::error::{PatternError, PatternResult};
+use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::sink::{Sink, Undeliverable};
+use crate::stamped::Stamped;
+use crate::state::Cancel;
+use parking_lot::Mutex;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use tokio::sync::mpsc;
+
+pub(crate) fn info<P: CommObject, E: CommObject>() -> ServiceInfo {
+    ServiceInfo::new(PatternKind::Event, &[P::ID, E::ID])
+}
+
+/// How often an activation fires.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EventMode {
+    /// Once, then the activation ends.
+    Single,
+    /// Every time the condition holds, until deactivated.
+    Continuous,
+}
+
+/// Identifies one activation at one event server.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct ActivationId(pub u64);
+
+/// An event as a client receives it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fired<E> {
+    /// The activation that matched.
+    pub activation: ActivationId,
+    /// The stamped event.
+    pub event: Stamped<E>,
+}
+
+struct Activation<P, E> {
+    mode: EventMode,
+    params: P,
+    sink: Sink<Fired<E>>,
+}
+
+pub(crate) struct EventEndpoint<P, E> {
+    addr: ServiceAddr,
+    clock: Clock,
+    activations: Mutex<BTreeMap<ActivationId, Activation<P, E>>>,
+    next_id: AtomicU64,
+    seq: AtomicU64,
+}
+
+impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
+    fn activate(&self, mode: EventMode, params: P, sink: Sink<Fired<E>>) -> ActivationId {
+        let id = ActivationId(self.next_id.fetch_add(1, Ordering::Relaxed));
+        self.activations.lock().insert(id, Activation { mode, params, sink });
+        id
+    }
+
+    fn deactivate(&self, id: ActivationId) -> bool {
+        self.activations.lock().remove(&id).is_some()
+    }
+}
+
+/// The server side of an Event service over activation parameters `P`, events `E` and server
+/// state `S` (which need not be a communication object: it never leaves the server).
+pub struct EventServer<P, E, S> {
+    endpoint: Arc<EventEndpoint<P, E>>,
+    #[allow(clippy::type_complexity)]
+    test: Arc<dyn Fn(&P, &S) -> Option<E> + Send + Sync>,
+}
+
+impl<P, E, S> Clone for EventServer<P, E, S> {
+    fn clone(&self) -> Self {
+        EventServer { endpoint: Arc::clone(&self.endpoint), test: Arc::clone(&self.test) }
+    }
+}
+
+impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
+    /// Registers an Event service at `addr`. `test(params, state)` returns the event to fire to
+    /// an activation with `params`, or `None` if its condition does not hold.
+    pub fn register(
+        registry: &Registry,
+        addr: impl IntoAddr,
+        test: impl Fn(&P, &S) -> Option<E> + Send + Sync + 'static,
+    ) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = Arc::new(EventEndpoint {
+            addr: addr.clone(),
+            clock: registry.clock(),
+            activations: Mutex::new(BTreeMap::new()),
+            next_id: AtomicU64::new(1),
+            seq: AtomicU64::new(0),
+        });
+        registry.register_service(addr, info::<P, E>(), endpoint.clone())?;
+        Ok(EventServer { endpoint, test: Arc::new(test) })
+    }
+
+    /// Tests every activation against the server's new `state` and fires to those that match;
+    /// returns how many events were sent.
+    pub fn put(&self, state: &S) -> usize {
+        let ep = &self.endpoint;
+        let mut fired = 0;
+        let mut activations = ep.activations.lock();
+        activations.retain(|id, a| {
+            let Some(event) = (self.test)(&a.params, state) else { return true };
+            let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
+            let msg = Fired { activation: *id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
+            match a.sink.deliver(msg) {
+                Ok(()) => {
+                    fired += 1;
+                    a.mode == EventMode::Continuous
+                }
+                Err(Undeliverable::Unavailable) => true,
+                Err(Undeliverable::Closed) => false,
+            }
+        });
+        fired
+    }
+
+    /// How many activations are live.
+    pub fn activations(&self) -> usize {
+        self.endpoint.activations.lock().len()
+    }
+
+    /// The service's address.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+}
+
+/// The client side of an Event service.
+pub struct EventClient<P, E> {
+    endpoint: Arc<EventEndpoint<P, E>>,
+    cancel: Option<Cancel>,
+}
+
+impl<P, E> Clone for EventClient<P, E> {
+    fn clone(&self) -> Self {
+        EventClient { endpoint: Arc::clone(&self.endpoint), cancel: self.cancel.clone() }
+    }
+}
+
+/// An activation whose events the client reads itself. Dropping it deactivates it.
+pub struct EventActivation<P: CommObject, E: CommObject> {
+    id: ActivationId,
+    endpoint: Arc<EventEndpoint<P, E>>,
+    rx: mpsc::UnboundedReceiver<Fired<E>>,
+    cancel: Option<Cancel>,
+}
+
+impl<P: CommObject, E: CommObject> EventActivation<P, E> {
+    /// The activation's id.
+    pub fn id(&self) -> ActivationId {
+        self.id
+    }
+
+    /// Waits for the next event. A single-shot activation that already fired, or one that was
+    /// deactivated, answers [`PatternError::NotActive`].
+    pub async fn next(&mut self) -> PatternResult<Fired<E>> {
+        let id = self.id;
+        let rx = &mut self.rx;
+        let wait = async move {
+            rx.recv().await.ok_or_else(|| PatternError::NotActive(format!("activation {} has ended", id.0)))
+        };
+        match &self.cancel {
+            Some(c) => c.guard(wait).await,
+            None => wait.await,
+        }
+    }
+
+    /// The next event if one has arrived; `Ok(None)` if not yet.
+    pub fn try_next(&mut self) -> PatternResult<Option<Fired<E>>> {
+        match self.rx.try_recv() {
+            Ok(f) => Ok(Some(f)),
+            Err(mpsc::error::TryRecvError::Empty) => Ok(None),
+            Err(mpsc::error::TryRecvError::Disconnected) => {
+                Err(PatternError::NotActive(format!("activation {} has ended", self.id.0)))
+            }
+        }
+    }
+
+    /// Ends the activation now.
+    pub fn deactivate(self) {}
+}
+
+impl<P: CommObject, E: CommObject> Drop for EventActivation<P, E> {
+    fn drop(&mut self) {
+        self.endpoint.deactivate(self.id);
+    }
+}
+
+impl<P: CommObject, E: CommObject> EventClient<P, E> {
+    /// Connects to the Event service at `addr`, checking its parameter and event types.
+    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = registry
+            .resolve_local::<EventEndpoint<P, E>>(&addr, &info::<P, E>())?
+            .ok_or_else(|| registry.not_found(&addr))?;
+        Ok(EventClient { endpoint, cancel: None })
+    }
+
+    /// This client, with its blocking waits aborted by `cancel` (a component's deactivation).
+    pub fn with_cancel(mut self, cancel: Cancel) -> Self {
+        self.cancel = Some(cancel);
+        self
+    }
+
+    /// Activates an event; read its firings from the returned activation.
+    pub fn activate(&self, mode: EventMode, params: P) -> PatternResult<EventActivation<P, E>> {
+        let (tx, rx) = mpsc::unbounded_channel();
+        let id = self.endpoint.activate(mode, params, Sink::channel(tx));
+        Ok(EventActivation { id, endpoint: Arc::clone(&self.endpoint), rx, cancel: self.cancel.clone() })
+    }
+
+    /// Activates an event whose firings go into `sink` (a component's mailbox). It lives until
+    /// [`deactivate`](Self::deactivate)d, or fired once in single mode.
+    pub fn activate_to(
+        &self,
+        mode: EventMode,
+        params: P,
+        sink: Sink<Fired<E>>,
+    ) -> PatternResult<ActivationId> {
+        Ok(self.endpoint.activate(mode, params, sink))
+    }
+
+    /// Ends an activation made with [`activate_to`](Self::activate_to).
+    pub fn deactivate(&self, id: ActivationId) -> PatternResult<()> {
+        if self.endpoint.deactivate(id) {
+            Ok(())
+        } else {
+            Err(PatternError::Unknown { kind: "activation", name: id.0.to_string() })
+        }
+    }
+
+    /// The service's address.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+}

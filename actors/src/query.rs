@@ -1,0 +1,217 @@
+//! **Query**: request/response between any number of clients and one server.
+//!
+//! Semantics: a client's request is stamped and handed to the server component's mailbox with
+//! a [`Responder`]. The server answers through the responder, at once or later (it may keep the
+//! responder and handle other messages first). The client either awaits the answer
+//! ([`QueryClient::query`], with an optional timeout), or splits the exchange: request now
+//! ([`QueryClient::request`] returns a [`PendingQuery`]) and collect later. A server that drops
+//! a responder without answering gives the client [`PatternError::NoAnswer`]; a client that gave
+//! up makes [`Responder::answer`] return an error. A blocking wait made by a component is aborted
+//! with [`PatternError::Cancelled`] when its master deactivates it.
+//!
+//! ```
+//! # use orsa_actors::{Registry, Sink, query::{QueryClient, QueryRequest, QueryServer}};
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
+//! let _server = QueryServer::<u64, u64>::register(&registry, "calc/square", Sink::channel(tx))?;
+//! tokio::spawn(async move {
+//!     while let Some(q) = rx.recv().await {
+//!         let n = q.request.value;
+//!         let _ = q.answer(n * n);
+//!     }
+//! });
+//! let client = QueryClient::<u64, u64>::connect(&registry, "calc/square")?;
+//! assert_eq!(client.query(7, None).await?, 49);
+//! let pending = client.request(3)?;          // request now ...
+//! assert_eq!(pending.receive(None).await?, 9); // ... collect later
+//! # Ok(()) }
+//! ```
+
+use crate::comm::CommObject;
+use crate::error::{PatternError, PatternResult};
+use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::sink::Sink;
+use crate::stamped::Stamped;
+use crate::state::Cancel;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+use tokio::sync::oneshot;
+
+pub(crate) fn info<Req: CommObject, Ans: CommObject>() -> ServiceInfo {
+    ServiceInfo::new(PatternKind::Query, &[Req::ID, Ans::ID])
+}
+
+/// A request as the server receives it, with the means to answer it.
+#[derive(Debug)]
+pub struct QueryRequest<Req, Ans> {
+    /// The stamped request.
+    pub request: Stamped<Req>,
+    /// Where the answer goes.
+    pub responder: Responder<Ans>,
+}
+
+impl<Req, Ans: CommObject> QueryRequest<Req, Ans> {
+    /// Answers the request now.
+    pub fn answer(self, answer: Ans) -> PatternResult<()> {
+        self.responder.answer(answer)
+    }
+}
+
+/// The one-time right to answer a query. It may be kept and used after other messages.
+#[derive(Debug)]
+pub struct Responder<Ans> {
+    tx: oneshot::Sender<Stamped<Ans>>,
+    seq: u64,
+    stamp: crate::clock::Clock,
+}
+
+impl<Ans: CommObject> Responder<Ans> {
+    /// Sends the answer. Fails with [`PatternError::NotActive`] if the client stopped waiting.
+    pub fn answer(self, answer: Ans) -> PatternResult<()> {
+        let msg = Stamped { seq: self.seq, stamp: self.stamp.now(), value: answer };
+        self.tx
+            .send(msg)
+            .map_err(|_| PatternError::NotActive("the client no longer waits for this answer".into()))
+    }
+}
+
+pub(crate) struct QueryEndpoint<Req, Ans> {
+    addr: ServiceAddr,
+    sink: Sink<QueryRequest<Req, Ans>>,
+}
+
+/// The server side of a Query service.
+pub struct QueryServer<Req, Ans> {
+    endpoint: Arc<QueryEndpoint<Req, Ans>>,
+}
+
+impl<Req, Ans> Clone for QueryServer<Req, Ans> {
+    fn clone(&self) -> Self {
+        QueryServer { endpoint: Arc::clone(&self.endpoint) }
+    }
+}
+
+impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
+    /// Registers a Query service at `addr` delivering requests into `sink`.
+    pub fn register(
+        registry: &Registry,
+        addr: impl IntoAddr,
+        sink: Sink<QueryRequest<Req, Ans>>,
+    ) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = Arc::new(QueryEndpoint { addr: addr.clone(), sink });
+        registry.register_service(addr, info::<Req, Ans>(), endpoint.clone())?;
+        Ok(QueryServer { endpoint })
+    }
+
+    /// The service's address.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+}
+
+/// The client side of a Query service. Cheap to clone; usable from many tasks at once.
+pub struct QueryClient<Req, Ans> {
+    registry: Registry,
+    endpoint: Arc<QueryEndpoint<Req, Ans>>,
+    seq: Arc<AtomicU64>,
+    cancel: Option<Cancel>,
+}
+
+impl<Req, Ans> Clone for QueryClient<Req, Ans> {
+    fn clone(&self) -> Self {
+        QueryClient {
+            registry: self.registry.clone(),
+            endpoint: Arc::clone(&self.endpoint),
+            seq: Arc::clone(&self.seq),
+            cancel: self.cancel.clone(),
+        }
+    }
+}
+
+/// An answer requested but not yet collected.
+#[derive(Debug)]
+pub struct PendingQuery<Ans> {
+    addr: ServiceAddr,
+    rx: oneshot::Receiver<Stamped<Ans>>,
+    cancel: Option<Cancel>,
+}
+
+impl<Ans: CommObject> PendingQuery<Ans> {
+    /// Waits for the answer, at most `timeout` if given.
+    pub async fn receive(self, timeout: Option<Duration>) -> PatternResult<Ans> {
+        self.receive_stamped(timeout).await.map(|s| s.value)
+    }
+
+    /// Waits for the stamped answer, at most `timeout` if given.
+    pub async fn receive_stamped(self, timeout: Option<Duration>) -> PatternResult<Stamped<Ans>> {
+        let addr = self.addr;
+        let answer = async move { self.rx.await.map_err(|_| PatternError::NoAnswer(addr)) };
+        let bounded = async move {
+            match timeout {
+                Some(t) => tokio::time::timeout(t, answer).await.map_err(|_| PatternError::Timeout)?,
+                None => answer.await,
+            }
+        };
+        match self.cancel {
+            Some(cancel) => cancel.guard(bounded).await,
+            None => bounded.await,
+        }
+    }
+
+    /// Takes the answer if it has arrived: `Ok(None)` if not yet.
+    pub fn try_receive(&mut self) -> PatternResult<Option<Ans>> {
+        match self.rx.try_recv() {
+            Ok(s) => Ok(Some(s.value)),
+            Err(oneshot::error::TryRecvError::Empty) => Ok(None),
+            Err(oneshot::error::TryRecvError::Closed) => Err(PatternError::NoAnswer(self.addr.clone())),
+        }
+    }
+}
+
+impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
+    /// Connects to the Query service at `addr`, checking its request and answer types.
+    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = registry
+            .resolve_local::<QueryEndpoint<Req, Ans>>(&addr, &info::<Req, Ans>())?
+            .ok_or_else(|| registry.not_found(&addr))?;
+        Ok(QueryClient {
+            registry: registry.clone(),
+            endpoint,
+            seq: Arc::new(AtomicU64::new(0)),
+            cancel: None,
+        })
+    }
+
+    /// This client, with its blocking waits aborted by `cancel` (a component's deactivation).
+    pub fn with_cancel(mut self, cancel: Cancel) -> Self {
+        self.cancel = Some(cancel);
+        self
+    }
+
+    /// Sends a request now; collect the answer later from the returned [`PendingQuery`].
+    pub fn request(&self, request: Req) -> PatternResult<PendingQuery<Ans>> {
+        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
+        let (tx, rx) = oneshot::channel();
+        let clock = self.registry.clock();
+        let msg = QueryRequest {
+            request: Stamped { seq, stamp: clock.now(), value: request },
+            responder: Responder { tx, seq, stamp: clock },
+        };
+        self.endpoint.sink.deliver(msg).map_err(|_| PatternError::Unavailable(self.endpoint.addr.clone()))?;
+        Ok(PendingQuery { addr: self.endpoint.addr.clone(), rx, cancel: self.cancel.clone() })
+    }
+
+    /// Sends a request and waits for its answer, at most `timeout` if given.
+    pub async fn query(&self, request: Req, timeout: Option<Duration>) -> PatternResult<Ans> {
+        self.request(request)?.receive(timeout).await
+    }
+
+    /// The address this client queries.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+}

@@ -1,0 +1,142 @@
+//! **Send**: a one-way command from any number of clients to one server.
+//!
+//! Semantics: [`SendClient::send`] stamps the value (sequence number, robot time) and hands it
+//! to the server component's mailbox without waiting for it to be handled. It returns an error
+//! only if the message cannot be handed over: [`PatternError::Unavailable`] while the server
+//! component has no running instance (it is restarting). Messages from one client arrive in the
+//! order they were sent. The server receives them as [`Stamped`] values in its own mailbox.
+//!
+//! ```
+//! # use orsa_actors::{Registry, Sink, Stamped, send::{SendClient, SendServer}};
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
+//! let _server = SendServer::<f64>::register(&registry, ("robot", "speed"), Sink::channel(tx))?;
+//!
+//! let client = SendClient::<f64>::connect(&registry, "robot/speed")?;
+//! client.send(0.25)?;
+//! let got = rx.recv().await.expect("delivered");
+//! assert_eq!((got.seq, got.value), (1, 0.25));
+//! # Ok(()) }
+//! ```
+
+use crate::comm::CommObject;
+use crate::error::{PatternError, PatternResult};
+use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::sink::{Sink, Undeliverable};
+use crate::stamped::Stamped;
+use std::marker::PhantomData;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+pub(crate) fn info<T: CommObject>() -> ServiceInfo {
+    ServiceInfo::new(PatternKind::Send, &[T::ID])
+}
+
+pub(crate) struct SendEndpoint<T> {
+    addr: ServiceAddr,
+    sink: Sink<Stamped<T>>,
+    received: AtomicU64,
+}
+
+impl<T: CommObject> SendEndpoint<T> {
+    pub(crate) fn accept(&self, msg: Stamped<T>) -> PatternResult<()> {
+        match self.sink.deliver(msg) {
+            Ok(()) => {
+                self.received.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            }
+            Err(Undeliverable::Closed | Undeliverable::Unavailable) => {
+                Err(PatternError::Unavailable(self.addr.clone()))
+            }
+        }
+    }
+}
+
+/// The server side of a Send service. Dropping it does not unregister the service; the
+/// component that owns it does when it is removed.
+pub struct SendServer<T> {
+    endpoint: Arc<SendEndpoint<T>>,
+}
+
+impl<T> Clone for SendServer<T> {
+    fn clone(&self) -> Self {
+        SendServer { endpoint: Arc::clone(&self.endpoint) }
+    }
+}
+
+impl<T: CommObject> SendServer<T> {
+    /// Registers a Send service at `addr` delivering into `sink`.
+    pub fn register(registry: &Registry, addr: impl IntoAddr, sink: Sink<Stamped<T>>) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = Arc::new(SendEndpoint { addr: addr.clone(), sink, received: AtomicU64::new(0) });
+        registry.register_service(addr, info::<T>(), endpoint.clone())?;
+        Ok(SendServer { endpoint })
+    }
+
+    /// How many messages were handed to the server so far.
+    pub fn received(&self) -> u64 {
+        self.endpoint.received.load(Ordering::Relaxed)
+    }
+
+    /// The service's address.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+}
+
+/// The client side of a Send service. Clones share one sequence counter.
+pub struct SendClient<T> {
+    registry: Registry,
+    endpoint: Arc<SendEndpoint<T>>,
+    seq: Arc<AtomicU64>,
+    _t: PhantomData<fn(T)>,
+}
+
+impl<T> Clone for SendClient<T> {
+    fn clone(&self) -> Self {
+        SendClient {
+            registry: self.registry.clone(),
+            endpoint: Arc::clone(&self.endpoint),
+            seq: Arc::clone(&self.seq),
+            _t: PhantomData,
+        }
+    }
+}
+
+impl<T: CommObject> SendClient<T> {
+    /// Connects to the Send service at `addr`, checking that it sends `T`.
+    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
+        let addr = addr.into_addr()?;
+        let endpoint = registry
+            .resolve_local::<SendEndpoint<T>>(&addr, &info::<T>())?
+            .ok_or_else(|| registry.not_found(&addr))?;
+        Ok(SendClient {
+            registry: registry.clone(),
+            endpoint,
+            seq: Arc::new(AtomicU64::new(0)),
+            _t: PhantomData,
+        })
+    }
+
+    /// Sends `value` without waiting for it to be handled.
+    pub fn send(&self, value: T) -> PatternResult<()> {
+        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
+        self.endpoint.accept(Stamped { seq, stamp: self.registry.now(), value })
+    }
+
+    /// Sends an already stamped message unchanged (for forwarding and replay).
+    pub fn send_stamped(&self, msg: Stamped<T>) -> PatternResult<()> {
+        self.endpoint.accept(msg)
+    }
+
+    /// The address this client sends to.
+    pub fn addr(&self) -> &ServiceAddr {
+        &self.endpoint.addr
+    }
+
+    /// How many messages this client (and its clones) sent.
+    pub fn sent(&self) -> u64 {
+        self.seq.load(Ordering::Relaxed)
+    }
+}

@@ -1,0 +1,429 @@
+//! **State**: a master configures a slave component by main states made of substates.
+//!
+//! Semantics (SmartSoft's state pattern):
+//! - A component declares its main states, each a set of substates ([`StateSpec`]). `neutral`
+//!   always exists and contains no substate; a component starts in its initial state
+//!   (`neutral` unless declared otherwise).
+//! - Its activities protect critical sections by [`acquire`](StateHandle::acquire)-ing a
+//!   substate: this waits until the current main state contains it, and holds it until the
+//!   returned guard is dropped.
+//! - A master asks for another main state ([`StateMaster::set_state`]). The change takes effect
+//!   once every substate the new main state excludes is released; meanwhile no activity can
+//!   acquire an excluded substate, so the change cannot be starved. The master waits for it, or
+//!   with [`StateMaster::try_set_state`] gets [`PatternError::Busy`] at once instead.
+//! - [`StateMaster::deactivate`] first aborts every blocking call the component is making
+//!   (queries, `get_update_wait`, event waits, `acquire`) with [`PatternError::Cancelled`], then
+//!   moves it to `neutral`.
+//!
+//! ```
+//! # use orsa_actors::{Registry, state::{StateMaster, StateSlave, StateSpec}};
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! let spec = StateSpec::new().main_state("active", &["drive"]);
+//! let slave = StateSlave::register(&registry, "wallfollow", spec)?;
+//! let master = StateMaster::connect(&registry, "wallfollow")?;
+//!
+//! assert!(slave.handle().try_acquire("drive").is_err()); // neutral: no driving
+//! master.set_state("active").await?;
+//! let guard = slave.handle().acquire("drive").await?;    // critical section
+//! assert!(master.try_set_state("neutral").is_err());     // busy while "drive" is held
+//! drop(guard);
+//! master.try_set_state("neutral")?;
+//! # Ok(()) }
+//! ```
+
+use crate::comm_object;
+use crate::error::{PatternError, PatternResult};
+use crate::registry::{PatternKind, Registry, ServiceAddr, ServiceInfo};
+use parking_lot::Mutex;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+use std::future::Future;
+use std::sync::Arc;
+use tokio::sync::watch;
+
+/// The name of the main state every component has, with no substates.
+pub const NEUTRAL: &str = "neutral";
+
+/// A token that aborts blocking calls when the component that owns it is deactivated.
+#[derive(Debug, Clone)]
+pub struct Cancel {
+    rx: watch::Receiver<u64>,
+}
+
+impl Cancel {
+    /// Runs `fut`, aborting it with [`PatternError::Cancelled`] if a deactivation happens first.
+    pub async fn guard<T>(&self, fut: impl Future<Output = PatternResult<T>>) -> PatternResult<T> {
+        let mut rx = self.rx.clone();
+        rx.borrow_and_update();
+        let cancelled = async move {
+            if rx.changed().await.is_err() {
+                // The component is gone: nothing can deactivate it any more.
+                std::future::pending::<()>().await;
+            }
+        };
+        tokio::select! {
+            biased;
+            () = cancelled => Err(PatternError::Cancelled),
+            r = fut => r,
+        }
+    }
+}
+
+/// The main states of a component, each a set of substates.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateSpec {
+    main: BTreeMap<String, BTreeSet<String>>,
+    initial: String,
+}
+
+impl Default for StateSpec {
+    fn default() -> Self {
+        let mut main = BTreeMap::new();
+        main.insert(NEUTRAL.to_string(), BTreeSet::new());
+        StateSpec { main, initial: NEUTRAL.to_string() }
+    }
+}
+
+impl StateSpec {
+    /// A spec with only `neutral`.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a main state made of `substates`.
+    pub fn main_state(mut self, name: &str, substates: &[&str]) -> Self {
+        self.main.insert(name.to_string(), substates.iter().map(|s| s.to_string()).collect());
+        self
+    }
+
+    /// Sets the main state the component starts in (it must be declared).
+    pub fn initial(mut self, name: &str) -> Self {
+        self.initial = name.to_string();
+        self
+    }
+
+    fn check(&self) -> PatternResult<()> {
+        if self.main.contains_key(&self.initial) {
+            Ok(())
+        } else {
+            Err(PatternError::Unknown { kind: "initial main state", name: self.initial.clone() })
+        }
+    }
+}
+
+/// Where a component's state stands, as a master sees it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateStatus {
+    /// The current main state.
+    pub current: String,
+    /// A main state asked for that waits for substates to be released.
+    pub pending: Option<String>,
+    /// Substates held now, with how many activities hold each.
+    pub held: BTreeMap<String, usize>,
+    /// The declared main states and their substates.
+    pub main_states: BTreeMap<String, BTreeSet<String>>,
+}
+comm_object!(StateStatus, "orsa.StateStatus/1");
+
+struct Inner {
+    spec: StateSpec,
+    current: String,
+    pending: Option<String>,
+    held: BTreeMap<String, usize>,
+}
+
+impl Inner {
+    fn allows(&self, sub: &str) -> bool {
+        let contains = |m: &str| self.spec.main.get(m).is_some_and(|s| s.contains(sub));
+        contains(&self.current) && self.pending.as_deref().is_none_or(contains)
+    }
+
+    fn blocking(&self, target: &str) -> Vec<String> {
+        let allowed = self.spec.main.get(target);
+        self.held
+            .iter()
+            .filter(|(sub, n)| **n > 0 && !allowed.is_some_and(|a| a.contains(*sub)))
+            .map(|(sub, _)| sub.clone())
+            .collect()
+    }
+
+    fn known_substate(&self, sub: &str) -> bool {
+        self.spec.main.values().any(|s| s.contains(sub))
+    }
+}
+
+/// The slave side of the State pattern: one per component, registered as `component/state`.
+pub struct StateSlave {
+    addr: ServiceAddr,
+    inner: Mutex<Inner>,
+    version: watch::Sender<u64>,
+    cancel: watch::Sender<u64>,
+    change: tokio::sync::Mutex<()>,
+}
+
+/// Held substate: released when dropped.
+#[must_use = "the substate is released when the guard is dropped"]
+pub struct SubstateGuard {
+    slave: Arc<StateSlave>,
+    sub: String,
+}
+
+impl std::fmt::Debug for SubstateGuard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "SubstateGuard({})", self.sub)
+    }
+}
+
+impl Drop for SubstateGuard {
+    fn drop(&mut self) {
+        {
+            let mut inner = self.slave.inner.lock();
+            if let Some(n) = inner.held.get_mut(&self.sub) {
+                *n = n.saturating_sub(1);
+                if *n == 0 {
+                    inner.held.remove(&self.sub);
+                }
+            }
+        }
+        self.slave.bump();
+    }
+}
+
+pub(crate) fn info() -> ServiceInfo {
+    ServiceInfo::new(PatternKind::State, &[StateStatus::ID])
+}
+use crate::CommObject as _;
+
+impl StateSlave {
+    /// Registers the state service of `component` with its main states.
+    pub fn register(registry: &Registry, component: &str, spec: StateSpec) -> PatternResult<Arc<Self>> {
+        spec.check()?;
+        let addr = ServiceAddr::new(component, "state");
+        let slave = Arc::new(StateSlave {
+            addr: addr.clone(),
+            inner: Mutex::new(Inner {
+                current: spec.initial.clone(),
+                spec,
+                pending: None,
+                held: BTreeMap::new(),
+            }),
+            version: watch::Sender::new(0),
+            cancel: watch::Sender::new(0),
+            change: tokio::sync::Mutex::new(()),
+        });
+        registry.register_service(addr, info(), slave.clone())?;
+        Ok(slave)
+    }
+
+    /// Replaces the declared main states (a component re-declaring them after a restart). The
+    /// current state is kept if it still exists.
+    pub fn declare(&self, spec: StateSpec) -> PatternResult<()> {
+        spec.check()?;
+        let mut inner = self.inner.lock();
+        if !spec.main.contains_key(&inner.current) {
+            inner.current = spec.initial.clone();
+        }
+        inner.spec = spec;
+        drop(inner);
+        self.bump();
+        Ok(())
+    }
+
+    /// The activity-side handle.
+    pub fn handle(self: &Arc<Self>) -> StateHandle {
+        StateHandle { slave: Arc::clone(self) }
+    }
+
+    /// A token that aborts blocking calls on deactivation.
+    pub fn cancel_token(&self) -> Cancel {
+        Cancel { rx: self.cancel.subscribe() }
+    }
+
+    fn bump(&self) {
+        self.version.send_modify(|v| *v += 1);
+    }
+
+    fn status(&self) -> StateStatus {
+        let inner = self.inner.lock();
+        StateStatus {
+            current: inner.current.clone(),
+            pending: inner.pending.clone(),
+            held: inner.held.clone(),
+            main_states: inner.spec.main.clone(),
+        }
+    }
+
+    fn check_main(&self, name: &str) -> PatternResult<()> {
+        if self.inner.lock().spec.main.contains_key(name) {
+            Ok(())
+        } else {
+            Err(PatternError::Unknown {
+                kind: "main state",
+                name: format!("{name}' of '{}", self.addr.component),
+            })
+        }
+    }
+
+    async fn set(&self, main: &str) -> PatternResult<()> {
+        self.check_main(main)?;
+        let _one_change_at_a_time = self.change.lock().await;
+        self.inner.lock().pending = Some(main.to_string());
+        self.bump();
+        loop {
+            let mut version = self.version.subscribe();
+            {
+                let mut inner = self.inner.lock();
+                if inner.blocking(main).is_empty() {
+                    inner.current = main.to_string();
+                    inner.pending = None;
+                    drop(inner);
+                    self.bump();
+                    return Ok(());
+                }
+            }
+            if version.changed().await.is_err() {
+                return Err(PatternError::Unavailable(self.addr.clone()));
+            }
+        }
+    }
+
+    fn try_set(&self, main: &str) -> PatternResult<()> {
+        self.check_main(main)?;
+        let Ok(_one_change_at_a_time) = self.change.try_lock() else {
+            return Err(PatternError::Busy(vec!["(another state change is in progress)".into()]));
+        };
+        let mut inner = self.inner.lock();
+        let blocking = inner.blocking(main);
+        if !blocking.is_empty() {
+            return Err(PatternError::Busy(blocking));
+        }
+        inner.current = main.to_string();
+        drop(inner);
+        self.bump();
+        Ok(())
+    }
+
+    async fn deactivate(&self) -> PatternResult<()> {
+        self.cancel.send_modify(|v| *v += 1);
+        self.set(NEUTRAL).await
+    }
+}
+
+/// What a component's activities use: acquire and release substates, read the state.
+#[derive(Clone)]
+pub struct StateHandle {
+    slave: Arc<StateSlave>,
+}
+
+impl StateHandle {
+    /// Waits until the current main state contains `substate`, then holds it until the guard
+    /// is dropped. Aborted with [`PatternError::Cancelled`] by a deactivation.
+    pub async fn acquire(&self, substate: &str) -> PatternResult<SubstateGuard> {
+        let cancel = self.slave.cancel_token();
+        cancel
+            .guard(async {
+                loop {
+                    let mut version = self.slave.version.subscribe();
+                    if let Some(guard) = self.grab(substate)? {
+                        return Ok(guard);
+                    }
+                    if version.changed().await.is_err() {
+                        return Err(PatternError::Unavailable(self.slave.addr.clone()));
+                    }
+                }
+            })
+            .await
+    }
+
+    /// Holds `substate` if the current main state allows it now; `NotActive` otherwise.
+    pub fn try_acquire(&self, substate: &str) -> PatternResult<SubstateGuard> {
+        self.grab(substate)?.ok_or_else(|| {
+            PatternError::NotActive(format!("substate '{substate}' is not part of the current main state"))
+        })
+    }
+
+    fn grab(&self, substate: &str) -> PatternResult<Option<SubstateGuard>> {
+        let mut inner = self.slave.inner.lock();
+        if !inner.known_substate(substate) {
+            return Err(PatternError::Unknown { kind: "substate", name: substate.to_string() });
+        }
+        if !inner.allows(substate) {
+            return Ok(None);
+        }
+        *inner.held.entry(substate.to_string()).or_insert(0) += 1;
+        Ok(Some(SubstateGuard { slave: Arc::clone(&self.slave), sub: substate.to_string() }))
+    }
+
+    /// The current main state.
+    pub fn current(&self) -> String {
+        self.slave.inner.lock().current.clone()
+    }
+
+    /// Whether the current main state contains `substate`.
+    pub fn is_active(&self, substate: &str) -> bool {
+        self.slave.inner.lock().allows(substate)
+    }
+
+    /// The token that aborts this component's blocking calls on deactivation.
+    pub fn cancel_token(&self) -> Cancel {
+        self.slave.cancel_token()
+    }
+
+    /// Waits until the main state changes, then returns the new one.
+    pub async fn changed(&self) -> String {
+        let mut version = self.slave.version.subscribe();
+        let before = self.current();
+        loop {
+            if version.changed().await.is_err() {
+                return self.current();
+            }
+            let now = self.current();
+            if now != before {
+                return now;
+            }
+        }
+    }
+}
+
+/// The master side of the State pattern, for one slave component.
+#[derive(Clone)]
+pub struct StateMaster {
+    slave: Arc<StateSlave>,
+}
+
+impl StateMaster {
+    /// Connects to the state service of `component`.
+    pub fn connect(registry: &Registry, component: &str) -> PatternResult<Self> {
+        let addr = ServiceAddr::new(component, "state");
+        let slave =
+            registry.resolve_local::<StateSlave>(&addr, &info())?.ok_or_else(|| registry.not_found(&addr))?;
+        Ok(StateMaster { slave })
+    }
+
+    /// Asks for main state `main` and waits until it takes effect.
+    pub async fn set_state(&self, main: &str) -> PatternResult<()> {
+        self.slave.set(main).await
+    }
+
+    /// Switches to `main` at once, or answers [`PatternError::Busy`] with the held substates it
+    /// excludes (and changes nothing).
+    pub fn try_set_state(&self, main: &str) -> PatternResult<()> {
+        self.slave.try_set(main)
+    }
+
+    /// Aborts the component's blocking calls with `Cancelled`, then moves it to `neutral`.
+    pub async fn deactivate(&self) -> PatternResult<()> {
+        self.slave.deactivate().await
+    }
+
+    /// The slave's current state, pending change, held substates and declared main states.
+    pub fn status(&self) -> StateStatus {
+        self.slave.status()
+    }
+
+    /// The component this master configures.
+    pub fn component(&self) -> &str {
+        &self.slave.addr.component
+    }
+}

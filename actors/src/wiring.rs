@@ -1,0 +1,313 @@
+//! **Wiring**: a master reconnects a component's client ports at run time.
+//!
+//! Semantics: a component declares wireable client ports ([`SendPort`], [`QueryPort`]), each
+//! typed by its communication objects and disconnected at first. A master connects a port to a
+//! `(component, service)` or disconnects it ([`WiringMaster`]). Connecting checks the target:
+//! an unknown port answers [`PatternError::UnknownPort`], an unknown service
+//! [`PatternError::UnknownService`], a service of another pattern or type
+//! [`PatternError::IncompatibleService`] (and the port keeps its old connection). Sending on a
+//! disconnected port answers [`PatternError::Disconnected`]. Rewiring while traffic flows never
+//! deadlocks, and once [`WiringMaster::disconnect`] (or a reconnect) has returned, no message
+//! goes out through the old connection: a send holds the port's connection for the instant it
+//! hands its message over, and a rewire waits for that instant to pass.
+//!
+//! This is how the executive arbitrates behaviours: every behaviour computes all the time and
+//! sends on its `vel` port, and the master wires exactly one of those ports to the robot.
+//!
+//! ```
+//! # use orsa_actors::{Registry, Sink, PatternError, send::SendServer, wiring::{WiringMaster, WiringSlave}};
+//! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let registry = Registry::new();
+//! let (tx, _rx) = tokio::sync::mpsc::unbounded_channel();
+//! SendServer::<f64>::register(&registry, "robot/speed", Sink::channel(tx))?;
+//! let wiring = WiringSlave::register(&registry, "behaviour")?;
+//! let port = wiring.send_port::<f64>("vel")?;
+//!
+//! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
+//! let master = WiringMaster::new(&registry);
+//! master.connect("behaviour", "vel", "robot/speed")?;
+//! port.send(0.1)?;
+//! master.disconnect("behaviour", "vel")?;
+//! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
+//! # Ok(()) }
+//! ```
+
+use crate::comm::CommObject;
+use crate::error::{PatternError, PatternResult};
+use crate::query::{PendingQuery, QueryClient};
+use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::send::SendClient;
+use crate::stamped::Stamped;
+use crate::state::Cancel;
+use parking_lot::RwLock;
+use serde::{Deserialize, Serialize};
+use std::any::Any;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// A port as a master sees it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PortStatus {
+    /// The port's name within its component.
+    pub port: String,
+    /// The pattern and communication objects the port expects of a service.
+    pub info: ServiceInfo,
+    /// Where it is connected, if anywhere.
+    pub target: Option<ServiceAddr>,
+}
+crate::comm_object!(PortStatus, "orsa.PortStatus/1");
+
+trait Port: Send + Sync {
+    fn info(&self) -> ServiceInfo;
+    fn connect(&self, registry: &Registry, target: &ServiceAddr) -> PatternResult<()>;
+    fn disconnect(&self);
+    fn target(&self) -> Option<ServiceAddr>;
+    fn as_any(&self) -> &dyn Any;
+}
+
+/// A wireable Send client port.
+pub struct SendPort<T> {
+    name: String,
+    conn: Arc<RwLock<Option<SendClient<T>>>>,
+}
+
+impl<T> Clone for SendPort<T> {
+    fn clone(&self) -> Self {
+        SendPort { name: self.name.clone(), conn: Arc::clone(&self.conn) }
+    }
+}
+
+impl<T: CommObject> SendPort<T> {
+    /// Sends on the port: [`PatternError::Disconnected`] if it is not wired.
+    pub fn send(&self, value: T) -> PatternResult<()> {
+        match self.conn.read().as_ref() {
+            Some(client) => client.send(value),
+            None => Err(PatternError::Disconnected(self.name.clone())),
+        }
+    }
+
+    /// Forwards an already stamped message unchanged.
+    pub fn send_stamped(&self, msg: Stamped<T>) -> PatternResult<()> {
+        match self.conn.read().as_ref() {
+            Some(client) => client.send_stamped(msg),
+            None => Err(PatternError::Disconnected(self.name.clone())),
+        }
+    }
+
+    /// Where the port is connected.
+    pub fn target(&self) -> Option<ServiceAddr> {
+        self.conn.read().as_ref().map(|c| c.addr().clone())
+    }
+
+    /// The port's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl<T: CommObject> Port for SendPort<T> {
+    fn info(&self) -> ServiceInfo {
+        crate::send::info::<T>()
+    }
+    fn connect(&self, registry: &Registry, target: &ServiceAddr) -> PatternResult<()> {
+        let client = SendClient::<T>::connect(registry, target)?;
+        *self.conn.write() = Some(client);
+        Ok(())
+    }
+    fn disconnect(&self) {
+        *self.conn.write() = None;
+    }
+    fn target(&self) -> Option<ServiceAddr> {
+        SendPort::target(self)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+/// A wireable Query client port.
+pub struct QueryPort<Req, Ans> {
+    name: String,
+    conn: Arc<RwLock<Option<QueryClient<Req, Ans>>>>,
+    cancel: Option<Cancel>,
+}
+
+impl<Req, Ans> Clone for QueryPort<Req, Ans> {
+    fn clone(&self) -> Self {
+        QueryPort { name: self.name.clone(), conn: Arc::clone(&self.conn), cancel: self.cancel.clone() }
+    }
+}
+
+impl<Req: CommObject, Ans: CommObject> QueryPort<Req, Ans> {
+    /// Sends a request on the port now; collect the answer later.
+    pub fn request(&self, request: Req) -> PatternResult<PendingQuery<Ans>> {
+        match self.conn.read().as_ref() {
+            Some(client) => client.request(request),
+            None => Err(PatternError::Disconnected(self.name.clone())),
+        }
+    }
+
+    /// Queries on the port and waits for the answer, at most `timeout` if given. The request
+    /// goes out on the connection current when it is made; a rewire meanwhile does not move it.
+    pub async fn query(&self, request: Req, timeout: Option<Duration>) -> PatternResult<Ans> {
+        self.request(request)?.receive(timeout).await
+    }
+
+    /// Where the port is connected.
+    pub fn target(&self) -> Option<ServiceAddr> {
+        self.conn.read().as_ref().map(|c| c.addr().clone())
+    }
+}
+
+impl<Req: CommObject, Ans: CommObject> Port for QueryPort<Req, Ans> {
+    fn info(&self) -> ServiceInfo {
+        crate::query::info::<Req, Ans>()
+    }
+    fn connect(&self, registry: &Registry, target: &ServiceAddr) -> PatternResult<()> {
+        let mut client = QueryClient::<Req, Ans>::connect(registry, target)?;
+        if let Some(c) = &self.cancel {
+            client = client.with_cancel(c.clone());
+        }
+        *self.conn.write() = Some(client);
+        Ok(())
+    }
+    fn disconnect(&self) {
+        *self.conn.write() = None;
+    }
+    fn target(&self) -> Option<ServiceAddr> {
+        QueryPort::target(self)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+pub(crate) fn info() -> ServiceInfo {
+    ServiceInfo::new(PatternKind::Wiring, &[PortStatus::ID])
+}
+
+/// The slave side of Wiring: a component's table of ports, registered as `component/wiring`.
+pub struct WiringSlave {
+    component: String,
+    registry: Registry,
+    ports: RwLock<BTreeMap<String, Arc<dyn Port>>>,
+    cancel: Option<Cancel>,
+}
+
+impl WiringSlave {
+    /// Registers the wiring service of `component`.
+    pub fn register(registry: &Registry, component: &str) -> PatternResult<Arc<Self>> {
+        Self::register_with_cancel(registry, component, None)
+    }
+
+    pub(crate) fn register_with_cancel(
+        registry: &Registry,
+        component: &str,
+        cancel: Option<Cancel>,
+    ) -> PatternResult<Arc<Self>> {
+        let slave = Arc::new(WiringSlave {
+            component: component.to_string(),
+            registry: registry.clone(),
+            ports: RwLock::new(BTreeMap::new()),
+            cancel,
+        });
+        registry.register_service(ServiceAddr::new(component, "wiring"), info(), slave.clone())?;
+        Ok(slave)
+    }
+
+    fn declare<P: Port + Clone + 'static>(&self, name: &str, make: impl FnOnce() -> P) -> PatternResult<P> {
+        if !crate::registry::valid_name(name) {
+            return Err(PatternError::InvalidArgument(format!("'{name}' is not a valid port name")));
+        }
+        let mut ports = self.ports.write();
+        if let Some(existing) = ports.get(name) {
+            // Declaring again (after a restart) gives back the same, still wired, port.
+            return existing.as_any().downcast_ref::<P>().cloned().ok_or_else(|| {
+                PatternError::AlreadyRegistered(format!(
+                    "port '{name}' of '{}' with another type",
+                    self.component
+                ))
+            });
+        }
+        let port = make();
+        ports.insert(name.to_string(), Arc::new(port.clone()));
+        Ok(port)
+    }
+
+    /// Declares (or gets back) a wireable Send port.
+    pub fn send_port<T: CommObject>(&self, name: &str) -> PatternResult<SendPort<T>> {
+        self.declare(name, || SendPort { name: name.to_string(), conn: Arc::new(RwLock::new(None)) })
+    }
+
+    /// Declares (or gets back) a wireable Query port.
+    pub fn query_port<Req: CommObject, Ans: CommObject>(
+        &self,
+        name: &str,
+    ) -> PatternResult<QueryPort<Req, Ans>> {
+        let cancel = self.cancel.clone();
+        self.declare(name, || QueryPort { name: name.to_string(), conn: Arc::new(RwLock::new(None)), cancel })
+    }
+
+    fn port(&self, name: &str) -> PatternResult<Arc<dyn Port>> {
+        self.ports.read().get(name).cloned().ok_or_else(|| PatternError::UnknownPort {
+            component: self.component.clone(),
+            port: name.to_string(),
+        })
+    }
+
+    /// Connects port `name` to `target`.
+    pub fn connect(&self, name: &str, target: &ServiceAddr) -> PatternResult<()> {
+        self.port(name)?.connect(&self.registry, target)
+    }
+
+    /// Disconnects port `name`.
+    pub fn disconnect(&self, name: &str) -> PatternResult<()> {
+        self.port(name)?.disconnect();
+        Ok(())
+    }
+
+    /// Every port with its connection.
+    pub fn ports(&self) -> Vec<PortStatus> {
+        self.ports
+            .read()
+            .iter()
+            .map(|(name, p)| PortStatus { port: name.clone(), info: p.info(), target: p.target() })
+            .collect()
+    }
+}
+
+/// The master side of Wiring: reconnects ports of any component in the system.
+#[derive(Clone, Debug)]
+pub struct WiringMaster {
+    registry: Registry,
+}
+
+impl WiringMaster {
+    /// A wiring master for the components of `registry`.
+    pub fn new(registry: &Registry) -> Self {
+        WiringMaster { registry: registry.clone() }
+    }
+
+    fn slave(&self, component: &str) -> PatternResult<Arc<WiringSlave>> {
+        let addr = ServiceAddr::new(component, "wiring");
+        self.registry
+            .resolve_local::<WiringSlave>(&addr, &info())?
+            .ok_or_else(|| PatternError::UnknownComponent(component.to_string()))
+    }
+
+    /// Connects `component`'s port `port` to the service `target`.
+    pub fn connect(&self, component: &str, port: &str, target: impl IntoAddr) -> PatternResult<()> {
+        self.slave(component)?.connect(port, &target.into_addr()?)
+    }
+
+    /// Disconnects `component`'s port `port`. When this returns, nothing more goes out on it.
+    pub fn disconnect(&self, component: &str, port: &str) -> PatternResult<()> {
+        self.slave(component)?.disconnect(port)
+    }
+
+    /// The ports of `component` with their connections.
+    pub fn ports(&self, component: &str) -> PatternResult<Vec<PortStatus>> {
+        Ok(self.slave(component)?.ports())
+    }
+}
