@@ -1,0 +1,185 @@
+//! Swept-circle collision: how far a circle can move along a straight displacement.
+//!
+//! A circle of radius `r` centred at `p` touches a shape exactly when `p` is within `r` of it,
+//! that is, when `p` enters the shape grown by `r`: a disc grows into a bigger disc, a segment
+//! into a capsule, a box into a rounded box (the union of the capsules around its four edges,
+//! which the centre must cross before it can reach the box itself). So every question here is
+//! about a moving *point* entering a disc or a capsule.
+
+use super::{Circle, Point, Segment, Shape, Vector};
+
+/// The first time `t >= 0` at which the point `p + t·d` is within `radius` of `center`, if ever.
+/// Returns 0 when `p` already is.
+fn disc_entry(p: &Point, d: &Vector, center: &Point, radius: f64) -> Option<f64> {
+    let m = p - center;
+    let c = m.norm_squared() - radius * radius;
+    if c <= 0.0 {
+        return Some(0.0);
+    }
+    let a = d.norm_squared();
+    let b = m.dot(d);
+    if a == 0.0 || b >= 0.0 {
+        return None;
+    }
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    // The smaller root (-b - sqrt(disc)) / a, written as c / (-b + sqrt(disc)) for precision.
+    Some(c / (-b + disc.sqrt()))
+}
+
+/// The first time `t >= 0` at which `p + t·d` is within `radius` of `seg`, if ever.
+/// Returns 0 when `p` already is.
+fn capsule_entry(p: &Point, d: &Vector, seg: &Segment, radius: f64) -> Option<f64> {
+    if seg.distance(p) <= radius {
+        return Some(0.0);
+    }
+    let ends = [disc_entry(p, d, &seg.a, radius), disc_entry(p, d, &seg.b, radius)];
+    let mut best =
+        ends.into_iter().flatten().fold(None, |acc: Option<f64>, t| Some(acc.map_or(t, |a| a.min(t))));
+    let e = seg.b - seg.a;
+    let len = e.norm();
+    if len > 0.0 {
+        let u = e / len;
+        let n = Vector::new(-u.y, u.x);
+        let s0 = (p - seg.a).dot(&n);
+        let rate = d.dot(&n);
+        // Crossing the side of the capsule facing p, if p moves towards the segment's line.
+        if s0.abs() > radius && s0 * rate < 0.0 {
+            let t = (s0.abs() - radius) / rate.abs();
+            let along = (p + d * t - seg.a).dot(&u);
+            if (0.0..=len).contains(&along) {
+                best = Some(best.map_or(t, |b: f64| b.min(t)));
+            }
+        }
+    }
+    best
+}
+
+/// The first time `t >= 0` at which a circle of `radius` centred at `center + t·displacement`
+/// touches `shape`, if ever (0 if it already does). `t = 1` is the end of the displacement.
+pub fn entry_time(shape: &Shape, center: &Point, displacement: &Vector, radius: f64) -> Option<f64> {
+    match shape {
+        Shape::Circle(Circle { center: c, radius: rc }) => disc_entry(center, displacement, c, radius + rc),
+        Shape::Segment(s) => capsule_entry(center, displacement, s, radius),
+        Shape::Aabb(b) => {
+            if b.contains(center) {
+                return Some(0.0);
+            }
+            b.edges()
+                .iter()
+                .filter_map(|e| capsule_entry(center, displacement, e, radius))
+                .fold(None, |acc: Option<f64>, t| Some(acc.map_or(t, |a| a.min(t))))
+        }
+    }
+}
+
+/// The largest fraction `f` in `[0, 1]` of `displacement` that a circle of `radius` centred at
+/// `center` can travel without coming closer than `radius` to `shape`.
+///
+/// When the circle already overlaps the shape (its centre is closer than `radius`, which
+/// rounding can cause at exact contact), the whole displacement is allowed if it does not bring
+/// the centre closer to the shape (convexity then guarantees it never does on the way) and none
+/// of it otherwise: sliding along or backing away from a touched wall works, pushing into it
+/// does not. A centre exactly on the shape cannot tell away from towards and never moves.
+pub fn max_travel_fraction(shape: &Shape, center: &Point, displacement: &Vector, radius: f64) -> f64 {
+    if displacement.norm_squared() == 0.0 {
+        return 1.0;
+    }
+    let q = shape.closest_point(center);
+    let away = center - q;
+    let gap = away.norm();
+    if gap < radius {
+        return if gap > 0.0 && displacement.dot(&away) >= 0.0 { 1.0 } else { 0.0 };
+    }
+    match entry_time(shape, center, displacement, radius) {
+        Some(t) if t < 1.0 => t.max(0.0),
+        _ => 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Aabb;
+
+    const EPS: f64 = 1e-12;
+
+    fn p(x: f64, y: f64) -> Point {
+        Point::new(x, y)
+    }
+    fn v(x: f64, y: f64) -> Vector {
+        Vector::new(x, y)
+    }
+
+    #[test]
+    fn circle_against_disc_head_on() {
+        let disc = Shape::Circle(Circle::new(p(5.0, 0.0), 1.0));
+        // Radii 1 + 1: contact when the centre reaches x = 3, 0.3 of the way.
+        let f = max_travel_fraction(&disc, &p(0.0, 0.0), &v(10.0, 0.0), 1.0);
+        assert!((f - 0.3).abs() < EPS, "{f}");
+        // Passing beside it, 2.5 off axis, is free.
+        let f = max_travel_fraction(&disc, &p(0.0, 2.5), &v(10.0, 0.0), 1.0);
+        assert_eq!(f, 1.0);
+    }
+
+    #[test]
+    fn circle_against_wall_face() {
+        let wall = Shape::Segment(Segment::new(p(-10.0, 2.0), p(10.0, 2.0)));
+        let f = max_travel_fraction(&wall, &p(0.0, 0.0), &v(0.0, 3.0), 0.5);
+        assert!((f - 0.5).abs() < EPS, "{f}");
+        // Diagonally: contact at y = 1.5 still, half of the y travel.
+        let f = max_travel_fraction(&wall, &p(0.0, 0.0), &v(3.0, 3.0), 0.5);
+        assert!((f - 0.5).abs() < EPS, "{f}");
+        // Too short to reach it.
+        assert_eq!(max_travel_fraction(&wall, &p(0.0, 0.0), &v(0.0, 1.0), 0.5), 1.0);
+    }
+
+    #[test]
+    fn circle_against_wall_end() {
+        // A wall from (2, -5) up to (2, 0); a circle at y = 0.5 moving +x meets its top end.
+        let wall = Shape::Segment(Segment::new(p(2.0, -5.0), p(2.0, 0.0)));
+        let f = max_travel_fraction(&wall, &p(0.0, 0.5), &v(4.0, 0.0), 1.0);
+        let expected = (2.0 - 0.75_f64.sqrt()) / 4.0;
+        assert!((f - expected).abs() < EPS, "{f} vs {expected}");
+        // Above the end by more than the radius: free.
+        assert_eq!(max_travel_fraction(&wall, &p(0.0, 1.01), &v(4.0, 0.0), 1.0), 1.0);
+    }
+
+    #[test]
+    fn circle_against_box_corner_and_face() {
+        let b = Shape::Aabb(Aabb::new(p(2.0, 2.0), p(4.0, 4.0)));
+        // Along the diagonal into the corner (2, 2): contact at distance 1 from it.
+        let f = max_travel_fraction(&b, &p(0.0, 0.0), &v(3.0, 3.0), 1.0);
+        let expected = (2.0 - 1.0 / 2.0_f64.sqrt()) / 3.0;
+        assert!((f - expected).abs() < EPS, "{f} vs {expected}");
+        // Into the left face at y = 3: contact at x = 1.
+        let f = max_travel_fraction(&b, &p(0.0, 3.0), &v(2.0, 0.0), 1.0);
+        assert!((f - 0.5).abs() < EPS, "{f}");
+    }
+
+    #[test]
+    fn touching_allows_sliding_and_backing_off_but_not_pushing() {
+        let wall = Shape::Segment(Segment::new(p(-10.0, 0.0), p(10.0, 0.0)));
+        let c = p(0.0, 0.5 - 1e-15); // a hair inside the contact distance
+        assert_eq!(max_travel_fraction(&wall, &c, &v(1.0, 0.0), 0.5), 1.0, "slide");
+        assert_eq!(max_travel_fraction(&wall, &c, &v(0.0, 1.0), 0.5), 1.0, "back off");
+        assert_eq!(max_travel_fraction(&wall, &c, &v(1.0, -0.1), 0.5), 0.0, "push");
+    }
+
+    #[test]
+    fn entry_time_is_zero_when_already_overlapping() {
+        let disc = Shape::Circle(Circle::new(p(0.0, 0.0), 1.0));
+        assert_eq!(entry_time(&disc, &p(1.5, 0.0), &v(1.0, 0.0), 1.0), Some(0.0));
+        let b = Shape::Aabb(Aabb::new(p(0.0, 0.0), p(1.0, 1.0)));
+        assert_eq!(entry_time(&b, &p(0.5, 0.5), &v(1.0, 0.0), 0.1), Some(0.0));
+    }
+
+    #[test]
+    fn perpendicular_approach_to_capsule_side_matches_closed_form() {
+        let s = Segment::new(p(0.0, 0.0), p(4.0, 0.0));
+        let t = capsule_entry(&p(1.0, 1.5), &v(0.0, -2.0), &s, 0.5).expect("hits");
+        assert!((t - 0.5).abs() < EPS, "{t}");
+    }
+}
