@@ -328,7 +328,9 @@ impl Registry {
 
     /// The error for an address that resolves nowhere.
     pub(crate) fn not_found(&self, addr: &ServiceAddr) -> PatternError {
-        if self.has_component(&addr.component) || self.transport().is_some() {
+        let hosts_something = self.has_component(&addr.component)
+            || self.inner.services.read().keys().any(|a| a.component == addr.component);
+        if hosts_something || self.transport().is_some() {
             PatternError::UnknownService(addr.clone())
         } else {
             PatternError::UnknownComponent(addr.component.clone())

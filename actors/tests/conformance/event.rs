@@ -1,0 +1,69 @@
+use orsa_actors::event::{EventClient, EventMode, EventServer};
+use orsa_actors::{PatternError, Registry, Sink};
+use tokio::sync::mpsc;
+
+/// Fires the distance when it is below the activation's threshold.
+fn near(registry: &Registry) -> EventServer<f64, f64, f64> {
+    EventServer::register(registry, "nomad200/near", |limit: &f64, d: &f64| (*d < *limit).then_some(*d))
+        .expect("register")
+}
+
+#[tokio::test(start_paused = true)]
+async fn event_single_fires_once_then_ends() {
+    let registry = Registry::new();
+    let server = near(&registry);
+    let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near").expect("connect");
+    let mut a = client.activate(EventMode::Single, 0.5).expect("activate");
+    assert_eq!(server.put(&0.9), 0);
+    assert_eq!(server.put(&0.4), 1);
+    assert_eq!(server.put(&0.3), 0);
+    assert_eq!(server.activations(), 0);
+    let fired = a.next().await.expect("fired");
+    assert_eq!((fired.activation, fired.event.value), (a.id(), 0.4));
+    assert!(matches!(a.next().await, Err(PatternError::NotActive(_))));
+}
+
+#[tokio::test(start_paused = true)]
+async fn event_continuous_fires_on_every_match_until_deactivated() {
+    let registry = Registry::new();
+    let server = near(&registry);
+    let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near").expect("connect");
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let id = client.activate_to(EventMode::Continuous, 0.5, Sink::channel(tx)).expect("activate");
+    for d in [0.6, 0.4, 0.45, 0.7, 0.1] {
+        server.put(&d);
+    }
+    client.deactivate(id).expect("deactivate");
+    server.put(&0.2);
+    let mut got = Vec::new();
+    while let Ok(f) = rx.try_recv() {
+        got.push((f.event.seq, f.event.value));
+    }
+    assert_eq!(got, vec![(1, 0.4), (2, 0.45), (3, 0.1)]);
+    assert!(matches!(client.deactivate(id), Err(PatternError::Unknown { .. })), "twice is an error");
+}
+
+#[tokio::test(start_paused = true)]
+async fn event_fires_only_to_the_activations_whose_condition_holds() {
+    let registry = Registry::new();
+    let server = near(&registry);
+    let c = EventClient::<f64, f64>::connect(&registry, "nomad200/near").expect("connect");
+    let mut close = c.activate(EventMode::Continuous, 0.2).expect("activate");
+    let mut far = c.activate(EventMode::Continuous, 1.0).expect("activate");
+    assert_eq!(server.put(&0.5), 1);
+    assert_eq!(server.put(&0.1), 2);
+    assert_eq!(far.try_next().expect("ok").map(|f| f.event.value), Some(0.5));
+    assert_eq!(far.try_next().expect("ok").map(|f| f.event.value), Some(0.1));
+    assert_eq!(close.try_next().expect("ok").map(|f| f.event.value), Some(0.1));
+    assert_eq!(close.try_next().expect("ok"), None);
+    drop(far);
+    assert_eq!(server.activations(), 1, "dropping an activation deactivates it");
+}
+
+#[tokio::test(start_paused = true)]
+async fn event_client_type_is_checked() {
+    let registry = Registry::new();
+    let _server = near(&registry);
+    let err = EventClient::<u64, f64>::connect(&registry, "nomad200/near").err();
+    assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
+}

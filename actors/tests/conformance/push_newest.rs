@@ -1,0 +1,91 @@
+use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::{PatternError, Registry, Sink, Update};
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_every_subscriber_gets_each_value_in_order() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let mut rxs = Vec::new();
+    let mut clients = Vec::new();
+    for _ in 0..5 {
+        let (tx, rx) = mpsc::unbounded_channel::<Update<u64>>();
+        let c = PushNewestClient::connect_to(&registry, "odo/ticks", Sink::channel(tx)).expect("connect");
+        c.subscribe().expect("subscribe");
+        clients.push(c);
+        rxs.push(rx);
+    }
+    for v in 1..=20 {
+        assert_eq!(server.put(v), 5);
+    }
+    for rx in &mut rxs {
+        let mut got = Vec::new();
+        while let Ok(u) = rx.try_recv() {
+            got.push((u.seq, u.value));
+        }
+        assert_eq!(got, (1..=20).map(|v| (v, v)).collect::<Vec<_>>());
+    }
+    assert_eq!(server.stats().delivered, 100);
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_get_update_is_newest_without_waiting() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect");
+    assert!(matches!(client.get_update(), Err(PatternError::NotActive(_))), "not subscribed yet");
+    client.subscribe().expect("subscribe");
+    assert_eq!(client.get_update().err(), Some(PatternError::NoData));
+    server.put(1);
+    server.put(2);
+    server.put(3);
+    assert_eq!(client.get_update().expect("update").value, 3);
+    assert_eq!(client.get_update().expect("update").value, 3, "get_update does not consume");
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_get_update_wait_waits_for_the_next_value() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect");
+    client.subscribe().expect("subscribe");
+    server.put(1);
+    let producer = server.clone();
+    tokio::spawn(async move {
+        tokio::time::sleep(Duration::from_millis(70)).await;
+        producer.put(2);
+    });
+    let start = tokio::time::Instant::now();
+    let u = client.get_update_wait().await.expect("update");
+    assert_eq!(
+        (u.value, start.elapsed()),
+        (2, Duration::from_millis(70)),
+        "waits for a new value, not the old"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_unsubscribe_and_drop_stop_deliveries() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let a = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect");
+    let b = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect");
+    a.subscribe().expect("subscribe");
+    b.subscribe().expect("subscribe");
+    assert_eq!(server.put(1), 2);
+    a.unsubscribe().expect("unsubscribe");
+    assert!(matches!(a.unsubscribe(), Err(PatternError::NotActive(_))), "twice is an error");
+    assert_eq!(server.put(2), 1);
+    drop(b);
+    assert_eq!(server.put(3), 0);
+    assert_eq!(server.stats().subscribers, 0);
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_rejects_a_timed_client() {
+    let registry = Registry::new();
+    let _server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let err = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&registry, "odo/ticks").err();
+    assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
+}
