@@ -1,1 +1,22 @@
-//! placeholder
+//! # orsa
+//!
+//! Robot control software out of supervised actors. Components talk only through a small set of
+//! communication patterns with fixed semantics (Send, Query, Push newest, Push timed, Event,
+//! State, Wiring), carrying typed communication objects; supervisors restart what fails.
+//!
+//! This facade re-exports the layers, one crate each:
+//! - [`actors`]: the framework core: patterns, components, supervision, registry, clock.
+//! - [`hardware`]: the Nomad 200 behind board traits, its simulator and its robot server.
+//! - [`reactive`]: behaviour components (wall following, center following).
+//! - [`executive`]: the master that arbitrates behaviours by Wiring and State.
+//! - [`planner`]: the deliberative layer that issues goals.
+//!
+//! [`cli`] holds the `orsa` command line; the binary only parses arguments and calls it.
+
+pub use orsa_actors as actors;
+pub use orsa_executive as executive;
+pub use orsa_hardware as hardware;
+pub use orsa_planner as planner;
+pub use orsa_reactive as reactive;
+
+pub mod cli;
