@@ -1,1 +1,0 @@
-//! OTP-style supervision on ractor (being written).
