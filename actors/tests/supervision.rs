@@ -1014,7 +1014,7 @@ mod model {
 
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config {
-        cases: 64,
+        cases: 256,
         failure_persistence: None,
         ..proptest::test_runner::Config::default()
     })]

@@ -111,15 +111,18 @@
 mod error;
 mod event;
 mod handle;
+mod policy;
 mod server;
 mod spec;
+mod state;
 mod window;
 
 pub use error::{ChildError, GaveUp, StartError};
 pub use event::{SupervisorEvent, SupervisorEventKind};
 pub use handle::{ChildInfo, RetryRestart, SupervisorMsg, SupervisorRef};
-pub use server::{Supervisor, SupervisorState};
+pub use server::Supervisor;
 pub use spec::{
     ChildSpec, DEFAULT_WORKER_SHUTDOWN, EventSink, Restart, Shutdown, StartFn, StartFuture, Strategy,
     SupervisorSpec,
 };
+pub use state::SupervisorState;
