@@ -59,6 +59,7 @@ use crate::send::{SendClient, SendServer};
 use crate::sink::Mailbox;
 use crate::stamped::{Stamped, Update};
 use crate::state::{Cancel, StateHandle, StateSlave, StateSpec};
+use crate::supervision::ChildSpec;
 use crate::wiring::{QueryPort, SendPort, WiringSlave};
 use parking_lot::Mutex;
 use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef};
@@ -422,6 +423,17 @@ impl<C: Component> ComponentHandle<C> {
             None => Actor::spawn(None, instance, ()).await?,
         };
         Ok(actor.get_cell())
+    }
+
+    /// A child spec that makes a supervisor start (and restart) this component; the child's id
+    /// is the component's name. Permanent, with a 5 s shutdown timeout, unless changed with the
+    /// spec's `with_restart` / `with_shutdown`.
+    pub fn child_spec(&self) -> ChildSpec {
+        let handle = self.clone();
+        ChildSpec::new(self.name().to_string(), move |sup: ActorCell| {
+            let handle = handle.clone();
+            Box::pin(async move { handle.start(Some(sup)).await })
+        })
     }
 
     /// The component's name.

@@ -2,9 +2,9 @@ use crate::Velocity;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorSpec};
 use orsa_actors::wiring::{SendPort, WiringMaster};
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Sink, Stamped, Update};
-use ractor::{Actor, ActorProcessingErr, ActorRef, SupervisionEvent};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
@@ -54,31 +54,6 @@ impl Component for Behaviour {
     }
 }
 
-/// A bare ractor parent that reports its children's supervision events.
-struct Parent(mpsc::UnboundedSender<&'static str>);
-impl Actor for Parent {
-    type Msg = ();
-    type State = ();
-    type Arguments = ();
-    async fn pre_start(&self, _: ActorRef<()>, _: ()) -> Result<(), ActorProcessingErr> {
-        Ok(())
-    }
-    async fn handle_supervisor_evt(
-        &self,
-        _: ActorRef<()>,
-        evt: SupervisionEvent,
-        _: &mut (),
-    ) -> Result<(), ActorProcessingErr> {
-        let kind = match evt {
-            SupervisionEvent::ActorFailed(..) => "failed",
-            SupervisionEvent::ActorTerminated(..) => "terminated",
-            _ => return Ok(()),
-        };
-        let _ = self.0.send(kind);
-        Ok(())
-    }
-}
-
 #[tokio::test(start_paused = true)]
 async fn supervision_restart_restores_wiring_and_subscriptions() {
     let registry = orsa_actors::Registry::new();
@@ -86,11 +61,18 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
     SendServer::<Velocity>::register(&registry, "nomad200/navigationvelocity", Sink::channel(mtx))
         .expect("motor");
     let _counter = spawn(&registry, "counter", Counter).await.expect("spawn counter");
-    let (etx, mut events) = mpsc::unbounded_channel();
-    let (parent, _) = Actor::spawn(None, Parent(etx), ()).await.expect("parent");
 
     let behaviour = ComponentHandle::new(&registry, "wallfollow", Behaviour).expect("add");
-    let first = behaviour.start(Some(parent.get_cell())).await.expect("start");
+    let (etx, mut events) = mpsc::unbounded_channel::<SupervisorEvent>();
+    let spec = SupervisorSpec::new("reactive", Strategy::OneForOne)
+        .with_intensity(3, Duration::from_secs(10))
+        .with_clock(registry.clock())
+        .with_event_sink(move |e| {
+            let _ = etx.send(e);
+        })
+        .with_child(behaviour.child_spec());
+    let sup = Supervisor::start(spec).await.expect("supervisor");
+    let first = behaviour.instance().expect("running").get_id();
     WiringMaster::new(&registry).connect("wallfollow", "vel", "nomad200/navigationvelocity").expect("wire");
 
     tokio::time::sleep(Duration::from_millis(105)).await;
@@ -101,20 +83,23 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
         .expect("connect")
         .send(Empty {})
         .expect("send");
-    assert_eq!(events.recv().await, Some("failed"));
-    assert!(behaviour.instance().is_none_or(|i| i.get_id() == first.get_id()), "nothing restarted it yet");
+    let failed = events.recv().await.expect("event");
+    assert_eq!((failed.kind, failed.child.as_str()), (SupervisorEventKind::ChildFailed, "wallfollow"));
+    assert!(failed.reason.contains("injected fault"), "{}", failed.reason);
+    let restarted = events.recv().await.expect("event");
+    assert_eq!((restarted.kind, restarted.restart_count), (SupervisorEventKind::Restarted, 1));
+    assert_eq!(restarted.at.as_nanos(), 105_000_000, "restarted at once, on the robot clock");
+    assert_ne!(behaviour.instance().expect("running").get_id(), first);
 
-    // Counts published while no instance runs are lost to it (and counted as failed).
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let second = behaviour.start(Some(parent.get_cell())).await.expect("restart");
-    assert_ne!(second.get_id(), first.get_id());
     tokio::time::sleep(Duration::from_millis(100)).await;
     got = std::iter::from_fn(|| motor.try_recv().ok()).map(|m| m.v_m_s).collect();
-    // Same every-5th rhythm, same wiring, nobody re-subscribed or re-wired it.
-    assert_eq!(got, vec![20.0, 25.0]);
+    // Same every-5th rhythm, same wiring: nobody re-subscribed or re-wired it.
+    assert_eq!(got, vec![15.0, 20.0]);
     let ports = WiringMaster::new(&registry).ports("wallfollow").expect("ports");
     assert_eq!(
         ports[0].target.as_ref().map(|t| t.to_string()).as_deref(),
         Some("nomad200/navigationvelocity")
     );
+    sup.shutdown().await;
+    assert!(behaviour.instance().is_none(), "shutdown stops the component's instance");
 }
