@@ -20,3 +20,5 @@ pub use orsa_planner as planner;
 pub use orsa_reactive as reactive;
 
 pub mod cli;
+pub mod plot;
+pub mod record;

@@ -1,0 +1,1 @@
+//! Recording runs as MCAP (being written).
