@@ -1,1 +1,17 @@
-//! placeholder
+//! orsa-reactive: behaviour components.
+//!
+//! Each behaviour is a pure controller (scan in, velocity out, unit tested on synthetic scans)
+//! inside a thin component that subscribes to the robot's sensor pushes and sends on a wireable
+//! `vel` port. Behaviours compute all the time, wired or not; the executive decides which one
+//! reaches the motors.
+//!
+//! Modules:
+//! - [`ring`]: fused ring readings and the wall estimate per side (sign conventions live here).
+//! - [`cascade`]: the two cascaded proportional loops both behaviours use.
+//! - [`wallfollow`]: hold a distance from the left wall (infrared).
+//! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
+
+pub mod cascade;
+pub mod centerfollow;
+pub mod ring;
+pub mod wallfollow;

@@ -1,0 +1,170 @@
+//! Center following: stay in the middle of a corridor, fusing sonar and infrared.
+//!
+//! The controller ([`CenterFollower`]) is pure: the latest infrared and sonar scans in, one
+//! velocity out. Per sensor it takes infrared where infrared reads under `ir_below` and sonar
+//! otherwise; the lateral error is half the difference between the nearest left (1..7) and the
+//! nearest right (9..15) distance (positive: the left wall is farther, move left), and the wall
+//! angle comes from the nearer side; both go through the [`cascade`](crate::cascade). Speed is
+//! proportional to the nearest fused front distance (sensors 15, 0, 1), capped at `v_max`.
+//!
+//! Sound handling of what the original leaves open: with only one side in range the robot keeps
+//! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
+
+use crate::cascade::CascadeParams;
+use crate::ring::{AngleEstimator, Ranges, Side, fuse, wall};
+use orsa_actors::Timestamp;
+use orsa_hardware::comm::NavigationVelocity;
+use serde::{Deserialize, Serialize};
+
+/// Parameters of center following (the `[centerfollow]` table of the config file).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CenterFollowParams {
+    /// Top speed, m/s.
+    pub v_max_m_s: f64,
+    /// Speed per m of free space in front, 1/s.
+    pub k_v: f64,
+    /// Slowest speed while something is in front, m/s.
+    pub v_min_m_s: f64,
+    /// Infrared is trusted under this distance, sonar beyond, m.
+    pub ir_below_m: f64,
+    /// Baseline of the original angle formula, m.
+    pub l_m: f64,
+    /// How the wall angle is estimated.
+    pub estimator: AngleEstimator,
+    /// The two loops.
+    #[serde(flatten)]
+    pub cascade: CascadeParams,
+}
+
+impl Default for CenterFollowParams {
+    fn default() -> Self {
+        CenterFollowParams {
+            v_max_m_s: 0.25,
+            k_v: 0.5,
+            v_min_m_s: 0.07,
+            ir_below_m: 0.70,
+            l_m: 0.17,
+            estimator: AngleEstimator::default(),
+            cascade: CascadeParams { k_d: 1.5, k_alpha: -2.0, ..CascadeParams::default() },
+        }
+    }
+}
+
+impl CenterFollowParams {
+    /// Checks every value; the message names the offending key.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |v: f64, key: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("centerfollow.{key}: must be a positive number"))
+            }
+        };
+        pos(self.v_max_m_s, "v_max_m_s")?;
+        pos(self.k_v, "k_v")?;
+        pos(self.v_min_m_s, "v_min_m_s")?;
+        pos(self.ir_below_m, "ir_below_m")?;
+        pos(self.l_m, "l_m")?;
+        self.cascade.validate("centerfollow")
+    }
+}
+
+/// The pure center-following controller.
+#[derive(Debug, Clone)]
+pub struct CenterFollower {
+    params: CenterFollowParams,
+    ring_radius_m: f64,
+}
+
+/// What the controller saw and decided.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CenterFollowStep {
+    /// The command.
+    pub cmd: NavigationVelocity,
+    /// Estimated offset from the centre, m, positive to the right of it (None: not both sides).
+    pub offset_m: Option<f64>,
+}
+
+impl CenterFollower {
+    /// A controller for a robot whose sensors sit at `ring_radius_m` from its centre.
+    pub fn new(params: CenterFollowParams, ring_radius_m: f64) -> Self {
+        CenterFollower { params, ring_radius_m }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &CenterFollowParams {
+        &self.params
+    }
+
+    /// One control step on the latest infrared and sonar ranges; the command carries `stamp`
+    /// (that of the newer scan used).
+    pub fn step(&mut self, ir: &Ranges, sonar: &Ranges, stamp: Timestamp) -> CenterFollowStep {
+        let p = &self.params;
+        let r = fuse(ir, sonar, p.ir_below_m);
+        let left = wall(&r, Side::Left, p.estimator, self.ring_radius_m, p.l_m);
+        let right = wall(&r, Side::Right, p.estimator, self.ring_radius_m, p.l_m);
+        let (error_left, alpha, offset) = match (left, right) {
+            (Some(l), Some(rt)) => {
+                let e = (l.distance_m - rt.distance_m) / 2.0;
+                let alpha = if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad };
+                (e, alpha, Some(e))
+            }
+            (Some(w), None) | (None, Some(w)) => (0.0, w.alpha_rad, None),
+            (None, None) => (0.0, 0.0, None),
+        };
+        let omega = p.cascade.omega(error_left, alpha);
+        let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
+        let v = if front.is_finite() { (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s) } else { p.v_max_m_s };
+        CenterFollowStep { cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega }, offset_m: offset }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ring::synthetic::corridor;
+
+    /// Infrared (0.6 m) and sonar (0.3..6 m) views of a corridor `width` wide, robot `y` above
+    /// its centre (positive: nearer the left wall when heading along +x), heading `theta`.
+    fn views(width: f64, y: f64, theta: f64) -> (Ranges, Ranges) {
+        let (l, r) = (width / 2.0 - y, width / 2.0 + y);
+        let ir = corridor(Some(l), Some(r), theta, 0.25, 0.6);
+        let mut so = corridor(Some(l), Some(r), theta, 0.25, 6.0);
+        for d in so.iter_mut() {
+            *d = d.filter(|d| *d >= 0.3);
+        }
+        (ir, so)
+    }
+
+    #[test]
+    fn centred_and_parallel_goes_straight() {
+        let (ir, so) = views(2.4, 0.0, 0.0);
+        let s = CenterFollower::new(CenterFollowParams::default(), 0.25).step(&ir, &so, Timestamp(3));
+        assert!(s.cmd.omega_rad_s.abs() < 1e-9 && s.offset_m.is_some_and(|o| o.abs() < 1e-9));
+        assert_eq!(s.cmd.v_m_s, 0.25);
+    }
+
+    #[test]
+    fn off_centre_turns_back_toward_the_middle() {
+        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25);
+        let (ir, so) = views(2.4, 0.3, 0.0);
+        assert!(c.step(&ir, &so, Timestamp(0)).cmd.omega_rad_s < -0.05, "left of centre: turn right");
+        let (ir, so) = views(2.4, -0.3, 0.0);
+        assert!(c.step(&ir, &so, Timestamp(0)).cmd.omega_rad_s > 0.05, "right of centre: turn left");
+    }
+
+    #[test]
+    fn closed_loop_settles_on_the_centre_line() {
+        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25);
+        let (mut y, mut theta) = (0.5f64, 0.2f64);
+        let dt = 0.064;
+        for _ in 0..(30.0 / dt) as usize {
+            let (ir, so) = views(2.4, y, theta);
+            let cmd = c.step(&ir, &so, Timestamp(0)).cmd;
+            y += cmd.v_m_s * theta.sin() * dt;
+            theta += cmd.omega_rad_s * dt;
+        }
+        assert!(y.abs() < 0.01, "settled {y} m off centre");
+    }
+}

@@ -1,0 +1,265 @@
+//! What a behaviour sees of the walls: ring readings fused and turned into a wall estimate.
+//!
+//! Conventions (the same for both sides): the wall angle `alpha` is the direction of the wall
+//! relative to the robot's heading, counter-clockwise positive; equivalently `alpha = -theta`
+//! where `theta` is the heading relative to the wall. So with the wall on the left, `alpha < 0`
+//! means heading into the wall, and the distance obeys `d' = v sin(alpha)`; with the wall on the
+//! right, `alpha > 0` means heading into it. The heading turns as `theta' = omega`, hence
+//! `alpha' = -omega`.
+//!
+//! Two estimators of `alpha` exist:
+//! - [`AngleEstimator::Original`], the thesis' formula: with `m` the side sensor with the
+//!   smallest reading, `alpha = pi/8 (m - c) + asin((d[m-1] - d[m+1]) / l)` with `c` the side's
+//!   middle sensor (4 left, 12 right) and `l = 0.17 m`. Where it is fragile orsa does the sound
+//!   thing: the asin argument is clamped to [-1, 1]; a neighbour that is invalid (out of range)
+//!   or outside the ring's side drops the fine term and keeps the coarse `pi/8 (m - c)`.
+//! - [`AngleEstimator::LineFit`]: the hit points of sensors `m-1, m, m+1` (each sensor's
+//!   position on the ring plus its reading along its direction) are fitted with a line; `alpha`
+//!   is that line's direction and `d` its distance from the body's edge. For a flat wall this is
+//!   exact at any angle, where the original is a small-angle approximation; it is the default.
+
+use orsa_hardware::comm::{DistanceScan, RING_SIZE, ring_angle_rad};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Which side of the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Sensors 1..=7, centred on 4.
+    Left,
+    /// Sensors 9..=15, centred on 12.
+    Right,
+}
+
+impl Side {
+    /// The side's sensors, front to back for the left, back to front for the right.
+    pub fn sensors(self) -> std::ops::RangeInclusive<usize> {
+        match self {
+            Side::Left => 1..=7,
+            Side::Right => 9..=15,
+        }
+    }
+
+    /// The sensor that faces straight out of this side.
+    pub fn middle(self) -> usize {
+        match self {
+            Side::Left => 4,
+            Side::Right => 12,
+        }
+    }
+}
+
+/// How the wall angle is estimated (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AngleEstimator {
+    /// The thesis' `pi/8 (m - c) + asin((d[m-1] - d[m+1]) / l)`, made safe at its edges.
+    Original,
+    /// A line through the hit points of the nearest sensor and its neighbours.
+    #[default]
+    LineFit,
+}
+
+/// One distance per ring sensor: `None` where the reading is invalid.
+pub type Ranges = [Option<f64>; RING_SIZE];
+
+/// The valid distances of a scan.
+pub fn ranges(scan: &DistanceScan) -> Ranges {
+    let mut out = [None; RING_SIZE];
+    for r in &scan.readings {
+        let i = usize::from(r.sensor_id);
+        if i < RING_SIZE && r.valid && r.distance_m.is_finite() {
+            out[i] = Some(r.distance_m);
+        }
+    }
+    out
+}
+
+/// Fuses infrared and sonar per sensor: infrared where it reads under `ir_below_m`, sonar
+/// otherwise (the original rule; infrared is precise up close, sonar sees far).
+pub fn fuse(ir: &Ranges, sonar: &Ranges, ir_below_m: f64) -> Ranges {
+    let mut out = [None; RING_SIZE];
+    for i in 0..RING_SIZE {
+        out[i] = match ir[i] {
+            Some(d) if d < ir_below_m => Some(d),
+            _ => sonar[i],
+        };
+    }
+    out
+}
+
+/// The wall seen on one side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallEstimate {
+    /// Distance from the body's edge to the wall, m.
+    pub distance_m: f64,
+    /// Wall direction relative to the heading, rad (see the module docs).
+    pub alpha_rad: f64,
+    /// The side sensor with the smallest reading.
+    pub nearest: usize,
+}
+
+/// The minimum valid reading on `side` and the sensor that gave it.
+pub fn side_min(r: &Ranges, side: Side) -> Option<(usize, f64)> {
+    side.sensors().filter_map(|i| r[i].map(|d| (i, d))).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Estimates the wall on `side` from ring readings. `ring_radius_m` is where the sensors sit.
+pub fn wall(
+    r: &Ranges,
+    side: Side,
+    how: AngleEstimator,
+    ring_radius_m: f64,
+    l_m: f64,
+) -> Option<WallEstimate> {
+    let (m, d_min) = side_min(r, side)?;
+    let coarse = PI / 8.0 * (m as f64 - side.middle() as f64);
+    let in_side = |i: usize| side.sensors().contains(&i);
+    match how {
+        AngleEstimator::Original => {
+            let fine = match (r[m - 1], r[m + 1]) {
+                (Some(a), Some(b)) if in_side(m - 1) && in_side(m + 1) => {
+                    ((a - b) / l_m).clamp(-1.0, 1.0).asin()
+                }
+                _ => 0.0,
+            };
+            Some(WallEstimate { distance_m: d_min, alpha_rad: coarse + fine, nearest: m })
+        }
+        AngleEstimator::LineFit => {
+            let pts: Vec<(f64, f64)> = [m - 1, m, m + 1]
+                .into_iter()
+                .filter(|&i| i < RING_SIZE)
+                .filter_map(|i| {
+                    let d = r[i]?;
+                    let a = ring_angle_rad(i);
+                    Some(((ring_radius_m + d) * a.cos(), (ring_radius_m + d) * a.sin()))
+                })
+                .collect();
+            match line_fit(&pts) {
+                Some((alpha, dist_centre)) => Some(WallEstimate {
+                    distance_m: dist_centre - ring_radius_m,
+                    alpha_rad: alpha,
+                    nearest: m,
+                }),
+                None => Some(WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m }),
+            }
+        }
+    }
+}
+
+/// The principal line through `pts` (at least two distinct points): its direction folded into
+/// (-pi/2, pi/2] and its distance from the origin.
+fn line_fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (mx, my) = pts.iter().fold((0.0, 0.0), |(x, y), p| (x + p.0 / n, y + p.1 / n));
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for (x, y) in pts {
+        sxx += (x - mx) * (x - mx);
+        syy += (y - my) * (y - my);
+        sxy += (x - mx) * (y - my);
+    }
+    if sxx + syy < 1e-12 {
+        return None;
+    }
+    let mut dir = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    if dir > PI / 2.0 {
+        dir -= PI;
+    } else if dir <= -PI / 2.0 {
+        dir += PI;
+    }
+    // Distance from the origin to the line through (mx, my) with direction dir.
+    let dist = (mx * dir.sin() - my * dir.cos()).abs();
+    Some((dir, dist))
+}
+
+#[cfg(test)]
+pub(crate) mod synthetic {
+    //! Scans of straight walls computed exactly, for controller tests.
+    use super::*;
+
+    /// Ring readings of a robot (sensor ring of radius `r0`) between walls: `left`/`right` are
+    /// the distances from the robot's centre to the left/right walls measured perpendicular to
+    /// the walls, `theta` the heading relative to the walls (CCW positive), `max` the range.
+    pub(crate) fn corridor(left: Option<f64>, right: Option<f64>, theta: f64, r0: f64, max: f64) -> Ranges {
+        let mut out = [None; RING_SIZE];
+        for (i, slot) in out.iter_mut().enumerate() {
+            // Sensor direction in the wall frame.
+            let a = ring_angle_rad(i) + theta;
+            let s = a.sin();
+            let mut best: Option<f64> = None;
+            if let Some(l) = left.filter(|_| s > 1e-9) {
+                best = Some(l / s);
+            }
+            if let Some(rr) = right.filter(|_| s < -1e-9) {
+                best = Some(rr / -s);
+            }
+            *slot = best.map(|t| t - r0).filter(|d| *d > 0.0 && *d <= max);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::synthetic::corridor;
+    use super::*;
+
+    #[test]
+    fn line_fit_recovers_distance_and_angle_of_a_flat_wall() {
+        for theta_deg in [-20.0f64, -8.0, 0.0, 5.0, 15.0] {
+            let theta = theta_deg.to_radians();
+            let r = corridor(Some(0.45), None, theta, 0.25, 0.6);
+            let w = wall(&r, Side::Left, AngleEstimator::LineFit, 0.25, 0.17).expect("wall seen");
+            assert!((w.alpha_rad + theta).abs() < 1e-9, "theta {theta_deg}: alpha {}", w.alpha_rad);
+            assert!((w.distance_m - 0.20).abs() < 1e-9, "theta {theta_deg}: d {}", w.distance_m);
+        }
+    }
+
+    #[test]
+    fn original_estimator_has_the_right_sign_and_is_exact_when_parallel() {
+        let r = corridor(Some(0.45), None, 0.0, 0.25, 0.6);
+        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        assert_eq!(w.nearest, 4);
+        assert!(w.alpha_rad.abs() < 1e-12 && (w.distance_m - 0.20).abs() < 1e-12);
+        // Heading into the left wall: alpha < 0. Into the right wall: alpha > 0.
+        let r = corridor(Some(0.45), None, 0.15, 0.25, 0.6);
+        assert!(wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall").alpha_rad < -0.05);
+        let r = corridor(None, Some(0.45), -0.15, 0.25, 0.6);
+        assert!(wall(&r, Side::Right, AngleEstimator::Original, 0.25, 0.17).expect("wall").alpha_rad > 0.05);
+    }
+
+    #[test]
+    fn original_estimator_survives_its_fragile_cases() {
+        // Only the end sensor of the side sees anything: no neighbour inside the side.
+        let mut r = [None; RING_SIZE];
+        r[7] = Some(0.3);
+        r[8] = Some(0.2);
+        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        assert!((w.alpha_rad - 3.0 * PI / 8.0).abs() < 1e-12, "coarse only: {}", w.alpha_rad);
+        // Neighbours so different that the asin argument leaves [-1, 1].
+        let mut r = [None; RING_SIZE];
+        r[3] = Some(0.05);
+        r[4] = Some(0.04);
+        r[5] = Some(0.59);
+        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        assert!((w.alpha_rad + PI / 2.0).abs() < 1e-12 && w.alpha_rad.is_finite());
+        assert!(wall(&[None; RING_SIZE], Side::Left, AngleEstimator::Original, 0.25, 0.17).is_none());
+    }
+
+    #[test]
+    fn fusion_takes_infrared_up_close_and_sonar_beyond() {
+        let mut ir = [None; RING_SIZE];
+        let mut so = [None; RING_SIZE];
+        ir[1] = Some(0.3);
+        so[1] = Some(0.35);
+        ir[2] = Some(0.65);
+        so[2] = Some(0.66);
+        so[3] = Some(2.0);
+        let f = fuse(&ir, &so, 0.6);
+        assert_eq!((f[1], f[2], f[3], f[4]), (Some(0.3), Some(0.66), Some(2.0), None));
+    }
+}
