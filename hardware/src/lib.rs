@@ -15,7 +15,10 @@
 //!   robot in a world, and [`SimRobot`](sim::SimRobot), which steps it on tokio's clock behind
 //!   the board traits.
 
+pub mod board;
+pub mod comm;
 pub mod geometry;
+pub mod sim;
 pub mod world;
 
 // The `nomad200` server component (services distanceir, distanceson, bumpers, basestate and
