@@ -10,8 +10,12 @@
 //! - [`cascade`]: the two cascaded proportional loops both behaviours use.
 //! - [`wallfollow`]: hold a distance from the left wall (infrared).
 //! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
+//! - [`components`]: the two as components with a `vel` port, activated by State.
 
 pub mod cascade;
 pub mod centerfollow;
+pub mod components;
 pub mod ring;
 pub mod wallfollow;
+
+pub use components::{BehaviourStatus, CenterFollow, WallFollow};

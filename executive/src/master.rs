@@ -1,0 +1,320 @@
+//! The `master`: arbitrates behaviours by Wiring and activates them by State.
+//!
+//! The master subscribes to the robot's infrared ring (every `subscribe_every`-th scan: 10 x 40
+//! ms, one decision per 400 ms, as in the thesis) and, if any rule needs it, to the sonar ring.
+//! On every scan it runs the current mode's priority list ([`crate::rules`]) and, if the answer
+//! changed, rewires: it disconnects the old behaviour's `vel` port and connects the new one to
+//! the robot's `navigationvelocity`, in that order and with nothing in between, so two
+//! behaviours are never wired at once and the motors are never unwired for longer than the two
+//! calls take. When a mode wires nothing, the master sends the motors one zero command.
+//!
+//! Goals arrive by Query on `goal` ([`Goal`] -> [`GoalReply`]): a goal names a mode and how
+//! long to run it. Starting a goal activates its mode's behaviours (State `active`) and
+//! deactivates every other behaviour (State `neutral`), preempting the previous goal. Progress
+//! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
+//! every change of driver goes out on the Push newest service `wiring` ([`WiringChange`]).
+
+use crate::goal::{Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, WiringChange};
+use crate::rules::{Mode, Readings, validate_modes};
+use orsa_actors::event::EventServer;
+use orsa_actors::push_newest::PushNewestServer;
+use orsa_actors::query::QueryRequest;
+use orsa_actors::send::SendClient;
+use orsa_actors::state::{NEUTRAL, StateMaster};
+use orsa_actors::wiring::WiringMaster;
+use orsa_actors::{Component, ComponentError, Ctx, ServiceAddr, Update};
+use orsa_hardware::comm::{DistanceScan, NavigationVelocity};
+use orsa_reactive::components::ACTIVE;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// The name of every behaviour's wireable velocity port.
+pub const VEL_PORT: &str = "vel";
+
+/// Configuration of the executive (the `[executive]` table of the config file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExecutiveParams {
+    /// The robot server component.
+    pub robot: String,
+    /// The master looks at every n-th scan.
+    pub subscribe_every: u32,
+    /// The modes goals can name.
+    pub modes: BTreeMap<String, Mode>,
+}
+
+impl Default for ExecutiveParams {
+    fn default() -> Self {
+        let text = r#"
+            [modes.patrol]
+            behaviours = ["wallfollow", "centerfollow"]
+            rules = [
+              { drive = "wallfollow", when = [{ ring = "infrared", sensors = [0], below_m = 0.50 }] },
+              { drive = "centerfollow" },
+            ]
+            [modes.follow_left_wall]
+            behaviours = ["wallfollow"]
+            rules = [{ drive = "wallfollow" }]
+            [modes.stop]
+        "#;
+        #[derive(Deserialize)]
+        struct Modes {
+            modes: BTreeMap<String, Mode>,
+        }
+        // The text above is part of the program, and a test parses it.
+        let modes = toml::from_str::<Modes>(text).map(|m| m.modes).unwrap_or_default();
+        ExecutiveParams { robot: "nomad200".into(), subscribe_every: 10, modes }
+    }
+}
+
+impl ExecutiveParams {
+    /// Checks every value; messages name the key.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.subscribe_every == 0 {
+            return Err("executive.subscribe_every: must be at least 1".into());
+        }
+        if self.modes.is_empty() {
+            return Err("executive.modes: define at least one mode".into());
+        }
+        validate_modes(&self.modes)
+    }
+
+    /// Every behaviour any mode names.
+    pub fn behaviours(&self) -> Vec<String> {
+        let mut all: Vec<String> = self.modes.values().flat_map(|m| m.behaviours.clone()).collect();
+        all.sort();
+        all.dedup();
+        all
+    }
+}
+
+/// The master component.
+#[derive(Debug, Clone)]
+pub struct Master {
+    /// Its configuration.
+    pub params: ExecutiveParams,
+}
+
+/// Messages of the [`Master`].
+#[derive(Debug)]
+pub enum MasterMsg {
+    /// An infrared scan (every n-th).
+    Ir(Update<DistanceScan>),
+    /// A sonar scan (every n-th), if rules need sonar.
+    Sonar(Update<DistanceScan>),
+    /// A goal from the deliberative layer.
+    Goal(QueryRequest<Goal, GoalReply>),
+    /// A goal's time is up.
+    Deadline(u64),
+}
+
+struct Current {
+    id: u64,
+    mode: String,
+}
+
+/// The master's running state.
+pub struct MasterState {
+    readings: Readings,
+    goal: Option<Current>,
+    next_id: u64,
+    driving: Option<String>,
+    wiring: WiringMaster,
+    motors: SendClient<NavigationVelocity>,
+    motors_addr: ServiceAddr,
+    states: BTreeMap<String, StateMaster>,
+    events: EventServer<GoalFilter, GoalEvent, GoalEvent>,
+    wiring_push: PushNewestServer<WiringChange>,
+}
+
+impl Component for Master {
+    type Msg = MasterMsg;
+    type State = MasterState;
+
+    async fn setup(&self, ctx: &Ctx<MasterMsg>) -> Result<MasterState, ComponentError> {
+        self.params.validate()?;
+        let robot = self.params.robot.as_str();
+        ctx.query_server::<Goal, GoalReply>("goal", MasterMsg::Goal)?;
+        let events = ctx.event_server::<GoalFilter, GoalEvent, GoalEvent>("goals", |f, e| {
+            f.goal.is_none_or(|g| g == e.id).then(|| e.clone())
+        })?;
+        let wiring_push = ctx.push_newest_server::<WiringChange>("wiring")?;
+        let mut states = BTreeMap::new();
+        for b in self.params.behaviours() {
+            let sm = StateMaster::connect(ctx.registry(), &b)
+                .map_err(|e| format!("master: behaviour '{b}' named in executive.modes: {e}"))?;
+            states.insert(b, sm);
+        }
+        let every = self.params.subscribe_every;
+        ctx.subscribe_timed::<DistanceScan>((robot, "distanceir"), every, MasterMsg::Ir)?;
+        if self.params.modes.values().any(Mode::uses_sonar) {
+            ctx.subscribe_timed::<DistanceScan>((robot, "distanceson"), every, MasterMsg::Sonar)?;
+        }
+        let motors_addr = ServiceAddr::new(robot, "navigationvelocity");
+        let mut st = MasterState {
+            readings: Readings::default(),
+            goal: None,
+            next_id: 1,
+            driving: None,
+            wiring: WiringMaster::new(ctx.registry()),
+            motors: ctx.send_client(&motors_addr)?,
+            motors_addr,
+            states,
+            events,
+            wiring_push,
+        };
+        // A (re)started master knows no goal: nothing drives until one arrives.
+        for b in st.states.keys() {
+            st.wiring.disconnect(b, VEL_PORT)?;
+        }
+        stop_motors(ctx, &mut st);
+        Ok(st)
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<MasterMsg>,
+        st: &mut MasterState,
+        msg: MasterMsg,
+    ) -> Result<(), ComponentError> {
+        match msg {
+            MasterMsg::Ir(scan) => {
+                fill(&mut st.readings.infrared, &scan);
+                self.arbitrate(ctx, st);
+            }
+            MasterMsg::Sonar(scan) => {
+                fill(&mut st.readings.sonar, &scan);
+                self.arbitrate(ctx, st);
+            }
+            MasterMsg::Goal(q) => {
+                let reply = self.start_goal(ctx, st, q.request.value.clone()).await;
+                // The planner may have given up waiting; the goal stands regardless.
+                let _ = q.answer(reply);
+            }
+            MasterMsg::Deadline(id) => {
+                if st.goal.as_ref().is_some_and(|g| g.id == id) {
+                    let done = st.goal.take();
+                    if let Some(g) = done {
+                        fire(ctx, st, g.id, &g.mode, GoalStatus::Reached, String::new());
+                    }
+                    self.arbitrate(ctx, st);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn fill(ring: &mut [Option<f64>; orsa_hardware::comm::RING_SIZE], scan: &DistanceScan) {
+    *ring = [None; orsa_hardware::comm::RING_SIZE];
+    for r in &scan.readings {
+        if let Some(slot) = ring.get_mut(usize::from(r.sensor_id)) {
+            *slot = (r.valid && r.distance_m.is_finite()).then_some(r.distance_m);
+        }
+    }
+}
+
+fn fire(ctx: &Ctx<MasterMsg>, st: &MasterState, id: u64, mode: &str, status: GoalStatus, detail: String) {
+    tracing::info!(goal = id, mode, ?status, "{detail}");
+    st.events.put(&GoalEvent { id, mode: mode.to_string(), status, stamp: ctx.now(), detail });
+}
+
+fn stop_motors(ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
+    let zero = NavigationVelocity { stamp: ctx.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
+    if let Err(e) = st.motors.send(zero) {
+        tracing::warn!("master: cannot stop the motors: {e}");
+    }
+}
+
+impl Master {
+    fn mode(&self, st: &MasterState) -> Option<&Mode> {
+        st.goal.as_ref().and_then(|g| self.params.modes.get(&g.mode))
+    }
+
+    fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
+        let want = self.mode(st).and_then(|m| m.select(&st.readings)).map(str::to_string);
+        if want == st.driving {
+            return;
+        }
+        if let Some(old) = st.driving.take()
+            && let Err(e) = st.wiring.disconnect(&old, VEL_PORT)
+        {
+            tracing::warn!("master: cannot unwire {old}: {e}");
+        }
+        match &want {
+            Some(new) => match st.wiring.connect(new, VEL_PORT, &st.motors_addr) {
+                Ok(()) => st.driving = want.clone(),
+                Err(e) => {
+                    tracing::warn!("master: cannot wire {new} to {}: {e}", st.motors_addr);
+                    stop_motors(ctx, st);
+                }
+            },
+            None => stop_motors(ctx, st),
+        }
+        st.wiring_push.put(WiringChange {
+            stamp: ctx.now(),
+            driving: st.driving.clone(),
+            mode: st.goal.as_ref().map(|g| g.mode.clone()),
+        });
+    }
+
+    async fn start_goal(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState, goal: Goal) -> GoalReply {
+        let Some(mode) = self.params.modes.get(&goal.mode) else {
+            let known: Vec<&String> = self.params.modes.keys().collect();
+            return GoalReply::Rejected {
+                reason: format!("unknown mode '{}' (known: {known:?})", goal.mode),
+            };
+        };
+        if let Some(s) = goal.for_s
+            && !(s.is_finite() && s >= 0.0)
+        {
+            return GoalReply::Rejected {
+                reason: format!("for_s must be a non-negative number of seconds, not {s}"),
+            };
+        }
+        if let Some(old) = st.goal.take() {
+            fire(ctx, st, old.id, &old.mode, GoalStatus::Preempted, format!("by a '{}' goal", goal.mode));
+        }
+        let id = st.next_id;
+        st.next_id += 1;
+        // Whoever drives and is not part of the new mode stops driving before it is deactivated.
+        if st.driving.as_ref().is_some_and(|d| !mode.behaviours.contains(d)) {
+            self.arbitrate(ctx, st);
+        }
+        for (name, sm) in &st.states {
+            let target = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
+            if let Err(e) = sm.set_state(target).await {
+                let detail = format!("cannot set {name} to {target}: {e}");
+                fire(ctx, st, id, &goal.mode, GoalStatus::Failed, detail.clone());
+                self.arbitrate(ctx, st);
+                return GoalReply::Rejected { reason: detail };
+            }
+        }
+        st.goal = Some(Current { id, mode: goal.mode.clone() });
+        if let Some(secs) = goal.for_s {
+            let mailbox = ctx.mailbox().clone();
+            tokio::spawn(async move {
+                tokio::time::sleep(Duration::from_secs_f64(secs)).await;
+                // A master that is gone has no goal to end.
+                let _ = mailbox.cast(MasterMsg::Deadline(id));
+            });
+        }
+        fire(ctx, st, id, &goal.mode, GoalStatus::Started, String::new());
+        self.arbitrate(ctx, st);
+        GoalReply::Accepted { id }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_modes_parse_and_validate() {
+        let p = ExecutiveParams::default();
+        assert_eq!(p.modes.keys().collect::<Vec<_>>(), vec!["follow_left_wall", "patrol", "stop"]);
+        p.validate().expect("valid");
+        assert_eq!(p.behaviours(), vec!["centerfollow", "wallfollow"]);
+    }
+}

@@ -1,0 +1,201 @@
+//! The behaviour components: thin actors around the pure controllers.
+//!
+//! Each behaviour subscribes to the robot server's sensor pushes, runs its controller on every
+//! update and sends the result on its wireable `vel` port, whether the port is wired or not (an
+//! unwired send is simply not delivered). It computes only while its main state is `active`
+//! (it holds substate `compute` for the instant of each step), so a master can silence it with
+//! the State pattern. It asks the robot for its geometry (`robotparams`) when it starts, so no
+//! robot dimension is hard-coded, and publishes what it saw and decided on `status`.
+
+use crate::centerfollow::{CenterFollowParams, CenterFollower};
+use crate::ring::{Ranges, ranges};
+use crate::wallfollow::{WallFollowParams, WallFollower};
+use orsa_actors::push_newest::PushNewestServer;
+use orsa_actors::state::StateSpec;
+use orsa_actors::wiring::SendPort;
+use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update, comm_object};
+use orsa_hardware::comm::{DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
+use serde::{Deserialize, Serialize};
+use std::time::Duration;
+
+/// The main state in which a behaviour computes.
+pub const ACTIVE: &str = "active";
+/// The substate a behaviour holds while it computes and sends.
+pub const COMPUTE: &str = "compute";
+
+/// What a behaviour saw and decided at one step (service `status`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BehaviourStatus {
+    /// Stamp of the sensor data the step used.
+    pub stamp: Timestamp,
+    /// The command it computed.
+    pub cmd: NavigationVelocity,
+    /// Estimated distance to the followed wall (wall following), m.
+    pub wall_m: Option<f64>,
+    /// Estimated offset from the corridor centre, positive right of it (center following), m.
+    pub offset_m: Option<f64>,
+    /// Whether the command left through a wired port.
+    pub delivered: bool,
+}
+comm_object!(BehaviourStatus, "orsa.reactive.BehaviourStatus/1");
+
+fn states() -> StateSpec {
+    StateSpec::new().main_state(ACTIVE, &[COMPUTE])
+}
+
+async fn ring_radius(ctx: &Ctx<impl ractor::Message>, robot: &str) -> Result<f64, ComponentError> {
+    let params: RobotParams = ctx
+        .query_client::<Empty, RobotParams>((robot, "robotparams"))?
+        .query(Empty {}, Some(Duration::from_secs(2)))
+        .await
+        .map_err(|e| format!("{}: cannot get {robot}/robotparams: {e}", ctx.name()))?;
+    Ok(params.infrared.mount_radius_m)
+}
+
+fn sent(result: Result<(), PatternError>) -> bool {
+    match result {
+        Ok(()) => true,
+        Err(PatternError::Disconnected(_)) => false,
+        Err(e) => {
+            tracing::debug!("velocity not delivered: {e}");
+            false
+        }
+    }
+}
+
+/// Wall following as a component (`wallfollow` in the default configuration).
+#[derive(Debug, Clone)]
+pub struct WallFollow {
+    /// Controller parameters.
+    pub params: WallFollowParams,
+    /// The robot server component's name.
+    pub robot: String,
+}
+
+/// Messages of [`WallFollow`].
+#[derive(Debug)]
+pub enum WallFollowMsg {
+    /// A new infrared scan.
+    Ir(Update<DistanceScan>),
+}
+
+/// The running state of [`WallFollow`].
+pub struct WallFollowState {
+    ctl: WallFollower,
+    vel: SendPort<NavigationVelocity>,
+    status: PushNewestServer<BehaviourStatus>,
+}
+
+impl Component for WallFollow {
+    type Msg = WallFollowMsg;
+    type State = WallFollowState;
+
+    async fn setup(&self, ctx: &Ctx<WallFollowMsg>) -> Result<WallFollowState, ComponentError> {
+        ctx.declare_states(states())?;
+        let radius = ring_radius(ctx, &self.robot).await?;
+        let vel = ctx.send_port::<NavigationVelocity>("vel")?;
+        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
+        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, WallFollowMsg::Ir)?;
+        Ok(WallFollowState { ctl: WallFollower::new(self.params, radius), vel, status })
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<WallFollowMsg>,
+        st: &mut WallFollowState,
+        msg: WallFollowMsg,
+    ) -> Result<(), ComponentError> {
+        let WallFollowMsg::Ir(scan) = msg;
+        let Ok(_computing) = ctx.state().try_acquire(COMPUTE) else { return Ok(()) };
+        let step = st.ctl.step(&ranges(&scan), scan.stamp);
+        let delivered = sent(st.vel.send(step.cmd));
+        st.status.put(BehaviourStatus {
+            stamp: scan.stamp,
+            cmd: step.cmd,
+            wall_m: step.wall_m,
+            offset_m: None,
+            delivered,
+        });
+        Ok(())
+    }
+}
+
+/// Center following as a component (`centerfollow` in the default configuration).
+#[derive(Debug, Clone)]
+pub struct CenterFollow {
+    /// Controller parameters.
+    pub params: CenterFollowParams,
+    /// The robot server component's name.
+    pub robot: String,
+}
+
+/// Messages of [`CenterFollow`].
+#[derive(Debug)]
+pub enum CenterFollowMsg {
+    /// A new infrared scan.
+    Ir(Update<DistanceScan>),
+    /// A new sonar scan.
+    Sonar(Update<DistanceScan>),
+}
+
+/// The running state of [`CenterFollow`].
+pub struct CenterFollowState {
+    ctl: CenterFollower,
+    vel: SendPort<NavigationVelocity>,
+    status: PushNewestServer<BehaviourStatus>,
+    ir: Option<(Timestamp, Ranges)>,
+    sonar: Option<(Timestamp, Ranges)>,
+}
+
+impl Component for CenterFollow {
+    type Msg = CenterFollowMsg;
+    type State = CenterFollowState;
+
+    async fn setup(&self, ctx: &Ctx<CenterFollowMsg>) -> Result<CenterFollowState, ComponentError> {
+        ctx.declare_states(states())?;
+        let radius = ring_radius(ctx, &self.robot).await?;
+        let vel = ctx.send_port::<NavigationVelocity>("vel")?;
+        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
+        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, CenterFollowMsg::Ir)?;
+        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceson"), 1, CenterFollowMsg::Sonar)?;
+        Ok(CenterFollowState {
+            ctl: CenterFollower::new(self.params, radius),
+            vel,
+            status,
+            ir: None,
+            sonar: None,
+        })
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<CenterFollowMsg>,
+        st: &mut CenterFollowState,
+        msg: CenterFollowMsg,
+    ) -> Result<(), ComponentError> {
+        match msg {
+            CenterFollowMsg::Ir(s) => st.ir = Some((s.stamp, ranges(&s))),
+            CenterFollowMsg::Sonar(s) => st.sonar = Some((s.stamp, ranges(&s))),
+        }
+        let Ok(_computing) = ctx.state().try_acquire(COMPUTE) else { return Ok(()) };
+        let none = [None; RING_SIZE];
+        let (ir_stamp, ir) = st.ir.as_ref().map_or((Timestamp::ZERO, &none), |(t, r)| (*t, r));
+        let (so_stamp, sonar) = st.sonar.as_ref().map_or((Timestamp::ZERO, &none), |(t, r)| (*t, r));
+        // The command is as old as the older of the two scans it fuses.
+        let stamp = if st.ir.is_some() && st.sonar.is_some() {
+            ir_stamp.min(so_stamp)
+        } else {
+            ir_stamp.max(so_stamp)
+        };
+        let step = st.ctl.step(ir, sonar, stamp);
+        let delivered = sent(st.vel.send(step.cmd));
+        st.status.put(BehaviourStatus {
+            stamp,
+            cmd: step.cmd,
+            wall_m: None,
+            offset_m: step.offset_m,
+            delivered,
+        });
+        Ok(())
+    }
+}
