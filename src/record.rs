@@ -1,1 +1,0 @@
-//! Recording runs as MCAP (being written).
