@@ -17,15 +17,17 @@ mod sweep;
 
 pub use sweep::{entry_time, max_travel_fraction};
 
+/// The length of `(x, y)`. Plain `sqrt(x² + y²)`: `f64::hypot` guards against overflow that
+/// cannot happen at the scale of rooms and is several times slower.
+#[inline]
+pub(crate) fn norm2(x: f64, y: f64) -> f64 {
+    (x * x + y * y).sqrt()
+}
+
 /// A point in the plane, metres.
 pub type Point = Point2<f64>;
 /// A vector in the plane, metres.
 pub type Vector = Vector2<f64>;
-
-/// The z component of the cross product of two plane vectors.
-pub(crate) fn cross(a: &Vector, b: &Vector) -> f64 {
-    a.x * b.y - a.y * b.x
-}
 
 /// The unit vector at `angle_rad` counter-clockwise from +x.
 pub fn unit_at(angle_rad: f64) -> Unit<Vector> {
@@ -76,18 +78,21 @@ impl Segment {
 
     /// The point of the segment closest to `p`.
     pub fn closest_point(&self, p: &Point) -> Point {
-        let ab = self.b - self.a;
-        let len2 = ab.norm_squared();
+        // Scalar arithmetic throughout this module: it is the simulator's inner loop, and
+        // nalgebra's generic operators are slow in unoptimised builds.
+        let (ex, ey) = (self.b.x - self.a.x, self.b.y - self.a.y);
+        let len2 = ex * ex + ey * ey;
         if len2 == 0.0 {
             return self.a;
         }
-        let t = ((p - self.a).dot(&ab) / len2).clamp(0.0, 1.0);
-        self.a + ab * t
+        let t = (((p.x - self.a.x) * ex + (p.y - self.a.y) * ey) / len2).clamp(0.0, 1.0);
+        Point::new(self.a.x + ex * t, self.a.y + ey * t)
     }
 
     /// The distance from `p` to the segment.
     pub fn distance(&self, p: &Point) -> f64 {
-        (p - self.closest_point(p)).norm()
+        let q = self.closest_point(p);
+        norm2(p.x - q.x, p.y - q.y)
     }
 
     /// The distance along `ray` to the first point of the segment, if the ray meets it.
@@ -95,24 +100,33 @@ impl Segment {
     /// A ray running along the segment meets it at its nearest point ahead (or at 0 if it starts
     /// on it).
     pub fn ray_hit(&self, ray: &Ray) -> Option<f64> {
-        let u = ray.dir.into_inner();
-        let e = self.b - self.a;
-        let w = self.a - ray.origin;
-        let denom = cross(&u, &e);
-        let scale = 1.0 + w.norm() + e.norm();
-        if denom.abs() <= 1e-12 * e.norm().max(f64::MIN_POSITIVE) {
+        let (ux, uy) = (ray.dir.x, ray.dir.y);
+        let (ex, ey) = (self.b.x - self.a.x, self.b.y - self.a.y);
+        let (wx, wy) = (self.a.x - ray.origin.x, self.a.y - ray.origin.y);
+        let denom = ux * ey - uy * ex;
+        let len = norm2(ex, ey);
+        if denom.abs() <= 1e-12 * len.max(f64::MIN_POSITIVE) {
             // Parallel (or degenerate): only a collinear segment can be met.
-            if cross(&w, &u).abs() > 1e-12 * scale {
+            let scale = 1.0 + norm2(wx, wy) + len;
+            if (wx * uy - wy * ux).abs() > 1e-12 * scale {
                 return None;
             }
-            let ta = (self.a - ray.origin).dot(&u);
-            let tb = (self.b - ray.origin).dot(&u);
+            let ta = wx * ux + wy * uy;
+            let tb = (self.b.x - ray.origin.x) * ux + (self.b.y - ray.origin.y) * uy;
             let (lo, hi) = if ta <= tb { (ta, tb) } else { (tb, ta) };
             return if hi < 0.0 { None } else { Some(lo.max(0.0)) };
         }
-        let t = cross(&w, &e) / denom;
-        let s = cross(&w, &u) / denom;
+        let t = (wx * ey - wy * ex) / denom;
+        let s = (wx * uy - wy * ux) / denom;
         if t >= 0.0 && (0.0..=1.0).contains(&s) { Some(t) } else { None }
+    }
+
+    /// The smallest axis-aligned box holding the segment.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(
+            Point::new(self.a.x.min(self.b.x), self.a.y.min(self.b.y)),
+            Point::new(self.a.x.max(self.b.x), self.a.y.max(self.b.y)),
+        )
     }
 }
 
@@ -133,24 +147,29 @@ impl Circle {
 
     /// The point of the disc closest to `p` (`p` itself when inside).
     pub fn closest_point(&self, p: &Point) -> Point {
-        let d = p - self.center;
-        let n = d.norm();
-        if n <= self.radius { *p } else { self.center + d * (self.radius / n) }
+        let (dx, dy) = (p.x - self.center.x, p.y - self.center.y);
+        let n = norm2(dx, dy);
+        if n <= self.radius {
+            *p
+        } else {
+            let k = self.radius / n;
+            Point::new(self.center.x + dx * k, self.center.y + dy * k)
+        }
     }
 
     /// The distance from `p` to the disc (0 inside).
     pub fn distance(&self, p: &Point) -> f64 {
-        ((p - self.center).norm() - self.radius).max(0.0)
+        (norm2(p.x - self.center.x, p.y - self.center.y) - self.radius).max(0.0)
     }
 
     /// The distance along `ray` to the disc, if the ray meets it (0 from inside).
     pub fn ray_hit(&self, ray: &Ray) -> Option<f64> {
-        let oc = ray.origin - self.center;
-        let c = oc.norm_squared() - self.radius * self.radius;
+        let (ox, oy) = (ray.origin.x - self.center.x, ray.origin.y - self.center.y);
+        let c = ox * ox + oy * oy - self.radius * self.radius;
         if c <= 0.0 {
             return Some(0.0);
         }
-        let b = oc.dot(&ray.dir);
+        let b = ox * ray.dir.x + oy * ray.dir.y;
         if b >= 0.0 {
             return None;
         }
@@ -160,6 +179,15 @@ impl Circle {
         }
         // -b - sqrt(disc) == c / (-b + sqrt(disc)), which keeps its precision at grazing angles.
         Some((c / (-b + disc.sqrt())).max(0.0))
+    }
+
+    /// The smallest axis-aligned box holding the disc.
+    pub fn bounds(&self) -> Aabb {
+        let r = self.radius;
+        Aabb::new(
+            Point::new(self.center.x - r, self.center.y - r),
+            Point::new(self.center.x + r, self.center.y + r),
+        )
     }
 }
 
@@ -190,7 +218,9 @@ impl Aabb {
 
     /// The distance from `p` to the box (0 inside).
     pub fn distance(&self, p: &Point) -> f64 {
-        (p - self.closest_point(p)).norm()
+        let dx = (self.min.x - p.x).max(p.x - self.max.x).max(0.0);
+        let dy = (self.min.y - p.y).max(p.y - self.max.y).max(0.0);
+        (dx * dx + dy * dy).sqrt()
     }
 
     /// The four edges, counter-clockwise from the bottom one.
@@ -207,9 +237,11 @@ impl Aabb {
             return Some(0.0);
         }
         let (mut t_in, mut t_out) = (0.0_f64, f64::INFINITY);
-        for i in 0..2 {
-            let (o, u) = (ray.origin[i], ray.dir[i]);
-            let (lo, hi) = (self.min[i], self.max[i]);
+        let axes = [
+            (ray.origin.x, ray.dir.x, self.min.x, self.max.x),
+            (ray.origin.y, ray.dir.y, self.min.y, self.max.y),
+        ];
+        for (o, u, lo, hi) in axes {
             if u == 0.0 {
                 if o < lo || o > hi {
                     return None;
@@ -264,6 +296,15 @@ impl Shape {
             Shape::Segment(s) => s.ray_hit(ray),
             Shape::Circle(c) => c.ray_hit(ray),
             Shape::Aabb(b) => b.ray_hit(ray),
+        }
+    }
+
+    /// The smallest axis-aligned box holding the shape.
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            Shape::Segment(s) => s.bounds(),
+            Shape::Circle(c) => c.bounds(),
+            Shape::Aabb(b) => *b,
         }
     }
 }

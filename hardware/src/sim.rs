@@ -252,10 +252,11 @@ impl SimNomad200 {
         self.steer += dsteer;
         self.turret += dturret;
         let fraction = self.move_body(&travel);
-        self.v_true = ds * fraction / self.dt;
-        self.steer_rate = dsteer / self.dt;
-        self.turret_rate = dturret / self.dt;
         self.blocked = ds != 0.0 && fraction < 1.0;
+        let motors = self.drive.velocities();
+        self.v_true = if self.blocked { 0.0 } else { motors.translate_m_s };
+        self.steer_rate = motors.steer_rad_s;
+        self.turret_rate = motors.turret_rad_s;
         self.travelled_m += ds.abs() * fraction;
         self.odometry.integrate(ds, dsteer, dturret);
         self.now_ns = t1;

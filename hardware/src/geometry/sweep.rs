@@ -6,18 +6,18 @@
 //! which the centre must cross before it can reach the box itself). So every question here is
 //! about a moving *point* entering a disc or a capsule.
 
-use super::{Circle, Point, Segment, Shape, Vector};
+use super::{Circle, Point, Segment, Shape, Vector, norm2};
 
 /// The first time `t >= 0` at which the point `p + t·d` is within `radius` of `center`, if ever.
 /// Returns 0 when `p` already is.
 fn disc_entry(p: &Point, d: &Vector, center: &Point, radius: f64) -> Option<f64> {
-    let m = p - center;
-    let c = m.norm_squared() - radius * radius;
+    let (mx, my) = (p.x - center.x, p.y - center.y);
+    let c = mx * mx + my * my - radius * radius;
     if c <= 0.0 {
         return Some(0.0);
     }
-    let a = d.norm_squared();
-    let b = m.dot(d);
+    let a = d.x * d.x + d.y * d.y;
+    let b = mx * d.x + my * d.y;
     if a == 0.0 || b >= 0.0 {
         return None;
     }
@@ -29,28 +29,38 @@ fn disc_entry(p: &Point, d: &Vector, center: &Point, radius: f64) -> Option<f64>
     Some(c / (-b + disc.sqrt()))
 }
 
+fn earliest(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, None) => x,
+        (None, y) => y,
+    }
+}
+
 /// The first time `t >= 0` at which `p + t·d` is within `radius` of `seg`, if ever.
 /// Returns 0 when `p` already is.
 fn capsule_entry(p: &Point, d: &Vector, seg: &Segment, radius: f64) -> Option<f64> {
     if seg.distance(p) <= radius {
         return Some(0.0);
     }
-    let ends = [disc_entry(p, d, &seg.a, radius), disc_entry(p, d, &seg.b, radius)];
-    let mut best =
-        ends.into_iter().flatten().fold(None, |acc: Option<f64>, t| Some(acc.map_or(t, |a| a.min(t))));
-    let e = seg.b - seg.a;
-    let len = e.norm();
+    let mut best = earliest(disc_entry(p, d, &seg.a, radius), disc_entry(p, d, &seg.b, radius));
+    let (ex, ey) = (seg.b.x - seg.a.x, seg.b.y - seg.a.y);
+    let len = norm2(ex, ey);
     if len > 0.0 {
-        let u = e / len;
-        let n = Vector::new(-u.y, u.x);
-        let s0 = (p - seg.a).dot(&n);
-        let rate = d.dot(&n);
+        let (ux, uy) = (ex / len, ey / len);
+        let (nx, ny) = (-uy, ux);
+        let (wx, wy) = (p.x - seg.a.x, p.y - seg.a.y);
+        let s0 = wx * nx + wy * ny;
+        let rate = d.x * nx + d.y * ny;
         // Crossing the side of the capsule facing p, if p moves towards the segment's line.
-        if s0.abs() > radius && s0 * rate < 0.0 {
-            let t = (s0.abs() - radius) / rate.abs();
-            let along = (p + d * t - seg.a).dot(&u);
+        // No `|s0| > radius` condition: p is outside the capsule, so |s0| <= radius with its
+        // projection inside the segment can only be rounding at exact contact, where the
+        // answer is 0, not "never".
+        if s0 * rate < 0.0 {
+            let t = ((s0.abs() - radius) / rate.abs()).max(0.0);
+            let along = (wx + d.x * t) * ux + (wy + d.y * t) * uy;
             if (0.0..=len).contains(&along) {
-                best = Some(best.map_or(t, |b: f64| b.min(t)));
+                best = earliest(best, Some(t));
             }
         }
     }
@@ -69,8 +79,7 @@ pub fn entry_time(shape: &Shape, center: &Point, displacement: &Vector, radius: 
             }
             b.edges()
                 .iter()
-                .filter_map(|e| capsule_entry(center, displacement, e, radius))
-                .fold(None, |acc: Option<f64>, t| Some(acc.map_or(t, |a| a.min(t))))
+                .fold(None, |acc, e| earliest(acc, capsule_entry(center, displacement, e, radius)))
         }
     }
 }
@@ -84,14 +93,15 @@ pub fn entry_time(shape: &Shape, center: &Point, displacement: &Vector, radius: 
 /// of it otherwise: sliding along or backing away from a touched wall works, pushing into it
 /// does not. A centre exactly on the shape cannot tell away from towards and never moves.
 pub fn max_travel_fraction(shape: &Shape, center: &Point, displacement: &Vector, radius: f64) -> f64 {
-    if displacement.norm_squared() == 0.0 {
+    if displacement.x == 0.0 && displacement.y == 0.0 {
         return 1.0;
     }
     let q = shape.closest_point(center);
-    let away = center - q;
-    let gap = away.norm();
+    let (ax, ay) = (center.x - q.x, center.y - q.y);
+    let gap = norm2(ax, ay);
     if gap < radius {
-        return if gap > 0.0 && displacement.dot(&away) >= 0.0 { 1.0 } else { 0.0 };
+        let away = displacement.x * ax + displacement.y * ay;
+        return if gap > 0.0 && away >= 0.0 { 1.0 } else { 0.0 };
     }
     match entry_time(shape, center, displacement, radius) {
         Some(t) if t < 1.0 => t.max(0.0),
@@ -166,6 +176,20 @@ mod tests {
         assert_eq!(max_travel_fraction(&wall, &c, &v(1.0, 0.0), 0.5), 1.0, "slide");
         assert_eq!(max_travel_fraction(&wall, &c, &v(0.0, 1.0), 0.5), 1.0, "back off");
         assert_eq!(max_travel_fraction(&wall, &c, &v(1.0, -0.1), 0.5), 0.0, "push");
+    }
+
+    #[test]
+    fn exact_contact_with_a_slanted_wall_blocks_pushing_into_it() {
+        // Found by the no-penetration property test: at exact contact the closest-point
+        // distance and the signed distance to the wall's line round differently.
+        let wall = Shape::Segment(Segment::new(
+            p(2.9343526449864656, 1.7368249086642762),
+            p(3.3441585196917143, 1.3036070992980333),
+        ));
+        let c = p(3.3248570401473905, 1.6878054456127876);
+        let d = v(-0.0740128728124758, -0.0463093767603582);
+        let f = max_travel_fraction(&wall, &c, &d, 0.25 + 1e-6);
+        assert!(f < 1e-6, "{f}");
     }
 
     #[test]

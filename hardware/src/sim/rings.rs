@@ -12,7 +12,7 @@ use super::movers::MoverState;
 use super::scene::Scene;
 use crate::board::CompassReading;
 use crate::comm::{DistanceReading, DistanceScan, RING_SIZE, Ring, ring_angle_rad};
-use crate::geometry::{Circle, Point, Ray};
+use crate::geometry::{Circle, Point};
 use crate::sim::config::{RingConfig, nanos};
 use crate::sim::odometry::wrap_angle;
 use orsa_actors::Timestamp;
@@ -59,18 +59,17 @@ impl StepMotion<'_> {
         scratch: &mut Vec<Circle>,
     ) -> Option<f64> {
         let a = self.alpha(t_ns);
-        let center = self.p0 + (self.p1 - self.p0) * a;
+        let lerp = |p0: &Point, p1: &Point| Point::new(p0.x + (p1.x - p0.x) * a, p0.y + (p1.y - p0.y) * a);
+        let center = lerp(&self.p0, &self.p1);
         scratch.clear();
         scratch.extend(self.movers0.iter().zip(self.movers1).map(|(p0, m)| {
             let c = m.circle();
-            Circle::new(p0 + (c.center - p0) * a, c.radius)
+            Circle::new(lerp(p0, &c.center), c.radius)
         }));
         let axis = self.turret_at(t_ns) + sensor_angle;
-        let face = center + crate::geometry::unit_at(axis).into_inner() * self.radius;
-        offsets
-            .iter()
-            .filter_map(|o| self.scene.ray_cast(scratch, &Ray::at_angle(face, axis + o), max))
-            .reduce(f64::min)
+        let (s, c) = axis.sin_cos();
+        let face = Point::new(center.x + c * self.radius, center.y + s * self.radius);
+        self.scene.ray_fan(scratch, face, axis, offsets, max)
     }
 }
 

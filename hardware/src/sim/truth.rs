@@ -25,11 +25,12 @@ pub struct Truth {
     pub turret_rad: f64,
     /// The base's fixed orientation (the bumpers' zero), rad.
     pub base_heading_rad: f64,
-    /// Actual translation velocity over the last step, m/s (0 when blocked).
+    /// The body's translation velocity at the end of the last step, m/s: the motor's, or 0
+    /// if contact cut the step short.
     pub v_m_s: f64,
-    /// Steering rate over the last step, rad/s.
+    /// Steering rate at the end of the last step, rad/s.
     pub omega_rad_s: f64,
-    /// Turret rate over the last step, rad/s.
+    /// Turret rate at the end of the last step, rad/s.
     pub turret_omega_rad_s: f64,
     /// Whether the last step's translation was cut short by contact.
     pub translation_blocked: bool,
