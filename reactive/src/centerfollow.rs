@@ -32,9 +32,8 @@ pub struct CenterFollowParams {
     pub l_m: f64,
     /// How the wall angle is estimated.
     pub estimator: AngleEstimator,
-    /// The two loops.
-    #[serde(flatten)]
-    pub cascade: CascadeParams,
+    /// The two loops (`[...loops]` in the config file).
+    pub loops: CascadeParams,
 }
 
 impl Default for CenterFollowParams {
@@ -46,7 +45,7 @@ impl Default for CenterFollowParams {
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
-            cascade: CascadeParams { k_d: 1.5, k_alpha: -2.0, ..CascadeParams::default() },
+            loops: CascadeParams { k_d: 1.5, k_alpha: -2.0, ..CascadeParams::default() },
         }
     }
 }
@@ -66,7 +65,7 @@ impl CenterFollowParams {
         pos(self.v_min_m_s, "v_min_m_s")?;
         pos(self.ir_below_m, "ir_below_m")?;
         pos(self.l_m, "l_m")?;
-        self.cascade.validate("centerfollow")
+        self.loops.validate("centerfollow")
     }
 }
 
@@ -113,7 +112,7 @@ impl CenterFollower {
             (Some(w), None) | (None, Some(w)) => (0.0, w.alpha_rad, None),
             (None, None) => (0.0, 0.0, None),
         };
-        let omega = p.cascade.omega(error_left, alpha);
+        let omega = p.loops.omega(error_left, alpha);
         let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
         let v = if front.is_finite() { (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s) } else { p.v_max_m_s };
         CenterFollowStep { cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega }, offset_m: offset }

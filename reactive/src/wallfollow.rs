@@ -41,9 +41,8 @@ pub struct WallFollowParams {
     pub l_m: f64,
     /// How the wall angle is estimated.
     pub estimator: AngleEstimator,
-    /// The two loops.
-    #[serde(flatten)]
-    pub cascade: CascadeParams,
+    /// The two loops (`[...loops]` in the config file).
+    pub loops: CascadeParams,
 }
 
 impl Default for WallFollowParams {
@@ -57,7 +56,7 @@ impl Default for WallFollowParams {
             ir_range_m: 0.60,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
-            cascade: CascadeParams::default(),
+            loops: CascadeParams::default(),
         }
     }
 }
@@ -79,7 +78,7 @@ impl WallFollowParams {
         pos(self.slow_below_m, "slow_below_m")?;
         pos(self.ir_range_m, "ir_range_m")?;
         pos(self.l_m, "l_m")?;
-        self.cascade.validate("wallfollow")
+        self.loops.validate("wallfollow")
     }
 }
 
@@ -125,7 +124,7 @@ impl WallFollower {
             d = front;
             alpha = -FRAC_PI_2;
         }
-        let omega = p.cascade.omega(d - p.target_m, alpha);
+        let omega = p.loops.omega(d - p.target_m, alpha);
         let front_close = [15, 0, 1].iter().any(|&i| ir[i].is_some_and(|x| x < p.slow_below_m));
         let v = if front_close {
             p.v_slow_m_s
