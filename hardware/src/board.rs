@@ -134,7 +134,7 @@ pub struct MotorState {
     pub turret_rad: f64,
     /// Axis velocities now (after acceleration limits), per the encoders.
     pub velocities: AxisVelocities,
-    /// Whether all three axes are at rest.
+    /// Whether all three axes are at rest and commanded to stay at rest.
     pub stopped: bool,
 }
 
@@ -198,8 +198,8 @@ pub trait MotorBoard: Send + Sync {
     /// Brings all axes to rest at their acceleration limits (`motor_stop`).
     fn stop(&self) -> impl Future<Output = Result<(), BoardError>> + Send;
 
-    /// Waits until all axes are at rest, or fails with [`BoardError::Timeout`] after
-    /// `timeout` (`motor_wait_stop`). It does not stop the robot.
+    /// Waits until all axes are at rest with nothing commanded, or fails with
+    /// [`BoardError::Timeout`] after `timeout` (`motor_wait_stop`). It does not stop the robot.
     fn wait_stop(&self, timeout: Duration) -> impl Future<Output = Result<(), BoardError>> + Send;
 
     /// Declares the current pose the odometry origin: x, y, heading, steering and turret angles

@@ -8,19 +8,36 @@
 //! The robot is a Nomad 200: a cylinder 0.50 m across on a synchro drive. Its three wheels
 //! steer together, so it translates in the direction they point (its heading) and turns its
 //! heading in place; the base itself never rotates. The turret, carrying the sonar and
-//! infrared rings, turns on its own axis. The motors are simulated in [`drive`]; the body then
-//! moves as far along its motion as it can without touching anything (swept-circle test
+//! infrared rings, turns on its own axis. Each step the motors advance first; the body then
+//! moves as far along their motion as it can without touching anything (swept-circle test
 //! against every wall, box, disc and mover, keeping a tiny margin). Blocked translation just
 //! does not happen; turning in place always does. Odometry counts the motors, so it drifts
 //! from the truth when the robot is blocked.
 //!
-//! Each step: the movers walk (seeing the robot where it was), the motors advance, the body
-//! moves, odometry counts, the bumpers are read, and every sensor firing due within the step
-//! is taken with the robot and movers where they were at that instant.
+//! Order within a step: the movers walk (seeing the robot where it was), the motors advance,
+//! the body moves, odometry counts, the bumpers are read, and every sensor firing due within
+//! the step is taken with the robot and movers where they were at that instant.
 //!
 //! Ground truth (true pose, velocities, contacts, clearances) is read with
 //! [`truth`](SimNomad200::truth) and friends, for metrics; it never goes through the board
 //! traits. [`SimRobot`] runs a simulator on tokio's clock behind the board traits.
+//!
+//! ```
+//! use orsa_hardware::board::AxisVelocities;
+//! use orsa_hardware::sim::{SimConfig, SimNomad200};
+//! use orsa_hardware::world::World;
+//! use std::time::Duration;
+//!
+//! let world = World::palazzina()?;
+//! let mut sim = SimNomad200::new(world, SimConfig::default(), 42)?;
+//! sim.move_velocity(AxisVelocities::synchro(0.25, 0.0))?;
+//! sim.run_for(Duration::from_secs(2));
+//! // Sonar 4 faces left: the upper wall is 2.4 - 1.2 - 0.25 m from its face (1 % noise).
+//! let left = sim.sonar().valid_distance_m(4).expect("a wall on the left");
+//! assert!((left - 0.95).abs() < 0.05, "{left}");
+//! assert!(sim.truth().x_m > 2.3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use crate::geometry::{Circle, Point, unit_at};
 use crate::world::{World, WorldError};

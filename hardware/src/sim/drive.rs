@@ -131,8 +131,10 @@ impl Drive {
         }
     }
 
+    /// Whether every axis is at rest and commanded to stay so (right after a move command,
+    /// before the motors have ramped, the robot is not "stopped").
     pub(crate) fn stopped(&self) -> bool {
-        self.axes.iter().all(|a| a.velocity == 0.0)
+        self.axes.iter().all(|a| a.velocity == 0.0 && a.command.clamp(-a.limit, a.limit) == 0.0)
     }
 }
 
@@ -149,7 +151,7 @@ impl SimNomad200 {
         self.drive.stop();
     }
 
-    /// Whether all axes are at rest.
+    /// Whether all axes are at rest and commanded to stay at rest.
     pub fn is_stopped(&self) -> bool {
         self.drive.stopped()
     }
@@ -197,6 +199,19 @@ mod tests {
             steps += 1;
         }
         assert_eq!(steps, 100, "one second to stop");
+    }
+
+    #[test]
+    fn a_commanded_axis_is_not_stopped_before_it_moves() {
+        let mut d = Drive::new(&DriveConfig::default());
+        assert!(d.stopped());
+        d.command(AxisVelocities { translate_m_s: 0.0, steer_rad_s: 0.0, turret_rad_s: 0.1 }).expect("cmd");
+        assert!(!d.stopped(), "commanded, not yet moving");
+        d.advance(0.01);
+        d.stop();
+        assert!(!d.stopped(), "still turning");
+        d.advance(0.01);
+        assert!(d.stopped());
     }
 
     #[test]
