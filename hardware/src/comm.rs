@@ -11,6 +11,7 @@
 //! the body's edge (the sensor face). Bumpers are fixed to the base, which on a synchro-drive
 //! robot never rotates: their angles are relative to the base's orientation at start-up.
 
+use crate::board::{CompassReading, MotorState};
 use orsa_actors::{Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
 
@@ -126,6 +127,26 @@ pub struct BaseState {
     pub compass_valid: bool,
 }
 comm_object!(BaseState, "orsa.nomad200.BaseState/1");
+
+impl BaseState {
+    /// The base state from the motor board's encoders and the latest compass sample, stamped
+    /// when the encoders were read.
+    pub fn from_readings(motors: &MotorState, compass: &CompassReading) -> Self {
+        BaseState {
+            stamp: motors.stamp,
+            x_m: motors.x_m,
+            y_m: motors.y_m,
+            heading_rad: motors.heading_rad,
+            v_m_s: motors.velocities.translate_m_s,
+            omega_rad_s: motors.velocities.steer_rad_s,
+            steer_rad: motors.steer_rad,
+            turret_rad: motors.turret_rad,
+            turret_omega_rad_s: motors.velocities.turret_rad_s,
+            compass_rad: compass.heading_rad,
+            compass_valid: compass.valid,
+        }
+    }
+}
 
 /// A velocity command for the base: translate at `v_m_s` and turn steering and turret together
 /// at `omega_rad_s`, so the sensor rings keep facing the direction of travel.
@@ -275,6 +296,26 @@ mod tests {
             odometry_resolution_rad: 0.1f64.to_radians(),
             push: PushPeriods::default(),
         });
+    }
+
+    #[test]
+    fn base_state_takes_each_field_from_its_reading() {
+        use crate::board::AxisVelocities;
+        let motors = MotorState {
+            stamp: Timestamp(7),
+            x_m: 1.0,
+            y_m: 2.0,
+            heading_rad: 0.3,
+            steer_rad: 0.25,
+            turret_rad: -0.5,
+            velocities: AxisVelocities { translate_m_s: 0.2, steer_rad_s: 0.1, turret_rad_s: -0.1 },
+            stopped: false,
+        };
+        let compass = CompassReading { stamp: Timestamp(5), heading_rad: 1.5, valid: true };
+        let b = BaseState::from_readings(&motors, &compass);
+        assert_eq!((b.stamp, b.x_m, b.y_m, b.heading_rad), (Timestamp(7), 1.0, 2.0, 0.3));
+        assert_eq!((b.v_m_s, b.omega_rad_s, b.turret_omega_rad_s), (0.2, 0.1, -0.1));
+        assert_eq!((b.steer_rad, b.turret_rad, b.compass_rad, b.compass_valid), (0.25, -0.5, 1.5, true));
     }
 
     #[test]

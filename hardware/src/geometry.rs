@@ -213,7 +213,8 @@ impl Aabb {
 
     /// The point of the box closest to `p` (`p` itself when inside).
     pub fn closest_point(&self, p: &Point) -> Point {
-        Point::new(p.x.clamp(self.min.x, self.max.x), p.y.clamp(self.min.y, self.max.y))
+        // max/min rather than clamp: a box built in code with min > max must not panic.
+        Point::new(p.x.max(self.min.x).min(self.max.x), p.y.max(self.min.y).min(self.max.y))
     }
 
     /// The distance from `p` to the box (0 inside).

@@ -254,7 +254,7 @@ impl SimNomad200 {
 
     /// Advances the world by one fixed step.
     pub fn step(&mut self) {
-        let (t0, t1) = (self.now_ns, self.now_ns + self.step_ns);
+        let (t0, t1) = (self.now_ns, self.now_ns.saturating_add(self.step_ns));
         // Movers walk, seeing the robot where it is now.
         self.prev_movers.clear();
         self.prev_movers.extend(self.movers.iter().map(MoverState::position));

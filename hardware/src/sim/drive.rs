@@ -30,9 +30,14 @@ impl Axis {
         Axis { command: 0.0, velocity: 0.0, limit: max_limit, accel, max_limit, max_accel }
     }
 
+    /// The commanded velocity saturated at the limit.
+    fn target(&self) -> f64 {
+        self.command.max(-self.limit).min(self.limit)
+    }
+
     /// Advances by `dt` seconds; returns the displacement.
     fn advance(&mut self, dt: f64) -> f64 {
-        let target = self.command.clamp(-self.limit, self.limit);
+        let target = self.target();
         let v0 = self.velocity;
         let dv_max = self.accel * dt;
         // The tolerance lets a ramp land exactly on its target despite rounding in the sum.
@@ -134,7 +139,7 @@ impl Drive {
     /// Whether every axis is at rest and commanded to stay so (right after a move command,
     /// before the motors have ramped, the robot is not "stopped").
     pub(crate) fn stopped(&self) -> bool {
-        self.axes.iter().all(|a| a.velocity == 0.0 && a.command.clamp(-a.limit, a.limit) == 0.0)
+        self.axes.iter().all(|a| a.velocity == 0.0 && a.target() == 0.0)
     }
 }
 

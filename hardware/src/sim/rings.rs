@@ -133,7 +133,7 @@ impl RangeRing {
         self.order = self.defaults.fire_order.clone();
         self.cursor = 0;
         self.period_ns = nanos(self.defaults.fire_period_s).max(1);
-        self.next_ns = now_ns + self.period_ns;
+        self.next_ns = now_ns.saturating_add(self.period_ns);
         self.readings = [Stored::default(); RING_SIZE];
     }
 
@@ -148,7 +148,7 @@ impl RangeRing {
     /// A new fire period (at least 1 ns); the next firing is one period from `now_ns`.
     pub(crate) fn set_period(&mut self, period_ns: u64, now_ns: u64) {
         self.period_ns = period_ns.max(1);
-        self.next_ns = now_ns + self.period_ns;
+        self.next_ns = now_ns.saturating_add(self.period_ns);
     }
 
     /// The next firing, `(time, sensor)`, if it is due by `until_ns`.
@@ -177,7 +177,7 @@ impl RangeRing {
             *slot = Stored { fired_ns: at_ns, valid, distance_m };
         }
         self.cursor = (self.cursor + 1) % self.order.len().max(1);
-        self.next_ns += self.period_ns;
+        self.next_ns = self.next_ns.saturating_add(self.period_ns);
     }
 
     /// Fires every sensor due by the end of `motion`'s step.
@@ -220,13 +220,19 @@ pub(crate) struct Compass {
 impl Compass {
     pub(crate) fn new(period_s: f64, sd_deg: f64, rng: ChaCha8Rng, now_ns: u64) -> Self {
         let period_ns = nanos(period_s).max(1);
-        Compass { period_ns, next_ns: now_ns + period_ns, sd_rad: sd_deg.to_radians(), rng, last: None }
+        Compass {
+            period_ns,
+            next_ns: now_ns.saturating_add(period_ns),
+            sd_rad: sd_deg.to_radians(),
+            rng,
+            last: None,
+        }
     }
 
     /// Forgets the last sample; the next is one period from `now_ns`.
     pub(crate) fn reset(&mut self, now_ns: u64) {
         self.last = None;
-        self.next_ns = now_ns + self.period_ns;
+        self.next_ns = now_ns.saturating_add(self.period_ns);
     }
 
     /// Samples every reading due by the end of `motion`'s step.
@@ -235,7 +241,7 @@ impl Compass {
             let z: f64 = self.rng.sample(StandardNormal);
             let heading = wrap_angle(motion.turret_at(self.next_ns) + z * self.sd_rad);
             self.last = Some((self.next_ns, heading));
-            self.next_ns += self.period_ns;
+            self.next_ns = self.next_ns.saturating_add(self.period_ns);
         }
     }
 
