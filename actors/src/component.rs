@@ -107,6 +107,9 @@ struct Shell<M> {
     wiring: Arc<WiringSlave>,
     declared: Mutex<BTreeMap<String, Arc<dyn Any + Send + Sync>>>,
     stoppers: Mutex<Vec<Box<dyn Fn() + Send + Sync>>>,
+    /// Tasks of the running instance, ended when it ends.
+    activities: Mutex<Vec<tokio::task::AbortHandle>>,
+    removed: std::sync::atomic::AtomicBool,
 }
 
 /// A component's access to the system: everything it declares or connects goes through here.
@@ -144,6 +147,8 @@ impl<M: ractor::Message> Ctx<M> {
                 wiring,
                 declared: Mutex::new(BTreeMap::new()),
                 stoppers: Mutex::new(Vec::new()),
+                activities: Mutex::new(Vec::new()),
+                removed: std::sync::atomic::AtomicBool::new(false),
             }),
         })
     }
@@ -269,7 +274,7 @@ impl<M: ractor::Message> Ctx<M> {
     pub fn event_server<P: CommObject, E: CommObject, S: 'static>(
         &self,
         service: &str,
-        test: impl Fn(&P, &S) -> Option<E> + Send + Sync + 'static,
+        test: impl Fn(&mut P, &S) -> Option<E> + Send + Sync + 'static,
     ) -> PatternResult<EventServer<P, E, S>> {
         self.declared(format!("service {service}"), || {
             EventServer::register(&self.shell.registry, self.addr(service), test)
@@ -295,6 +300,39 @@ impl<M: ractor::Message> Ctx<M> {
         addr: impl IntoAddr,
     ) -> PatternResult<EventClient<P, E>> {
         Ok(EventClient::connect(&self.shell.registry, addr)?.with_cancel(self.cancel()))
+    }
+
+    /// Activates an event at the Event service `addr`; each firing arrives as `map(fired)`.
+    /// The activation belongs to the component: declaring it again after a restart gives back
+    /// the same activation (no duplicate), and it lives until the component leaves the system
+    /// or [`EventClient::deactivate`] ends it (a single-shot one ends when it fires).
+    pub fn activate_event<P: CommObject, E: CommObject>(
+        &self,
+        addr: impl IntoAddr,
+        mode: crate::event::EventMode,
+        params: P,
+        map: impl Fn(crate::event::Fired<E>) -> M + Send + Sync + 'static,
+    ) -> PatternResult<crate::event::ActivationId> {
+        let addr = addr.into_addr()?;
+        self.declared(format!("activation {addr}"), || {
+            let client = EventClient::<P, E>::connect(&self.shell.registry, &addr)?;
+            client.activate_to(mode, params, self.shell.mailbox.sink(map))
+        })
+    }
+
+    /// Runs `activity` as a task of the current instance: it is aborted when the instance
+    /// stops, fails or is killed, so a restarted component never runs it twice.
+    pub fn spawn_activity(&self, activity: impl Future<Output = ()> + Send + 'static) {
+        let handle = tokio::spawn(activity).abort_handle();
+        let mut activities = self.shell.activities.lock();
+        activities.retain(|a| !a.is_finished());
+        activities.push(handle);
+    }
+
+    fn end_activities(&self) {
+        for a in self.shell.activities.lock().drain(..) {
+            a.abort();
+        }
     }
 
     /// Subscribes to a Push newest service; each update arrives as `map(update)`. The
@@ -371,6 +409,11 @@ impl<C: Component> Actor for Instance<C> {
     type Arguments = ();
 
     async fn pre_start(&self, myself: ActorRef<C::Msg>, _: ()) -> Result<C::State, ActorProcessingErr> {
+        if self.ctx.shell.removed.load(std::sync::atomic::Ordering::Acquire) {
+            return Err(format!("component '{}' was removed from the system", self.ctx.name()).into());
+        }
+        // A failed or killed instance does not run post_stop: end its activities here.
+        self.ctx.end_activities();
         self.ctx.shell.mailbox.bind(myself);
         self.component.setup(&self.ctx).await
     }
@@ -389,8 +432,9 @@ impl<C: Component> Actor for Instance<C> {
         myself: ActorRef<C::Msg>,
         state: &mut C::State,
     ) -> Result<(), ActorProcessingErr> {
-        self.ctx.shell.mailbox.unbind(&myself);
+        self.ctx.end_activities();
         self.component.teardown(&self.ctx, state).await;
+        self.ctx.shell.mailbox.unbind(&myself);
         Ok(())
     }
 }
@@ -451,22 +495,30 @@ impl<C: Component> ComponentHandle<C> {
         self.ctx.myself()
     }
 
-    /// Stops the running instance gracefully and removes the component from the system: its
-    /// timed services stop and its services are unregistered.
+    /// Removes the component from the system and stops its running instance gracefully. A
+    /// supervisor cannot start it again: to stop a supervised component for a while, use the
+    /// supervisor's `terminate_child`.
     pub async fn stop(&self) {
-        if let Some(actor) = self.ctx.myself() {
+        let running = self.ctx.myself();
+        self.remove();
+        if let Some(actor) = running {
             // An instance that is already gone has nothing to stop.
             let _ = actor.stop_and_wait(None, None).await;
         }
-        self.remove();
     }
 
-    /// Removes the component from the system without touching its instance.
+    /// Removes the component from the system: no instance can start any more, its timed
+    /// services stop, its subscriptions and event activations end, its services are
+    /// unregistered and its mailbox is closed. The running instance, if any, is not touched.
     pub fn remove(&self) {
-        for stop in self.ctx.shell.stoppers.lock().iter() {
+        let shell = &self.ctx.shell;
+        shell.removed.store(true, std::sync::atomic::Ordering::Release);
+        for stop in shell.stoppers.lock().iter() {
             stop();
         }
-        self.ctx.shell.registry.unregister_component(self.ctx.name());
+        shell.declared.lock().clear();
+        shell.registry.unregister_component(self.ctx.name());
+        shell.mailbox.close();
     }
 }
 

@@ -14,7 +14,7 @@
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! // fire with the distance when it drops below the client's threshold
-//! let server = EventServer::<f64, f64, f64>::register(&registry, "nomad200/near", |limit, d| {
+//! let server = EventServer::<f64, f64, f64>::register(&registry, "nomad200/near", |limit: &mut f64, d: &f64| {
 //!     (*d < *limit).then_some(*d)
 //! })?;
 //! let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near")?;
@@ -98,7 +98,7 @@ impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
 pub struct EventServer<P, E, S> {
     endpoint: Arc<EventEndpoint<P, E>>,
     #[allow(clippy::type_complexity)]
-    test: Arc<dyn Fn(&P, &S) -> Option<E> + Send + Sync>,
+    test: Arc<dyn Fn(&mut P, &S) -> Option<E> + Send + Sync>,
 }
 
 impl<P, E, S> Clone for EventServer<P, E, S> {
@@ -109,11 +109,13 @@ impl<P, E, S> Clone for EventServer<P, E, S> {
 
 impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
     /// Registers an Event service at `addr`. `test(params, state)` returns the event to fire to
-    /// an activation with `params`, or `None` if its condition does not hold.
+    /// an activation with `params`, or `None` if its condition does not hold. It may update the
+    /// activation's parameters (as SmartSoft's `testEvent` may), e.g. to remember the last
+    /// state and fire only on a change.
     pub fn register(
         registry: &Registry,
         addr: impl IntoAddr,
-        test: impl Fn(&P, &S) -> Option<E> + Send + Sync + 'static,
+        test: impl Fn(&mut P, &S) -> Option<E> + Send + Sync + 'static,
     ) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
         let endpoint = Arc::new(EventEndpoint {
@@ -131,21 +133,43 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
     /// returns how many events were sent.
     pub fn put(&self, state: &S) -> usize {
         let ep = &self.endpoint;
+        // Test each activation on a copy of its parameters with no lock held, so the test and
+        // the sinks may use this server; then write the parameters back and drop what ended.
+        let snapshot: Vec<(ActivationId, EventMode, P, Sink<Fired<E>>)> = ep
+            .activations
+            .lock()
+            .iter()
+            .map(|(id, a)| (*id, a.mode, a.params.clone(), a.sink.clone()))
+            .collect();
         let mut fired = 0;
-        let mut activations = ep.activations.lock();
-        activations.retain(|id, a| {
-            let Some(event) = (self.test)(&a.params, state) else { return true };
+        let mut ended = Vec::new();
+        let mut updated = Vec::with_capacity(snapshot.len());
+        for (id, mode, mut params, sink) in snapshot {
+            let event = (self.test)(&mut params, state);
+            updated.push((id, params));
+            let Some(event) = event else { continue };
             let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
-            let msg = Fired { activation: *id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
-            match a.sink.deliver(msg) {
+            let msg = Fired { activation: id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
+            match sink.deliver(msg) {
                 Ok(()) => {
                     fired += 1;
-                    a.mode == EventMode::Continuous
+                    if mode == EventMode::Single {
+                        ended.push(id);
+                    }
                 }
-                Err(Undeliverable::Unavailable) => true,
-                Err(Undeliverable::Closed) => false,
+                Err(Undeliverable::Unavailable) => {}
+                Err(Undeliverable::Closed) => ended.push(id),
             }
-        });
+        }
+        let mut activations = ep.activations.lock();
+        for (id, params) in updated {
+            if let Some(a) = activations.get_mut(&id) {
+                a.params = params;
+            }
+        }
+        for id in ended {
+            activations.remove(&id);
+        }
         fired
     }
 

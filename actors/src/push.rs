@@ -47,7 +47,9 @@ pub struct PushStats {
 pub(crate) struct PushEndpoint<T> {
     pub(crate) addr: ServiceAddr,
     clock: Clock,
-    subs: RwLock<Vec<Subscriber<T>>>,
+    /// Copy-on-write: a publisher clones the `Arc` and delivers with no lock held, so a sink may
+    /// subscribe, unsubscribe or publish without deadlocking.
+    subs: RwLock<Arc<Vec<Arc<Subscriber<T>>>>>,
     latest: RwLock<Option<Update<T>>>,
     seq: AtomicU64,
     next_id: AtomicU64,
@@ -67,7 +69,7 @@ impl<T: CommObject> PushEndpoint<T> {
         let endpoint = Arc::new(PushEndpoint {
             addr: addr.clone(),
             clock: registry.clock(),
-            subs: RwLock::new(Vec::new()),
+            subs: RwLock::new(Arc::new(Vec::new())),
             latest: RwLock::new(None),
             seq: AtomicU64::new(0),
             next_id: AtomicU64::new(1),
@@ -80,51 +82,64 @@ impl<T: CommObject> PushEndpoint<T> {
     }
 
     /// Publishes a value to every subscriber whose turn it is; returns how many got it.
+    ///
+    /// No lock is held while sinks run. Values from concurrent publishers reach a subscriber in
+    /// an unspecified order, but "newest" ([`latest`](Self::latest), a client's `get_update`)
+    /// only ever moves forward in sequence number.
     pub(crate) fn put(&self, value: T) -> usize {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
         let update = Arc::new(Stamped { seq, stamp: self.clock.now(), value });
-        *self.latest.write() = Some(Arc::clone(&update));
+        {
+            let mut latest = self.latest.write();
+            if latest.as_ref().is_none_or(|l| l.seq < seq) {
+                *latest = Some(Arc::clone(&update));
+            }
+        }
+        let subs = Arc::clone(&self.subs.read());
         let mut delivered = 0;
         let mut closed = Vec::new();
-        {
-            let subs = self.subs.read();
-            for s in subs.iter() {
-                let n = s.count.fetch_add(1, Ordering::Relaxed) + 1;
-                if n % s.every != 0 {
-                    continue;
+        for s in subs.iter() {
+            let n = s.count.fetch_add(1, Ordering::Relaxed) + 1;
+            if n % s.every != 0 {
+                continue;
+            }
+            match s.sink.deliver(Arc::clone(&update)) {
+                Ok(()) => delivered += 1,
+                Err(Undeliverable::Unavailable) => {
+                    self.failed.fetch_add(1, Ordering::Relaxed);
                 }
-                match s.sink.deliver(Arc::clone(&update)) {
-                    Ok(()) => delivered += 1,
-                    Err(Undeliverable::Unavailable) => {
-                        self.failed.fetch_add(1, Ordering::Relaxed);
-                    }
-                    Err(Undeliverable::Closed) => closed.push(s.id),
-                }
+                Err(Undeliverable::Closed) => closed.push(s.id),
             }
         }
         if !closed.is_empty() {
-            self.subs.write().retain(|s| !closed.contains(&s.id));
+            self.remove_subscribers(&closed);
         }
         self.delivered.fetch_add(delivered as u64, Ordering::Relaxed);
         delivered
     }
 
+    fn remove_subscribers(&self, ids: &[u64]) -> bool {
+        let mut subs = self.subs.write();
+        if !subs.iter().any(|s| ids.contains(&s.id)) {
+            return false;
+        }
+        *subs = Arc::new(subs.iter().filter(|s| !ids.contains(&s.id)).cloned().collect());
+        true
+    }
+
     pub(crate) fn subscribe(&self, every: NonZeroU32, sink: Sink<Update<T>>) -> u64 {
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
-        self.subs.write().push(Subscriber {
-            id,
-            every: u64::from(every.get()),
-            count: AtomicU64::new(0),
-            sink,
-        });
+        let sub = Arc::new(Subscriber { id, every: u64::from(every.get()), count: AtomicU64::new(0), sink });
+        let mut subs = self.subs.write();
+        let mut next = Vec::with_capacity(subs.len() + 1);
+        next.extend(subs.iter().cloned());
+        next.push(sub);
+        *subs = Arc::new(next);
         id
     }
 
     pub(crate) fn unsubscribe(&self, id: u64) -> bool {
-        let mut subs = self.subs.write();
-        let before = subs.len();
-        subs.retain(|s| s.id != id);
-        subs.len() != before
+        self.remove_subscribers(&[id])
     }
 
     pub(crate) fn clock(&self) -> Clock {
@@ -149,7 +164,10 @@ impl<T: CommObject> PushEndpoint<T> {
 pub(crate) struct PushClientCore<T> {
     pub(crate) endpoint: Arc<PushEndpoint<T>>,
     sub: Mutex<Option<u64>>,
+    /// The newest update received, and the subscription generation (bumped on every subscribe
+    /// and unsubscribe, so a waiter learns that its subscription ended).
     newest: Arc<watch::Sender<Option<Update<T>>>>,
+    generation: watch::Sender<u64>,
     forward: Option<Sink<Update<T>>>,
     cancel: Option<Cancel>,
 }
@@ -169,9 +187,14 @@ impl<T: CommObject> PushClientCore<T> {
             endpoint,
             sub: Mutex::new(None),
             newest: Arc::new(watch::Sender::new(None)),
+            generation: watch::Sender::new(0),
             forward,
             cancel,
         })
+    }
+
+    fn not_subscribed(&self) -> PatternError {
+        PatternError::NotActive(format!("not subscribed to {}", self.endpoint.addr))
     }
 
     pub(crate) fn subscribe(&self, every: u32) -> PatternResult<()> {
@@ -181,28 +204,35 @@ impl<T: CommObject> PushClientCore<T> {
         let newest = Arc::clone(&self.newest);
         let forward = self.forward.clone();
         let sink = Sink::from_fn(move |u: Update<T>| {
-            newest.send_replace(Some(Arc::clone(&u)));
+            newest.send_if_modified(|cur| {
+                let newer = cur.as_ref().is_none_or(|c| c.seq < u.seq);
+                if newer {
+                    *cur = Some(Arc::clone(&u));
+                }
+                newer
+            });
             match &forward {
                 Some(f) => f.deliver(u),
                 None => Ok(()),
             }
         });
+        // Publishers hold no lock while they deliver, so holding ours here cannot deadlock
+        // with a sink; the old subscription ends before the new one starts (no duplicate).
         let mut sub = self.sub.lock();
         if let Some(old) = sub.take() {
             self.endpoint.unsubscribe(old);
         }
         *sub = Some(self.endpoint.subscribe(every, sink));
+        drop(sub);
+        self.generation.send_modify(|g| *g += 1);
         Ok(())
     }
 
     pub(crate) fn unsubscribe(&self) -> PatternResult<()> {
-        match self.sub.lock().take() {
-            Some(id) => {
-                self.endpoint.unsubscribe(id);
-                Ok(())
-            }
-            None => Err(PatternError::NotActive(format!("not subscribed to {}", self.endpoint.addr))),
-        }
+        let id = self.sub.lock().take().ok_or_else(|| self.not_subscribed())?;
+        self.endpoint.unsubscribe(id);
+        self.generation.send_modify(|g| *g += 1);
+        Ok(())
     }
 
     pub(crate) fn is_subscribed(&self) -> bool {
@@ -211,18 +241,26 @@ impl<T: CommObject> PushClientCore<T> {
 
     pub(crate) fn get_update(&self) -> PatternResult<Update<T>> {
         if !self.is_subscribed() {
-            return Err(PatternError::NotActive(format!("not subscribed to {}", self.endpoint.addr)));
+            return Err(self.not_subscribed());
         }
         self.newest.borrow().clone().ok_or(PatternError::NoData)
     }
 
-    pub(crate) async fn get_update_wait(&self) -> PatternResult<Update<T>> {
+    /// Waits for an update newer than the newest one now; ends with `NotActive` when the server
+    /// stops (push timed) or this subscription ends, with `Timeout` after `timeout`, and with
+    /// `Cancelled` when the owning component is deactivated.
+    pub(crate) async fn get_update_wait(
+        &self,
+        timeout: Option<std::time::Duration>,
+    ) -> PatternResult<Update<T>> {
         if !self.is_subscribed() {
-            return Err(PatternError::NotActive(format!("not subscribed to {}", self.endpoint.addr)));
+            return Err(self.not_subscribed());
         }
         let addr = self.endpoint.addr.clone();
         let mut newest = self.newest.subscribe();
         let mut active = self.endpoint.active.subscribe();
+        let mut generation = self.generation.subscribe();
+        generation.borrow_and_update();
         let wait = async move {
             loop {
                 if !*active.borrow_and_update() {
@@ -230,10 +268,12 @@ impl<T: CommObject> PushClientCore<T> {
                 }
                 tokio::select! {
                     biased;
+                    _ = generation.changed() => {
+                        return Err(PatternError::NotActive(format!("the subscription to {addr} ended")));
+                    }
                     changed = newest.changed() => {
-                        // The sender lives in `self`, which outlives this future.
                         if changed.is_err() {
-                            return Err(PatternError::NotActive(format!("unsubscribed from {addr}")));
+                            return Err(PatternError::NotActive(format!("the subscription to {addr} ended")));
                         }
                         if let Some(u) = newest.borrow_and_update().clone() {
                             return Ok(u);
@@ -243,9 +283,15 @@ impl<T: CommObject> PushClientCore<T> {
                 }
             }
         };
+        let bounded = async move {
+            match timeout {
+                Some(t) => tokio::time::timeout(t, wait).await.map_err(|_| PatternError::Timeout)?,
+                None => wait.await,
+            }
+        };
         match &self.cancel {
-            Some(c) => c.guard(wait).await,
-            None => wait.await,
+            Some(c) => c.guard(bounded).await,
+            None => bounded.await,
         }
     }
 }
@@ -254,7 +300,9 @@ impl<T> Drop for PushClientCore<T> {
     fn drop(&mut self) {
         if let Some(id) = self.sub.get_mut().take() {
             let mut subs = self.endpoint.subs.write();
-            subs.retain(|s| s.id != id);
+            if subs.iter().any(|s| s.id == id) {
+                *subs = Arc::new(subs.iter().filter(|s| s.id != id).cloned().collect());
+            }
         }
     }
 }

@@ -118,7 +118,12 @@ impl<T: CommObject> PushNewestClient<T> {
 
     /// Waits for the next value.
     pub async fn get_update_wait(&self) -> PatternResult<Update<T>> {
-        self.core.get_update_wait().await
+        self.core.get_update_wait(None).await
+    }
+
+    /// Waits for the next value at most `timeout`: [`PatternError::Timeout`](crate::PatternError::Timeout) after.
+    pub async fn get_update_wait_timeout(&self, timeout: std::time::Duration) -> PatternResult<Update<T>> {
+        self.core.get_update_wait(Some(timeout)).await
     }
 
     /// Whether the client is subscribed.

@@ -42,6 +42,9 @@ use std::time::Duration;
 use tokio::task::JoinHandle;
 use tokio::time::MissedTickBehavior;
 
+/// The longest period a push timed server accepts (a day).
+pub const MAX_PERIOD: Duration = Duration::from_secs(86_400);
+
 /// The server's period has come: produce a value now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Tick {
@@ -57,17 +60,24 @@ struct Timer {
     count: u64,
     task: Option<JoinHandle<()>>,
     missed: u64,
+    /// Bumped by every start and stop: a tick of an older generation is not delivered.
+    generation: u64,
 }
 
 /// The server side of a Push timed service. Clones control the same service.
 pub struct PushTimedServer<T> {
     endpoint: Arc<PushEndpoint<T>>,
     timer: Arc<Mutex<Timer>>,
+    runtime: tokio::runtime::Handle,
 }
 
 impl<T> Clone for PushTimedServer<T> {
     fn clone(&self) -> Self {
-        PushTimedServer { endpoint: Arc::clone(&self.endpoint), timer: Arc::clone(&self.timer) }
+        PushTimedServer {
+            endpoint: Arc::clone(&self.endpoint),
+            timer: Arc::clone(&self.timer),
+            runtime: self.runtime.clone(),
+        }
     }
 }
 
@@ -80,12 +90,20 @@ impl<T: CommObject> PushTimedServer<T> {
         period: Duration,
         tick: Sink<Tick>,
     ) -> PatternResult<Self> {
-        if period.is_zero() {
-            return Err(crate::PatternError::InvalidArgument("a push timed period must be positive".into()));
+        if period.is_zero() || period > MAX_PERIOD {
+            return Err(crate::PatternError::InvalidArgument(format!(
+                "a push timed period must be positive and at most {MAX_PERIOD:?}, not {period:?}"
+            )));
         }
+        let runtime = tokio::runtime::Handle::try_current().map_err(|_| {
+            crate::PatternError::InvalidArgument(
+                "a push timed server must be registered inside a tokio runtime".into(),
+            )
+        })?;
         let endpoint = PushEndpoint::register(registry, addr.into_addr()?, PatternKind::PushTimed, false)?;
-        let timer = Arc::new(Mutex::new(Timer { period, tick, count: 0, task: None, missed: 0 }));
-        Ok(PushTimedServer { endpoint, timer })
+        let timer =
+            Arc::new(Mutex::new(Timer { period, tick, count: 0, task: None, missed: 0, generation: 0 }));
+        Ok(PushTimedServer { endpoint, timer, runtime })
     }
 
     /// Starts producing: the first tick comes one period from now. Starting a started server
@@ -95,33 +113,47 @@ impl<T: CommObject> PushTimedServer<T> {
         if timer.task.is_some() {
             return;
         }
+        timer.generation += 1;
+        let generation = timer.generation;
         let period = timer.period;
         let weak: Weak<Mutex<Timer>> = Arc::downgrade(&self.timer);
-        let clock = self.endpoint_clock();
-        timer.task = Some(tokio::spawn(async move {
-            let mut interval = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
+        let clock = self.endpoint.clock();
+        timer.task = Some(self.runtime.spawn(async move {
+            let Some(first) = tokio::time::Instant::now().checked_add(period) else { return };
+            let mut interval = tokio::time::interval_at(first, period);
             interval.set_missed_tick_behavior(MissedTickBehavior::Skip);
             loop {
                 let at = interval.tick().await;
                 let Some(timer) = weak.upgrade() else { return };
-                let mut timer = timer.lock();
-                timer.count += 1;
-                let tick = Tick { seq: timer.count, stamp: clock.stamp_of(at) };
-                match timer.tick.deliver(tick) {
+                // Take what the tick needs and let go of the lock before delivering, so a tick
+                // handler may call stop() or start() on this server.
+                let (tick, sink) = {
+                    let mut timer = timer.lock();
+                    if timer.generation != generation {
+                        return; // stopped (and maybe restarted) since this tick was scheduled
+                    }
+                    timer.count += 1;
+                    (Tick { seq: timer.count, stamp: clock.stamp_of(at) }, timer.tick.clone())
+                };
+                match sink.deliver(tick) {
                     Ok(()) => {}
-                    Err(Undeliverable::Unavailable) => timer.missed += 1,
+                    Err(Undeliverable::Unavailable) => timer.lock().missed += 1,
                     Err(Undeliverable::Closed) => return,
                 }
             }
         }));
+        drop(timer);
         self.endpoint.active.send_replace(true);
     }
 
     /// Stops producing. Clients waiting in `get_update_wait` get `NotActive`.
     pub fn stop(&self) {
-        if let Some(task) = self.timer.lock().task.take() {
+        let mut timer = self.timer.lock();
+        timer.generation += 1;
+        if let Some(task) = timer.task.take() {
             task.abort();
         }
+        drop(timer);
         self.endpoint.active.send_replace(false);
     }
 
@@ -158,10 +190,6 @@ impl<T: CommObject> PushTimedServer<T> {
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
         &self.endpoint.addr
-    }
-
-    fn endpoint_clock(&self) -> crate::clock::Clock {
-        self.endpoint.clock()
     }
 }
 
@@ -215,7 +243,12 @@ impl<T: CommObject> PushTimedClient<T> {
 
     /// Waits for the next value; `NotActive` if the server is or becomes stopped.
     pub async fn get_update_wait(&self) -> PatternResult<Update<T>> {
-        self.core.get_update_wait().await
+        self.core.get_update_wait(None).await
+    }
+
+    /// Waits for the next value at most `timeout`: [`PatternError::Timeout`](crate::PatternError::Timeout) after.
+    pub async fn get_update_wait_timeout(&self, timeout: std::time::Duration) -> PatternResult<Update<T>> {
+        self.core.get_update_wait(Some(timeout)).await
     }
 
     /// Whether the client is subscribed.

@@ -89,7 +89,9 @@ impl<T: CommObject> SendServer<T> {
 pub struct SendClient<T> {
     registry: Registry,
     endpoint: Arc<SendEndpoint<T>>,
-    seq: Arc<AtomicU64>,
+    /// The last sequence number used. Numbering and handing over happen under this lock, so
+    /// clones sending from several threads still arrive in sequence order.
+    seq: Arc<parking_lot::Mutex<u64>>,
     _t: PhantomData<fn(T)>,
 }
 
@@ -114,15 +116,16 @@ impl<T: CommObject> SendClient<T> {
         Ok(SendClient {
             registry: registry.clone(),
             endpoint,
-            seq: Arc::new(AtomicU64::new(0)),
+            seq: Arc::new(parking_lot::Mutex::new(0)),
             _t: PhantomData,
         })
     }
 
     /// Sends `value` without waiting for it to be handled.
     pub fn send(&self, value: T) -> PatternResult<()> {
-        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
-        self.endpoint.accept(Stamped { seq, stamp: self.registry.now(), value })
+        let mut seq = self.seq.lock();
+        *seq += 1;
+        self.endpoint.accept(Stamped { seq: *seq, stamp: self.registry.now(), value })
     }
 
     /// Sends an already stamped message unchanged (for forwarding and replay).
@@ -137,6 +140,6 @@ impl<T: CommObject> SendClient<T> {
 
     /// How many messages this client (and its clones) sent.
     pub fn sent(&self) -> u64 {
-        self.seq.load(Ordering::Relaxed)
+        *self.seq.lock()
     }
 }

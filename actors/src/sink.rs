@@ -65,7 +65,12 @@ impl<T: Send + 'static> Sink<T> {
 /// Sinks made from a mailbox outlive actor instances, which is what lets a restarted component
 /// keep its subscriptions and its services without anyone re-creating them.
 pub struct Mailbox<M> {
-    slot: Arc<RwLock<Option<ActorRef<M>>>>,
+    slot: Arc<RwLock<Slot<M>>>,
+}
+
+struct Slot<M> {
+    actor: Option<ActorRef<M>>,
+    closed: bool,
 }
 
 impl<M> Clone for Mailbox<M> {
@@ -76,7 +81,7 @@ impl<M> Clone for Mailbox<M> {
 
 impl<M> Default for Mailbox<M> {
     fn default() -> Self {
-        Mailbox { slot: Arc::new(RwLock::new(None)) }
+        Mailbox { slot: Arc::new(RwLock::new(Slot { actor: None, closed: false })) }
     }
 }
 
@@ -86,28 +91,47 @@ impl<M: ractor::Message> Mailbox<M> {
         Self::default()
     }
 
-    /// Binds the mailbox to an actor instance.
+    /// Binds the mailbox to an actor instance (not once closed).
     pub fn bind(&self, actor: ActorRef<M>) {
-        *self.slot.write() = Some(actor);
+        let mut slot = self.slot.write();
+        if !slot.closed {
+            slot.actor = Some(actor);
+        }
     }
 
     /// Unbinds the mailbox if it is still bound to `actor`.
     pub fn unbind(&self, actor: &ActorRef<M>) {
         let mut slot = self.slot.write();
-        if slot.as_ref().map(|a| a.get_id()) == Some(actor.get_id()) {
-            *slot = None;
+        if slot.actor.as_ref().map(|a| a.get_id()) == Some(actor.get_id()) {
+            slot.actor = None;
         }
     }
 
-    /// The actor instance currently bound, if any.
+    /// Closes the mailbox for good: its component left the system. Sinks made from it report
+    /// [`Undeliverable::Closed`], so servers drop them.
+    pub fn close(&self) {
+        let mut slot = self.slot.write();
+        slot.closed = true;
+        slot.actor = None;
+    }
+
+    /// Whether the mailbox was closed.
+    pub fn is_closed(&self) -> bool {
+        self.slot.read().closed
+    }
+
+    /// The actor instance currently bound, if any. After a failure (panic, error, kill) it may
+    /// still be the dead instance until the supervisor restarts the component.
     pub fn current(&self) -> Option<ActorRef<M>> {
-        self.slot.read().clone()
+        self.slot.read().actor.clone()
     }
 
     /// Casts a message to the current instance.
     pub fn cast(&self, msg: M) -> Result<(), Undeliverable> {
-        match self.slot.read().as_ref() {
+        let slot = self.slot.read();
+        match slot.actor.as_ref() {
             Some(actor) => actor.cast(msg).map_err(|_| Undeliverable::Unavailable),
+            None if slot.closed => Err(Undeliverable::Closed),
             None => Err(Undeliverable::Unavailable),
         }
     }

@@ -9,8 +9,10 @@
 //!   returned guard is dropped.
 //! - A master asks for another main state ([`StateMaster::set_state`]). The change takes effect
 //!   once every substate the new main state excludes is released; meanwhile no activity can
-//!   acquire an excluded substate, so the change cannot be starved. The master waits for it, or
-//!   with [`StateMaster::try_set_state`] gets [`PatternError::Busy`] at once instead.
+//!   acquire an excluded substate, so the change cannot be starved. The master waits for it
+//!   ([`StateMaster::set_state`], or [`StateMaster::set_state_timeout`] which withdraws the
+//!   request on [`PatternError::Timeout`]), or with [`StateMaster::try_set_state`] gets
+//!   [`PatternError::Busy`] at once instead. A master that stops waiting withdraws its request.
 //! - [`StateMaster::deactivate`] first aborts every blocking call the component is making
 //!   (queries, `get_update_wait`, event waits, `acquire`) with [`PatternError::Cancelled`], then
 //!   moves it to `neutral`.
@@ -270,6 +272,9 @@ impl StateSlave {
         let _one_change_at_a_time = self.change.lock().await;
         self.inner.lock().pending = Some(main.to_string());
         self.bump();
+        // If the master stops waiting (timeout, select, abort), the change is withdrawn, so
+        // substates it would have excluded can be acquired again.
+        let mut withdraw = Withdraw { slave: self, armed: true };
         loop {
             let mut version = self.version.subscribe();
             {
@@ -278,6 +283,7 @@ impl StateSlave {
                     inner.current = main.to_string();
                     inner.pending = None;
                     drop(inner);
+                    withdraw.armed = false;
                     self.bump();
                     return Ok(());
                 }
@@ -307,6 +313,21 @@ impl StateSlave {
     async fn deactivate(&self) -> PatternResult<()> {
         self.cancel.send_modify(|v| *v += 1);
         self.set(NEUTRAL).await
+    }
+}
+
+/// Withdraws a pending main-state change whose master stopped waiting.
+struct Withdraw<'a> {
+    slave: &'a StateSlave,
+    armed: bool,
+}
+
+impl Drop for Withdraw<'_> {
+    fn drop(&mut self) {
+        if self.armed {
+            self.slave.inner.lock().pending = None;
+            self.slave.bump();
+        }
     }
 }
 
@@ -404,6 +425,12 @@ impl StateMaster {
     /// Asks for main state `main` and waits until it takes effect.
     pub async fn set_state(&self, main: &str) -> PatternResult<()> {
         self.slave.set(main).await
+    }
+
+    /// Asks for main state `main` and waits at most `timeout` for it to take effect; on
+    /// [`PatternError::Timeout`] the request is withdrawn and the state is unchanged.
+    pub async fn set_state_timeout(&self, main: &str, timeout: std::time::Duration) -> PatternResult<()> {
+        tokio::time::timeout(timeout, self.slave.set(main)).await.map_err(|_| PatternError::Timeout)?
     }
 
     /// Switches to `main` at once, or answers [`PatternError::Busy`] with the held substates it

@@ -6,9 +6,9 @@
 //! the installed [`Transport`]. This trait is the one place where another process enters: the
 //! zenoh transport implements it, and no other module names zenoh.
 //!
-//! What a transport answers here today is discovery (what a remote service is, so that errors
-//! name it correctly); the byte-level operations of each pattern are added with the zenoh
-//! transport itself, behind the same client types.
+//! Today every client resolves in-process only: this trait states the seam's place and its
+//! first duty (discovery). The byte-level operations of each pattern, and the clients' fallback
+//! to them, arrive with the zenoh transport itself, behind the same client types.
 
 use crate::registry::{ServiceAddr, ServiceInfo};
 

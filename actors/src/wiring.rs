@@ -4,7 +4,8 @@
 //! typed by its communication objects and disconnected at first. A master connects a port to a
 //! `(component, service)` or disconnects it ([`WiringMaster`]). Connecting checks the target:
 //! an unknown port answers [`PatternError::UnknownPort`], an unknown service
-//! [`PatternError::UnknownService`], a service of another pattern or type
+//! [`PatternError::UnknownService`] (an unknown component [`PatternError::UnknownComponent`]), a
+//! service of another pattern or type
 //! [`PatternError::IncompatibleService`] (and the port keeps its old connection). Sending on a
 //! disconnected port answers [`PatternError::Disconnected`]. Rewiring while traffic flows never
 //! deadlocks, and once [`WiringMaster::disconnect`] (or a reconnect) has returned, no message

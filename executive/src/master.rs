@@ -136,9 +136,10 @@ impl Component for Master {
         self.params.validate()?;
         let robot = self.params.robot.as_str();
         ctx.query_server::<Goal, GoalReply>("goal", MasterMsg::Goal)?;
-        let events = ctx.event_server::<GoalFilter, GoalEvent, GoalEvent>("goals", |f, e| {
-            f.goal.is_none_or(|g| g == e.id).then(|| e.clone())
-        })?;
+        let events = ctx.event_server::<GoalFilter, GoalEvent, GoalEvent>(
+            "goals",
+            |f: &mut GoalFilter, e: &GoalEvent| f.goal.is_none_or(|g| g == e.id).then(|| e.clone()),
+        )?;
         let wiring_push = ctx.push_newest_server::<WiringChange>("wiring")?;
         let mut states = BTreeMap::new();
         for b in self.params.behaviours() {

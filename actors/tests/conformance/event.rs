@@ -4,7 +4,7 @@ use tokio::sync::mpsc;
 
 /// Fires the distance when it is below the activation's threshold.
 fn near(registry: &Registry) -> EventServer<f64, f64, f64> {
-    EventServer::register(registry, "nomad200/near", |limit: &f64, d: &f64| (*d < *limit).then_some(*d))
+    EventServer::register(registry, "nomad200/near", |limit: &mut f64, d: &f64| (*d < *limit).then_some(*d))
         .expect("register")
 }
 
@@ -66,4 +66,48 @@ async fn event_client_type_is_checked() {
     let _server = near(&registry);
     let err = EventClient::<u64, f64>::connect(&registry, "nomad200/near").err();
     assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
+}
+
+/// The activation's parameters are the test's memory: fire only when the bumper state changes.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+struct OnChange {
+    last: Option<bool>,
+}
+orsa_actors::comm_object!(OnChange, "orsa.test.OnChange/1");
+
+#[tokio::test(start_paused = true)]
+async fn event_test_may_keep_state_in_its_parameters_to_fire_on_change() {
+    let registry = Registry::new();
+    let server = EventServer::<OnChange, bool, bool>::register(&registry, "nomad200/bumped", |p, pressed| {
+        let changed = p.last != Some(*pressed);
+        p.last = Some(*pressed);
+        changed.then_some(*pressed)
+    })
+    .expect("register");
+    let client = EventClient::<OnChange, bool>::connect(&registry, "nomad200/bumped").expect("connect");
+    let mut a = client.activate(EventMode::Continuous, OnChange::default()).expect("activate");
+    let fired: usize = [false, false, true, true, true, false, false].iter().map(|s| server.put(s)).sum();
+    assert_eq!(fired, 3, "first state, press, release");
+    let mut got = Vec::new();
+    while let Ok(Some(f)) = a.try_next() {
+        got.push(f.event.value);
+    }
+    assert_eq!(got, vec![false, true, false]);
+}
+
+#[tokio::test(start_paused = true)]
+async fn event_sinks_and_tests_may_use_the_server_without_deadlock() {
+    let registry = Registry::new();
+    let server = near(&registry);
+    let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near").expect("connect");
+    let inner = server.clone();
+    let c2 = client.clone();
+    let sink = Sink::from_fn(move |f: orsa_actors::event::Fired<f64>| {
+        // A sink that looks at the server and deactivates itself: must not deadlock.
+        assert!(inner.activations() >= 1);
+        c2.deactivate(f.activation).map_err(|_| orsa_actors::Undeliverable::Closed)
+    });
+    client.activate_to(EventMode::Continuous, 0.5, sink).expect("activate");
+    assert_eq!(server.put(&0.1), 1);
+    assert_eq!(server.activations(), 0);
 }

@@ -89,3 +89,71 @@ async fn push_newest_rejects_a_timed_client() {
     let err = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&registry, "odo/ticks").err();
     assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
 }
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_wait_ends_when_the_subscription_ends() {
+    let registry = Registry::new();
+    let _server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let client =
+        std::sync::Arc::new(PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect"));
+    client.subscribe().expect("subscribe");
+    let waiter = {
+        let c = client.clone();
+        tokio::spawn(async move { c.get_update_wait().await.map(|u| u.value) })
+    };
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    client.unsubscribe().expect("unsubscribe");
+    assert!(matches!(waiter.await.expect("task"), Err(PatternError::NotActive(_))));
+    client.subscribe().expect("subscribe");
+    let start = tokio::time::Instant::now();
+    assert_eq!(
+        client.get_update_wait_timeout(Duration::from_millis(300)).await.err(),
+        Some(PatternError::Timeout)
+    );
+    assert_eq!(start.elapsed(), Duration::from_millis(300));
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_a_sink_may_unsubscribe_while_values_are_delivered() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let holder: std::sync::Arc<parking_lot::Mutex<Option<PushNewestClient<u64>>>> = Default::default();
+    let h = holder.clone();
+    let sink = Sink::from_fn(move |u: Update<u64>| {
+        if u.value == 2 {
+            // Dropping the client from inside its own delivery unsubscribes it: no deadlock.
+            h.lock().take();
+        }
+        Ok(())
+    });
+    let client = PushNewestClient::connect_to(&registry, "odo/ticks", sink).expect("connect");
+    client.subscribe().expect("subscribe");
+    *holder.lock() = Some(client);
+    assert_eq!(server.put(1), 1);
+    assert_eq!(server.put(2), 1);
+    assert_eq!(server.put(3), 0);
+    assert_eq!(server.stats().subscribers, 0);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn push_newest_newest_only_moves_forward_under_concurrent_publishers() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("connect");
+    client.subscribe().expect("subscribe");
+    let threads: Vec<_> = (0..4)
+        .map(|_| {
+            let s = server.clone();
+            std::thread::spawn(move || {
+                for i in 0..5000 {
+                    s.put(i);
+                }
+            })
+        })
+        .collect();
+    for t in threads {
+        t.join().expect("publisher");
+    }
+    assert_eq!(client.get_update().expect("update").seq, 20_000);
+    assert_eq!(server.latest().expect("latest").seq, 20_000);
+}

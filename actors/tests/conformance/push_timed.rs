@@ -4,14 +4,16 @@ use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, Sink, 
 use std::time::Duration;
 use tokio::sync::mpsc;
 
-/// A sensor server pushing its tick count every 40 ms.
-struct Ir;
+/// A sensor server pushing its tick count every 40 ms; it leaves its server handle in `.0`.
+#[derive(Default)]
+struct Ir(std::sync::Arc<parking_lot::Mutex<Option<PushTimedServer<u64>>>>);
 impl Component for Ir {
     type Msg = Tick;
     type State = PushTimedServer<u64>;
     async fn setup(&self, ctx: &Ctx<Tick>) -> Result<Self::State, ComponentError> {
         let s = ctx.push_timed_server::<u64>("distanceir", Duration::from_millis(40), |t| t)?;
         s.start();
+        *self.0.lock() = Some(s.clone());
         Ok(s)
     }
     async fn handle(&self, _: &Ctx<Tick>, s: &mut Self::State, t: Tick) -> Result<(), ComponentError> {
@@ -38,7 +40,7 @@ fn values(rx: &mut mpsc::UnboundedReceiver<Update<u64>>) -> Vec<u64> {
 #[tokio::test(start_paused = true)]
 async fn push_timed_every_nth_counts_are_exact() {
     let registry = Registry::new();
-    let ir = spawn(&registry, "ir", Ir).await.expect("spawn");
+    let ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
     let (_c1, mut r1) = counted(&registry, 1);
     let (_c10, mut r10) = counted(&registry, 10);
     let (_c3, mut r3) = counted(&registry, 3);
@@ -53,7 +55,7 @@ async fn push_timed_every_nth_counts_are_exact() {
 #[tokio::test(start_paused = true)]
 async fn push_timed_first_update_comes_one_period_after_start_with_its_stamp() {
     let registry = Registry::new();
-    let _ir = spawn(&registry, "ir", Ir).await.expect("spawn");
+    let _ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
     let (c, _r) = counted(&registry, 10);
     let start = tokio::time::Instant::now();
     let u = c.get_update_wait().await.expect("update");
@@ -109,7 +111,7 @@ async fn push_timed_stop_and_start() {
 #[tokio::test(start_paused = true)]
 async fn push_timed_rejects_zero_every_and_zero_period() {
     let registry = Registry::new();
-    let _ir = spawn(&registry, "ir", Ir).await.expect("spawn");
+    let _ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
     let c = PushTimedClient::<u64>::connect(&registry, "ir/distanceir").expect("connect");
     assert!(matches!(c.subscribe(0), Err(PatternError::InvalidArgument(_))));
     let (tx, _rx) = mpsc::unbounded_channel();
@@ -120,7 +122,7 @@ async fn push_timed_rejects_zero_every_and_zero_period() {
 #[tokio::test(start_paused = true)]
 async fn push_timed_many_subscribers_each_at_their_own_rate() {
     let registry = Registry::new();
-    let _ir = spawn(&registry, "ir", Ir).await.expect("spawn");
+    let _ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
     let subs: Vec<_> = (1..=40).map(|n| counted(&registry, n)).collect();
     tokio::time::sleep(Duration::from_millis(40 * 120 + 20)).await;
     for (n, (_c, rx)) in (1..=40u64).zip(subs) {
@@ -129,4 +131,65 @@ async fn push_timed_many_subscribers_each_at_their_own_rate() {
         assert_eq!(got.len() as u64, 120 / n, "subscriber at every {n}");
         assert!(got.iter().all(|v| v % n == 0));
     }
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_timed_a_tick_handler_may_stop_its_own_server() {
+    let registry = Registry::new();
+    let slot: std::sync::Arc<parking_lot::Mutex<Option<PushTimedServer<u64>>>> = Default::default();
+    let s2 = slot.clone();
+    let sink = Sink::from_fn(move |t: Tick| {
+        if t.seq == 3
+            && let Some(s) = s2.lock().as_ref()
+        {
+            s.stop();
+        }
+        Ok(())
+    });
+    let server = PushTimedServer::<u64>::register(&registry, "s/t", Duration::from_millis(10), sink)
+        .expect("register");
+    *slot.lock() = Some(server.clone());
+    server.start();
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    assert!(!server.is_active());
+    assert_eq!(server.missed_ticks(), 0);
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_timed_rejects_a_period_too_long_to_schedule() {
+    let registry = Registry::new();
+    let (tx, _rx) = mpsc::unbounded_channel();
+    let err = PushTimedServer::<u64>::register(&registry, "x/y", Duration::MAX, Sink::channel(tx)).err();
+    assert!(matches!(err, Some(PatternError::InvalidArgument(m)) if m.contains("at most")));
+}
+
+/// Subscribes to the ir pushes with every 1 and counts what arrives.
+struct Listener;
+impl Component for Listener {
+    type Msg = Update<u64>;
+    type State = ();
+    async fn setup(&self, ctx: &Ctx<Update<u64>>) -> Result<(), ComponentError> {
+        ctx.subscribe_timed::<u64>("ir/distanceir", 1, |u| u)?;
+        Ok(())
+    }
+    async fn handle(&self, _: &Ctx<Update<u64>>, _: &mut (), _: Update<u64>) -> Result<(), ComponentError> {
+        Ok(())
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn push_timed_a_removed_subscriber_is_dropped_by_the_server() {
+    let registry = Registry::new();
+    let slot = Ir::default();
+    let server = slot.0.clone();
+    let _ir = spawn(&registry, "ir", slot).await.expect("spawn");
+    let listener = spawn(&registry, "listener", Listener).await.expect("spawn");
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let stats = || server.lock().as_ref().expect("server").stats();
+    assert_eq!(stats().subscribers, 1);
+    listener.stop().await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let stats = stats();
+    assert_eq!(stats.subscribers, 0, "the stopped component's subscription ended");
+    assert_eq!(stats.failed, 0, "and nothing was sent to it after");
 }

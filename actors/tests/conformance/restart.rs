@@ -1,5 +1,6 @@
 use crate::Velocity;
 use orsa_actors::component::{ComponentHandle, spawn};
+use orsa_actors::event::{EventMode, EventServer};
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::send::{SendClient, SendServer};
 use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorSpec};
@@ -102,4 +103,79 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
     );
     sup.shutdown().await;
     assert!(behaviour.instance().is_none(), "shutdown stops the component's instance");
+}
+
+/// Activates a continuous event in setup; panics on demand.
+struct Watcher;
+enum WatcherMsg {
+    Fired,
+    Crash,
+}
+impl Component for Watcher {
+    type Msg = WatcherMsg;
+    type State = ();
+    async fn setup(&self, ctx: &Ctx<WatcherMsg>) -> Result<(), ComponentError> {
+        ctx.activate_event::<u64, u64>("alarm/high", EventMode::Continuous, 10, |_| WatcherMsg::Fired)?;
+        ctx.send_server::<Empty>("crash", |_| WatcherMsg::Crash)?;
+        Ok(())
+    }
+    async fn handle(&self, _: &Ctx<WatcherMsg>, _: &mut (), msg: WatcherMsg) -> Result<(), ComponentError> {
+        match msg {
+            WatcherMsg::Fired => Ok(()),
+            WatcherMsg::Crash => panic!("injected fault"),
+        }
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn supervision_restart_keeps_event_activations_without_duplicates() {
+    let registry = orsa_actors::Registry::new();
+    let alarm = EventServer::<u64, u64, u64>::register(&registry, "alarm/high", |limit, v| {
+        (*v > *limit).then_some(*v)
+    })
+    .expect("register");
+    let watcher = ComponentHandle::new(&registry, "watcher", Watcher).expect("add");
+    let (etx, mut events) = mpsc::unbounded_channel::<SupervisorEvent>();
+    let spec = SupervisorSpec::new("s", Strategy::OneForOne)
+        .with_intensity(5, Duration::from_secs(10))
+        .with_event_sink(move |e| {
+            let _ = etx.send(e);
+        })
+        .with_child(watcher.child_spec());
+    let _sup = Supervisor::start(spec).await.expect("supervisor");
+    assert_eq!(alarm.activations(), 1);
+    for _ in 0..3 {
+        SendClient::<Empty>::connect(&registry, "watcher/crash").expect("c").send(Empty {}).expect("send");
+        assert_eq!(events.recv().await.map(|e| e.kind), Some(SupervisorEventKind::ChildFailed));
+        assert_eq!(events.recv().await.map(|e| e.kind), Some(SupervisorEventKind::Restarted));
+    }
+    assert_eq!(alarm.activations(), 1, "three restarts, still one activation");
+    assert_eq!(alarm.put(&11), 1);
+}
+
+#[tokio::test(start_paused = true)]
+async fn supervision_a_stopped_component_is_not_restarted_as_a_zombie() {
+    let registry = orsa_actors::Registry::new();
+    let _counter = spawn(&registry, "counter", Counter).await.expect("spawn counter");
+    let behaviour = ComponentHandle::new(&registry, "wallfollow", Behaviour).expect("add");
+    let (etx, mut events) = mpsc::unbounded_channel::<SupervisorEvent>();
+    let spec = SupervisorSpec::new("s", Strategy::OneForOne)
+        .with_intensity(5, Duration::from_secs(10))
+        .with_event_sink(move |e| {
+            let _ = etx.send(e);
+        })
+        .with_child(behaviour.child_spec());
+    let sup = Supervisor::start(spec).await.expect("supervisor");
+    behaviour.stop().await;
+    assert!(!registry.has_component("wallfollow"));
+    // A permanent child's normal exit makes the supervisor try to restart it; a removed
+    // component refuses to start, so no instance runs outside the registry.
+    let mut kinds = Vec::new();
+    while let Ok(Some(e)) = tokio::time::timeout(Duration::from_secs(1), events.recv()).await {
+        kinds.push(e.kind);
+    }
+    assert!(kinds.contains(&SupervisorEventKind::ChildExited), "{kinds:?}");
+    assert!(!kinds.contains(&SupervisorEventKind::Restarted), "{kinds:?}");
+    assert!(behaviour.instance().is_none());
+    sup.shutdown().await;
 }

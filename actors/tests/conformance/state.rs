@@ -117,3 +117,22 @@ async fn state_deactivation_aborts_blocking_calls_with_cancelled() {
     master.set_state("active").await.expect("set");
     assert!(slave.handle().acquire("drive").await.is_ok());
 }
+
+#[tokio::test(start_paused = true)]
+async fn state_a_change_the_master_stops_waiting_for_is_withdrawn() {
+    let registry = Registry::new();
+    let slave = slave(&registry);
+    let master = StateMaster::connect(&registry, "wallfollow").expect("master");
+    master.set_state("active").await.expect("set");
+    let held = slave.handle().acquire("drive").await.expect("acquire");
+    assert_eq!(
+        master.set_state_timeout("neutral", Duration::from_millis(100)).await,
+        Err(PatternError::Timeout)
+    );
+    let status = master.status();
+    assert_eq!((status.current.as_str(), status.pending), ("active", None));
+    drop(held);
+    // Nothing is left pending: drive can be taken again.
+    let again = slave.handle().try_acquire("drive");
+    assert!(again.is_ok(), "{:?}", again.err());
+}
