@@ -20,9 +20,8 @@ fn offsets(width_deg: f64, n: u32) -> Vec<f64> {
 
 /// The exact reading of a sensor at the body's edge, facing world angle `axis`, of an endless
 /// wall along x = `wall_x` ahead: the nearest of its rays, if any is nearer than `max`.
-fn expected(wall_x: f64, (cx, cy): (f64, f64), axis: f64, offsets: &[f64], max: f64) -> Option<f64> {
-    let _ = cy;
-    let d = wall_x - (cx + R * axis.cos());
+fn expected(wall_x: f64, center_x: f64, axis: f64, offsets: &[f64], max: f64) -> Option<f64> {
+    let d = wall_x - (center_x + R * axis.cos());
     offsets
         .iter()
         .map(|o| (axis + o).cos())
@@ -43,7 +42,7 @@ fn fresh_ring(sim: &mut SimNomad200) {
 fn check_ring(
     scan: &DistanceScan,
     wall_x: f64,
-    center: (f64, f64),
+    center_x: f64,
     turret: f64,
     offs: &[f64],
     min: f64,
@@ -51,7 +50,7 @@ fn check_ring(
 ) {
     for r in &scan.readings {
         let axis = turret + ring_angle_rad(usize::from(r.sensor_id));
-        match expected(wall_x, center, axis, offs, max) {
+        match expected(wall_x, center_x, axis, offs, max) {
             Some(d) if d >= min => {
                 assert!(r.valid, "{:?} sensor {} should see the wall at {d}", scan.ring, r.sensor_id);
                 assert!(
@@ -84,7 +83,7 @@ fn sonar_reads_a_wall_ahead_at_every_sensor_angle() {
         if heading == 0.0 {
             assert!((scan.readings[0].distance_m - 1.75).abs() < 1e-12, "face to wall");
         }
-        check_ring(&scan, 2.0, (0.0, 0.0), f64::to_radians(heading), &offsets(25.0, 9), 0.30, 6.0);
+        check_ring(&scan, 2.0, 0.0, f64::to_radians(heading), &offsets(25.0, 9), 0.30, 6.0);
         let valid = scan.readings.iter().filter(|r| r.valid).count();
         assert!((3..=8).contains(&valid), "a wall ahead fills some of the ring, not all: {valid}");
     }
@@ -97,7 +96,7 @@ fn infrared_reads_a_near_wall_and_nothing_beyond_its_range() {
         fresh_ring(&mut sim);
         let scan = sim.infrared();
         assert_eq!(scan.ring, Ring::Infrared);
-        check_ring(&scan, 0.6, (0.0, 0.0), f64::to_radians(heading), &offsets(6.0, 3), 0.0, 0.6);
+        check_ring(&scan, 0.6, 0.0, f64::to_radians(heading), &offsets(6.0, 3), 0.0, 0.6);
         assert!(scan.readings[0].valid && scan.readings[8].distance_m == 0.6 && !scan.readings[8].valid);
     }
     let mut sim = exact(facing_wall(1.0, 0.0));
@@ -129,7 +128,7 @@ fn rings_turn_with_the_turret() {
     let t = sim.truth();
     assert!(t.turret_rad > 0.6, "the turret turned: {}", t.turret_rad);
     assert_eq!(t.heading_rad, 0.0, "the steering did not");
-    check_ring(&sim.sonar(), 2.0, (0.0, 0.0), t.turret_rad, &offsets(25.0, 9), 0.30, 6.0);
+    check_ring(&sim.sonar(), 2.0, 0.0, t.turret_rad, &offsets(25.0, 9), 0.30, 6.0);
     sim.run_for(ms(100)); // a compass sample (10 Hz) taken since the turret stopped
     let compass = sim.compass();
     assert!(compass.valid && (compass.heading_rad - t.turret_rad).abs() < 1e-9, "compass follows the turret");
