@@ -23,4 +23,4 @@ pub mod world;
 
 // The `nomad200` server component (services distanceir, distanceson, bumpers, basestate and
 // navigationvelocity on top of the board traits) goes here:
-// pub mod server;
+pub mod server;

@@ -1,0 +1,335 @@
+//! The `nomad200` component: the robot server, built only from the patterns.
+//!
+//! It is the thesis' smartNomad200Server. Behaviours never touch the boards; they use these
+//! services:
+//!
+//! | service | pattern | object | what |
+//! |---|---|---|---|
+//! | `distanceir` | push timed, 40 ms | [`DistanceScan`] | latest infrared ring |
+//! | `distanceson` | push timed, 64 ms | [`DistanceScan`] | latest sonar ring |
+//! | `bumpers` | push timed, 30 ms | [`ContactScan`] | bumper ring |
+//! | `basestate` | push timed, 100 ms | [`BaseState`] | odometry pose, velocities, compass |
+//! | `navigationvelocity` | send | [`NavigationVelocity`] | drive (v, omega), clamped to the limits |
+//! | `robotparams` | query | [`Empty`] -> [`RobotParams`] | geometry, limits, sensor layout |
+//!
+//! `omega` is applied to steer and turret together, as the original did, so the sensor rings
+//! keep facing the direction of travel.
+//!
+//! Safety: a command is judged by its own timestamp. One older than `cmd_timeout` when it
+//! arrives is refused; and when no command younger than `cmd_timeout` has arrived for
+//! `cmd_timeout`, the server commands zero velocity, exactly at that deadline on tokio's clock
+//! (a robot that loses its commander stops, every time). When the component stops, it stops the
+//! motors and waits for the axes to come to rest, as the original's RobotConnection destructor
+//! did.
+
+use crate::board::{AxisVelocities, MotorBoard, SensorBoard};
+use crate::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams};
+use orsa_actors::push_timed::{PushTimedServer, Tick};
+use orsa_actors::query::QueryRequest;
+use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp, comm_object};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+use tokio::sync::watch;
+
+/// Configuration of the robot server (the `[robot]` table of the config file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ServerParams {
+    /// The component's name.
+    pub name: String,
+    /// Push periods, s.
+    pub distanceir_period_s: f64,
+    /// Sonar push period, s.
+    pub distanceson_period_s: f64,
+    /// Bumper push period, s.
+    pub bumpers_period_s: f64,
+    /// Base state push period, s.
+    pub basestate_period_s: f64,
+    /// A command older than this is not acted on, and the robot stops this long after the
+    /// last fresh command, s.
+    pub cmd_timeout_s: f64,
+    /// How long to wait for the axes to stop when the component stops, s.
+    pub stop_wait_s: f64,
+}
+
+impl Default for ServerParams {
+    fn default() -> Self {
+        let p = PushPeriods::default();
+        ServerParams {
+            name: "nomad200".into(),
+            distanceir_period_s: p.distanceir_s,
+            distanceson_period_s: p.distanceson_s,
+            bumpers_period_s: p.bumpers_s,
+            basestate_period_s: p.basestate_s,
+            cmd_timeout_s: 0.5,
+            stop_wait_s: 3.0,
+        }
+    }
+}
+
+impl ServerParams {
+    /// Checks every value; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        if !orsa_actors::registry::valid_name(&self.name) {
+            return Err(format!("robot.name: '{}' is not a valid component name", self.name));
+        }
+        for (key, v) in [
+            ("distanceir_period_s", self.distanceir_period_s),
+            ("distanceson_period_s", self.distanceson_period_s),
+            ("bumpers_period_s", self.bumpers_period_s),
+            ("basestate_period_s", self.basestate_period_s),
+            ("cmd_timeout_s", self.cmd_timeout_s),
+            ("stop_wait_s", self.stop_wait_s),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v < 3600.0) {
+                return Err(format!("robot.{key}: must be a positive number of seconds, not {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The push periods, as [`RobotParams`] report them.
+    pub fn push_periods(&self) -> PushPeriods {
+        PushPeriods {
+            distanceir_s: self.distanceir_period_s,
+            distanceson_s: self.distanceson_period_s,
+            bumpers_s: self.bumpers_period_s,
+            basestate_s: self.basestate_period_s,
+        }
+    }
+}
+
+/// What the server did with velocity commands (service `safety`, for reports and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SafetyCounters {
+    /// Commands applied to the motors.
+    pub applied: u64,
+    /// Commands refused because they were older than the timeout on arrival.
+    pub stale_refused: u64,
+    /// Times the watchdog stopped the robot for lack of fresh commands.
+    pub timeouts: u64,
+    /// Commands whose values were clamped to the robot's limits.
+    pub clamped: u64,
+    /// Commands the motor board refused (not finite, board gone).
+    pub failed: u64,
+}
+comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
+
+/// The robot server over any pair of boards.
+pub struct Nomad200<S, M> {
+    params: ServerParams,
+    robot: RobotParams,
+    sensors: S,
+    motors: M,
+}
+
+impl<S, M> Nomad200<S, M> {
+    /// A server for these boards; `robot` describes the robot (its push periods are replaced by
+    /// the server's own).
+    pub fn new(params: ServerParams, mut robot: RobotParams, sensors: S, motors: M) -> Self {
+        robot.push = params.push_periods();
+        Nomad200 { params, robot, sensors, motors }
+    }
+}
+
+/// Messages of the robot server.
+#[derive(Debug)]
+pub enum Nomad200Msg {
+    /// Time to push the infrared ring.
+    Ir(Tick),
+    /// Time to push the sonar ring.
+    Sonar(Tick),
+    /// Time to push the bumpers.
+    Bumpers(Tick),
+    /// Time to push the base state.
+    Base(Tick),
+    /// A velocity command.
+    Velocity(Stamped<NavigationVelocity>),
+    /// A request for the robot's parameters.
+    Params(QueryRequest<Empty, RobotParams>),
+    /// The command deadline set at this time has passed.
+    Watchdog(Timestamp),
+    /// A request for the safety counters.
+    Safety(QueryRequest<Empty, SafetyCounters>),
+}
+
+/// The server's running state.
+pub struct Nomad200State {
+    ir: PushTimedServer<DistanceScan>,
+    sonar: PushTimedServer<DistanceScan>,
+    bumpers: PushTimedServer<ContactScan>,
+    base: PushTimedServer<BaseState>,
+    deadline: watch::Sender<Option<Timestamp>>,
+    watchdog: tokio::task::JoinHandle<()>,
+    moving: bool,
+    counters: SafetyCounters,
+    generation: Arc<AtomicU64>,
+}
+
+fn secs(s: f64) -> Duration {
+    Duration::from_secs_f64(s)
+}
+
+impl<S, M> Nomad200<S, M>
+where
+    S: SensorBoard + 'static,
+    M: MotorBoard + 'static,
+{
+    async fn drive(&self, st: &mut Nomad200State, v: f64, omega: f64) {
+        match self.motors.move_velocity(AxisVelocities::synchro(v, omega)).await {
+            Ok(()) => st.moving = v != 0.0 || omega != 0.0,
+            Err(e) => {
+                st.counters.failed += 1;
+                tracing::warn!("nomad200: motor board refused ({v}, {omega}): {e}");
+            }
+        }
+    }
+
+    async fn on_velocity(&self, ctx: &Ctx<Nomad200Msg>, st: &mut Nomad200State, cmd: NavigationVelocity) {
+        let now = ctx.now();
+        let timeout = secs(self.params.cmd_timeout_s);
+        if now.saturating_since(cmd.stamp) > timeout {
+            st.counters.stale_refused += 1;
+            tracing::debug!("nomad200: refused a command stamped {} at {now}", cmd.stamp);
+            return;
+        }
+        if !(cmd.v_m_s.is_finite() && cmd.omega_rad_s.is_finite()) {
+            st.counters.failed += 1;
+            tracing::warn!("nomad200: refused a command that is not finite: {cmd:?}");
+            return;
+        }
+        let v = cmd.v_m_s.clamp(-self.robot.max_v_m_s, self.robot.max_v_m_s);
+        let w = cmd.omega_rad_s.clamp(-self.robot.max_omega_rad_s, self.robot.max_omega_rad_s);
+        if v != cmd.v_m_s || w != cmd.omega_rad_s {
+            st.counters.clamped += 1;
+        }
+        self.drive(st, v, w).await;
+        st.counters.applied += 1;
+        // The robot may go on with this command until it is cmd_timeout old.
+        let deadline = cmd.stamp.after(timeout);
+        if st.deadline.borrow().is_none_or(|d| deadline > d) {
+            st.deadline.send_replace(Some(deadline));
+        }
+    }
+}
+
+impl<S, M> Component for Nomad200<S, M>
+where
+    S: SensorBoard + 'static,
+    M: MotorBoard + 'static,
+{
+    type Msg = Nomad200Msg;
+    type State = Nomad200State;
+
+    async fn setup(&self, ctx: &Ctx<Nomad200Msg>) -> Result<Nomad200State, ComponentError> {
+        self.params.validate()?;
+        let p = &self.params;
+        let ir = ctx.push_timed_server("distanceir", secs(p.distanceir_period_s), Nomad200Msg::Ir)?;
+        let sonar = ctx.push_timed_server("distanceson", secs(p.distanceson_period_s), Nomad200Msg::Sonar)?;
+        let bumpers = ctx.push_timed_server("bumpers", secs(p.bumpers_period_s), Nomad200Msg::Bumpers)?;
+        let base = ctx.push_timed_server("basestate", secs(p.basestate_period_s), Nomad200Msg::Base)?;
+        ctx.send_server::<NavigationVelocity>("navigationvelocity", Nomad200Msg::Velocity)?;
+        ctx.query_server::<Empty, RobotParams>("robotparams", Nomad200Msg::Params)?;
+        ctx.query_server::<Empty, SafetyCounters>("safety", Nomad200Msg::Safety)?;
+        // A (re)started server does not trust whatever the motors were doing.
+        self.motors.stop().await?;
+        for s in [&ir, &sonar] {
+            s.start();
+        }
+        bumpers.start();
+        base.start();
+
+        // The watchdog sleeps until the current command deadline and reports it.
+        let (deadline, mut rx) = watch::channel::<Option<Timestamp>>(None);
+        let clock = ctx.clock();
+        let mailbox = ctx.mailbox().clone();
+        let watchdog = tokio::spawn(async move {
+            loop {
+                let current = *rx.borrow_and_update();
+                match current {
+                    Some(d) => tokio::select! {
+                        () = tokio::time::sleep_until(clock.instant_of(d)) => {
+                            if mailbox.cast(Nomad200Msg::Watchdog(d)).is_err() {
+                                return;
+                            }
+                            if rx.changed().await.is_err() { return; }
+                        }
+                        changed = rx.changed() => if changed.is_err() { return },
+                    },
+                    None => {
+                        if rx.changed().await.is_err() {
+                            return;
+                        }
+                    }
+                }
+            }
+        });
+        Ok(Nomad200State {
+            ir,
+            sonar,
+            bumpers,
+            base,
+            deadline,
+            watchdog,
+            moving: false,
+            counters: SafetyCounters::default(),
+            generation: Arc::new(AtomicU64::new(0)),
+        })
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<Nomad200Msg>,
+        st: &mut Nomad200State,
+        msg: Nomad200Msg,
+    ) -> Result<(), ComponentError> {
+        match msg {
+            Nomad200Msg::Ir(_) => {
+                st.ir.put(self.sensors.read_infrared().await?);
+            }
+            Nomad200Msg::Sonar(_) => {
+                st.sonar.put(self.sensors.read_sonar().await?);
+            }
+            Nomad200Msg::Bumpers(_) => {
+                st.bumpers.put(self.sensors.read_bumpers().await?);
+            }
+            Nomad200Msg::Base(_) => {
+                let m = self.motors.read_state().await?;
+                let c = self.sensors.read_compass().await?;
+                st.base.put(BaseState::from_readings(&m, &c));
+            }
+            Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value).await,
+            Nomad200Msg::Params(q) => {
+                let _ = q.answer(self.robot.clone());
+            }
+            Nomad200Msg::Safety(q) => {
+                let _ = q.answer(st.counters);
+            }
+            Nomad200Msg::Watchdog(d) => {
+                if *st.deadline.borrow() == Some(d) {
+                    st.deadline.send_replace(None);
+                    if st.moving {
+                        st.counters.timeouts += 1;
+                        tracing::info!("nomad200: no fresh command since {d}: stopping");
+                        self.drive(st, 0.0, 0.0).await;
+                    }
+                }
+            }
+        }
+        st.generation.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    async fn teardown(&self, _ctx: &Ctx<Nomad200Msg>, st: &mut Nomad200State) {
+        st.watchdog.abort();
+        if let Err(e) = self.motors.stop().await {
+            tracing::warn!("nomad200: cannot stop the motors on shutdown: {e}");
+            return;
+        }
+        if let Err(e) = self.motors.wait_stop(secs(self.params.stop_wait_s)).await {
+            tracing::warn!("nomad200: the axes did not come to rest: {e}");
+        }
+    }
+}

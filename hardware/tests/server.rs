@@ -1,0 +1,161 @@
+//! The `nomad200` robot server on the simulator, on tokio's paused clock: push periods,
+//! velocity commands, the command timeout, robot parameters and shutdown.
+
+use orsa_actors::component::{ComponentHandle, spawn};
+use orsa_actors::push_timed::PushTimedClient;
+use orsa_actors::query::QueryClient;
+use orsa_actors::send::SendClient;
+use orsa_actors::{Clock, Empty, Registry, Sink, Stamped, Update};
+use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
+use orsa_hardware::server::{Nomad200, SafetyCounters, ServerParams};
+use orsa_hardware::sim::{SimConfig, SimMotorBoard, SimNomad200, SimRobot, SimSensorBoard};
+use orsa_hardware::world::World;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+type Server = Nomad200<SimSensorBoard, SimMotorBoard>;
+
+struct Rig {
+    registry: Registry,
+    sim: SimRobot,
+    server: ComponentHandle<Server>,
+}
+
+async fn rig(params: ServerParams) -> Rig {
+    let clock = Clock::start();
+    let registry = Registry::with_clock(clock);
+    let world = World::palazzina().expect("reference world");
+    let config = SimConfig::noiseless();
+    let robot_params = config.robot_params(params.push_periods());
+    let sim = SimRobot::spawn(SimNomad200::new(world, config, 1).expect("sim"), clock);
+    let server = Nomad200::new(params, robot_params, sim.sensor_board(), sim.motor_board());
+    let server = spawn(&registry, "nomad200", server).await.expect("server starts");
+    Rig { registry, sim, server }
+}
+
+fn counter<T: orsa_actors::CommObject>(
+    registry: &Registry,
+    service: &str,
+) -> (PushTimedClient<T>, mpsc::UnboundedReceiver<Update<T>>) {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let c = PushTimedClient::connect_to(registry, ("nomad200", service), Sink::channel(tx)).expect("connect");
+    c.subscribe(1).expect("subscribe");
+    (c, rx)
+}
+
+fn stamps<T>(rx: &mut mpsc::UnboundedReceiver<Update<T>>) -> Vec<u64> {
+    std::iter::from_fn(|| rx.try_recv().ok()).map(|u| u.stamp.as_nanos() / 1_000_000).collect()
+}
+
+async fn safety(registry: &Registry) -> SafetyCounters {
+    QueryClient::<Empty, SafetyCounters>::connect(registry, "nomad200/safety")
+        .expect("connect")
+        .query(Empty {}, Some(Duration::from_secs(1)))
+        .await
+        .expect("answer")
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_pushes_every_service_at_its_own_period_exactly() {
+    let r = rig(ServerParams::default()).await;
+    let (_a, mut ir) = counter::<DistanceScan>(&r.registry, "distanceir");
+    let (_b, mut sonar) = counter::<DistanceScan>(&r.registry, "distanceson");
+    let (_c, mut bumpers) = counter::<ContactScan>(&r.registry, "bumpers");
+    let (_d, mut base) = counter::<BaseState>(&r.registry, "basestate");
+    // 1.92 s is a whole number of periods of each: 48 x 40 ms, 30 x 64 ms, 64 x 30 ms; 19 x 100 ms.
+    tokio::time::sleep(Duration::from_millis(1921)).await;
+    assert_eq!(stamps(&mut ir), (1..=48).map(|k| 40 * k).collect::<Vec<_>>());
+    assert_eq!(stamps(&mut sonar), (1..=30).map(|k| 64 * k).collect::<Vec<_>>());
+    assert_eq!(stamps(&mut bumpers).len(), 64);
+    assert_eq!(stamps(&mut base), (1..=19).map(|k| 100 * k).collect::<Vec<_>>());
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_robotparams_describe_the_robot_and_the_push_periods() {
+    let params = ServerParams { distanceir_period_s: 0.05, ..ServerParams::default() };
+    let r = rig(params).await;
+    let p = QueryClient::<Empty, RobotParams>::connect(&r.registry, "nomad200/robotparams")
+        .expect("connect")
+        .query(Empty {}, Some(Duration::from_secs(1)))
+        .await
+        .expect("answer");
+    assert_eq!(p.body_radius_m, 0.25);
+    assert_eq!(p.infrared.angles_rad.len(), 16);
+    assert!((p.infrared.angles_rad[4] - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "sensor 4 faces left");
+    assert_eq!((p.sonar.min_range_m, p.sonar.max_range_m, p.infrared.max_range_m), (0.30, 6.00, 0.60));
+    assert_eq!(p.push.distanceir_s, 0.05);
+    assert_eq!(p.max_v_m_s, 0.50);
+}
+
+/// Sends `cmd` every 100 ms for `secs`, stamped now.
+async fn drive(client: &SendClient<NavigationVelocity>, registry: &Registry, v: f64, omega: f64, secs: f64) {
+    let n = (secs / 0.1).round() as usize;
+    for _ in 0..n {
+        client
+            .send(NavigationVelocity { stamp: registry.now(), v_m_s: v, omega_rad_s: omega })
+            .expect("send");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_drives_the_robot_clamped_to_its_limits() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    let x0 = r.sim.truth().truth().x_m;
+    drive(&client, &r.registry, 2.0, 0.0, 3.0).await;
+    let t = r.sim.truth().truth();
+    assert!((t.v_m_s - 0.50).abs() < 1e-9, "clamped to 0.50 m/s, got {}", t.v_m_s);
+    // 1 s of acceleration at 0.5 m/s^2 (0.25 m), then 2 s at 0.5 m/s (1.0 m).
+    assert!((t.x_m - x0 - 1.25).abs() < 0.02, "travelled {}", t.x_m - x0);
+    let s = safety(&r.registry).await;
+    assert_eq!((s.applied, s.clamped, s.stale_refused), (30, 30, 0));
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_stops_the_robot_exactly_one_timeout_after_the_last_fresh_command() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    drive(&client, &r.registry, 0.2, 0.0, 1.0).await;
+    // The last command was stamped at 0.9 s; the deadline is 1.4 s.
+    tokio::time::sleep(Duration::from_millis(390)).await;
+    let before = r.sim.truth().truth();
+    assert!((before.v_m_s - 0.2).abs() < 1e-9, "still obeying at {}", before.stamp);
+    tokio::time::sleep(Duration::from_millis(20)).await;
+    assert_eq!(safety(&r.registry).await.timeouts, 1);
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let after = r.sim.truth().truth();
+    assert_eq!(after.v_m_s, 0.0, "stopped");
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_refuses_commands_older_than_the_timeout() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let old = r.registry.now().as_nanos() - 600_000_000;
+    let cmd = NavigationVelocity { stamp: orsa_actors::Timestamp(old), v_m_s: 0.3, omega_rad_s: 0.0 };
+    client.send_stamped(Stamped { seq: 1, stamp: orsa_actors::Timestamp(old), value: cmd }).expect("send");
+    let bad = NavigationVelocity { stamp: r.registry.now(), v_m_s: f64::NAN, omega_rad_s: 0.0 };
+    client.send(bad).expect("send");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let s = safety(&r.registry).await;
+    assert_eq!((s.stale_refused, s.failed, s.applied), (1, 1, 0));
+    assert_eq!(r.sim.truth().truth().travelled_m, 0.0);
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_stops_and_waits_for_the_axes_when_it_stops() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    drive(&client, &r.registry, 0.4, 0.3, 1.5).await;
+    assert!(r.sim.truth().truth().v_m_s > 0.3);
+    r.server.stop().await;
+    let t = r.sim.truth().truth();
+    assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "at rest when stop() returns");
+    assert!(!r.registry.has_component("nomad200"));
+}
