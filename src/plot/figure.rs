@@ -33,7 +33,8 @@ pub(crate) fn draw(data: &PlotData<'_>, mode: TextMode) -> String {
     let height = (panel2 + PANEL_HEIGHT + 76.0).ceil();
 
     let mut c = Canvas::new(width, height, mode);
-    c.text(LEFT, 46.0, Font::new(28.0).bold(), &data.title);
+    let title = if data.title.is_empty() { &data.world.name } else { &data.title };
+    c.text(LEFT, 46.0, Font::new(28.0).bold(), title);
     c.text(LEFT, 80.0, Font::new(19.0).colour("#444"), &headline::line(data));
 
     let behaviours = headline::behaviours(data);

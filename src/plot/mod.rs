@@ -72,7 +72,7 @@ impl Default for Targets {
 /// Everything the figure shows.
 #[derive(Debug, Clone)]
 pub struct PlotData<'a> {
-    /// The title line, e.g. `Palazzina 1 corridor · seed 42 · 60 min`.
+    /// The title line, e.g. `Palazzina 1 corridor · seed 42 · 60 min` (the world's name if empty).
     pub title: String,
     /// The world the robot drove in.
     pub world: &'a World,

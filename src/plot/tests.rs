@@ -178,6 +178,7 @@ fn an_empty_run_still_draws_the_world() {
     let svg = render_svg(&data);
     usvg::Tree::from_str(&svg, &usvg::Options::default()).expect("SVG");
     assert!(svg.contains("centre following never drove"));
+    assert!(svg.contains(">Palazzina 1 corridor</text>"), "an empty title falls back to the world's name");
     render_png(&data, Path::new("empty.png")).expect("PNG");
 }
 
