@@ -1,6 +1,13 @@
 //! The `orsa` command line: argument types and the code each subcommand runs.
 
+use crate::config::Config;
+use crate::mission::{self, RunOptions, RunOutcome};
+use crate::plot::{Bump, PlotData, Targets, TrajectorySample, write_plot};
+use anyhow::Context as _;
 use clap::{Parser, Subcommand};
+use orsa_hardware::world::World;
+use std::path::PathBuf;
+use std::sync::Arc;
 
 /// orsa: robot control software out of supervised actors.
 #[derive(Debug, Parser)]
@@ -18,24 +25,127 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the corridor mission on the built-in simulator (the main job).
+    /// Run the corridor mission on the built-in simulator and report it against the original
+    /// experiment (the main job).
     Run(RunArgs),
 }
 
 /// Arguments of `orsa run`.
 #[derive(Debug, clap::Args)]
-pub struct RunArgs {}
+pub struct RunArgs {
+    /// World file (TOML); default: the reference corridor `palazzina`, built in.
+    #[arg(long, value_name = "PATH")]
+    pub world: Option<PathBuf>,
+    /// Simulated seconds to run.
+    #[arg(long, value_name = "SECS", default_value_t = 3600.0, value_parser = positive_secs)]
+    pub duration: f64,
+    /// Seed of every noise source: the same seed gives the same run.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+    /// Run in real time instead of as fast as possible on a paused clock.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Configuration file for the whole stack (see config/orsa.toml); default: built-in defaults.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// Write the report as JSON here.
+    #[arg(long, value_name = "PATH.json", default_value = "out/report.json")]
+    pub report: PathBuf,
+    /// Write the trajectory and the offset and clearance over time here (.svg or .png).
+    #[arg(long, value_name = "PATH.svg", default_value = "out/run.svg")]
+    pub plot: PathBuf,
+    /// Do not show the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn positive_secs(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e7 => Ok(v),
+        Ok(v) => Err(format!("must be a positive number of seconds (at most 1e7), not {v}")),
+        Err(_) => Err(format!("'{s}' is not a number of seconds")),
+    }
+}
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run(_) => {
-            println!(
-                "orsa run: the corridor mission (behaviours, executive, planner on the simulated Nomad 200)\n\
-                 is not built yet; it lands with the corridor-mission issue. What exists today is the framework\n\
-                 core: run `cargo test --workspace --release` to see the patterns and supervision at work."
-            );
-            Ok(())
-        }
+        Command::Run(args) => run_mission(args),
     }
+}
+
+fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+    }
+    Ok(())
+}
+
+fn run_mission(args: RunArgs) -> anyhow::Result<()> {
+    let (world, label) = match &args.world {
+        Some(p) => (World::from_path(p)?, p.display().to_string()),
+        None => (World::palazzina()?, "palazzina (built in)".to_string()),
+    };
+    let config = match &args.config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    for p in [&args.report, &args.plot] {
+        ensure_parent(p)?;
+    }
+    let ext = args.plot.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("svg" | "png")) {
+        anyhow::bail!("--plot {}: the file must end in .svg or .png", args.plot.display());
+    }
+
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let bar = indicatif::ProgressBar::new(args.duration.round() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} simulated {pos}/{len} s [{bar:40}] {percent}% ({elapsed} wall, eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        bar
+    };
+    let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
+    let b = bar.clone();
+    opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
+    opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
+
+    let mut rt = tokio::runtime::Builder::new_current_thread();
+    rt.enable_time();
+    if !args.realtime {
+        rt.start_paused(true);
+    }
+    let rt = rt.build().context("cannot start the tokio runtime")?;
+    let wall = std::time::Instant::now();
+    let RunOutcome { mut report, metrics, .. } = rt.block_on(mission::run(opts))?;
+    report.wall_seconds = wall.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    println!("{}", report.table());
+    let json = serde_json::to_string_pretty(&report)?;
+    std::fs::write(&args.report, json)
+        .with_context(|| format!("{}: cannot write the report", args.report.display()))?;
+    let plot = PlotData {
+        title: format!("{} · seed {} · {:.0} s", world.name, args.seed, args.duration),
+        world: &world,
+        trajectory: metrics
+            .trajectory
+            .iter()
+            .map(|(t, x, y, b)| TrajectorySample { t_s: *t, x_m: *x, y_m: *y, behaviour: b.clone() })
+            .collect(),
+        offset: metrics.offset_series.clone(),
+        clearance: metrics.clearance_series.clone(),
+        bumps: metrics.bump_points.iter().map(|&(t_s, x_m, y_m)| Bump { t_s, x_m, y_m }).collect(),
+        targets: Targets::default(),
+    };
+    write_plot(&args.plot, &plot)?;
+    println!("report: {}\nplot:   {}", args.report.display(), args.plot.display());
+    Ok(())
 }

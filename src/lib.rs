@@ -11,7 +11,9 @@
 //! - [`executive`]: the master that arbitrates behaviours by Wiring and State.
 //! - [`planner`]: the deliberative layer that issues goals.
 //!
-//! [`cli`] holds the `orsa` command line; the binary only parses arguments and calls it.
+//! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
+//! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`cli`] holds the `orsa`
+//! command line; the binary only parses arguments and calls it.
 
 pub use orsa_actors as actors;
 pub use orsa_executive as executive;
@@ -20,5 +22,7 @@ pub use orsa_planner as planner;
 pub use orsa_reactive as reactive;
 
 pub mod cli;
+pub mod config;
+pub mod mission;
 pub mod plot;
 pub mod record;

@@ -69,7 +69,7 @@ pub struct GoalFilter {
 }
 comm_object!(GoalFilter, "orsa.executive.GoalFilter/1");
 
-/// A change of which behaviour drives (the executive's `wiring` push).
+/// A change of which behaviour drives (the executive's `driving` push).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct WiringChange {
     /// When it took effect.

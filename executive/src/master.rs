@@ -12,7 +12,7 @@
 //! long to run it. Starting a goal activates its mode's behaviours (State `active`) and
 //! deactivates every other behaviour (State `neutral`), preempting the previous goal. Progress
 //! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
-//! every change of driver goes out on the Push newest service `wiring` ([`WiringChange`]).
+//! every change of driver goes out on the Push newest service `driving` ([`WiringChange`]).
 
 use crate::goal::{Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, WiringChange};
 use crate::rules::{Mode, Readings, validate_modes};
@@ -140,7 +140,7 @@ impl Component for Master {
             "goals",
             |f: &mut GoalFilter, e: &GoalEvent| f.goal.is_none_or(|g| g == e.id).then(|| e.clone()),
         )?;
-        let wiring_push = ctx.push_newest_server::<WiringChange>("wiring")?;
+        let wiring_push = ctx.push_newest_server::<WiringChange>("driving")?;
         let mut states = BTreeMap::new();
         for b in self.params.behaviours() {
             let sm = StateMaster::connect(ctx.registry(), &b)

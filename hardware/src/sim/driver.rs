@@ -141,6 +141,11 @@ impl SimTruth {
         self.sim.lock().truth()
     }
 
+    /// See [`SimNomad200::truth_side_nearest`].
+    pub fn side_nearest(&self, side: Side) -> Option<f64> {
+        self.sim.lock().truth_side_nearest(side)
+    }
+
     /// See [`SimNomad200::truth_side_clearance`].
     pub fn side_clearance(&self, side: Side) -> Option<f64> {
         self.sim.lock().truth_side_clearance(side)

@@ -80,6 +80,23 @@ impl SimNomad200 {
         self.scene.ray_cast(&movers, &Ray::at_angle(edge, angle), f64::INFINITY)
     }
 
+    /// The gap between the body's edge and the nearest obstacle (movers included) on `side`:
+    /// the half-plane left (or right) of the heading. This is the thesis' clearance to the
+    /// followed wall: unlike [`truth_side_clearance`](Self::truth_side_clearance) it does not
+    /// grow when the robot is angled to the wall. Rays every degree from the centre across the
+    /// half-plane; `None` if nothing is there.
+    pub fn truth_side_nearest(&self, side: Side) -> Option<f64> {
+        let sign = if side == Side::Left { 1.0 } else { -1.0 };
+        let movers: Vec<_> = self.movers.iter().map(MoverState::circle).collect();
+        (1..180)
+            .filter_map(|deg| {
+                let angle = self.steer + sign * f64::from(deg).to_radians();
+                self.scene.ray_cast(&movers, &Ray::at_angle(self.position, angle), f64::INFINITY)
+            })
+            .min_by(f64::total_cmp)
+            .map(|d| d - self.radius)
+    }
+
     /// The gap between the body's edge and the nearest obstacle (movers included), in any
     /// direction; `None` in an empty world.
     pub fn truth_nearest_obstacle(&self) -> Option<f64> {

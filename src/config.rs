@@ -1,0 +1,152 @@
+//! The configuration of a whole orsa stack: one TOML file, every table typed and checked.
+//!
+//! Every table may be left out (its defaults apply) and every key inside one too; an unknown key
+//! is an error, as is a value out of range. Errors name the file, the line and column, and the
+//! key. The shipped [`DEFAULT_CONFIG`] (`config/orsa.toml`) lists every key with its default
+//! and what it means.
+
+use orsa_executive::ExecutiveParams;
+use orsa_hardware::server::ServerParams;
+use orsa_hardware::sim::SimConfig;
+use orsa_planner::PlannerParams;
+use orsa_reactive::centerfollow::CenterFollowParams;
+use orsa_reactive::wallfollow::WallFollowParams;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The commented default configuration, as shipped.
+pub const DEFAULT_CONFIG: &str = include_str!("../config/orsa.toml");
+
+/// Everything a stack needs besides the world and the seed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// The robot server component (`[robot]`).
+    pub robot: ServerParams,
+    /// The simulated robot (`[sim]`).
+    pub sim: SimConfig,
+    /// Wall following (`[wallfollow]`).
+    pub wallfollow: WallFollowParams,
+    /// Center following (`[centerfollow]`).
+    pub centerfollow: CenterFollowParams,
+    /// The master (`[executive]`).
+    pub executive: ExecutiveParams,
+    /// The deliberative layer (`[planner]`).
+    pub planner: PlannerParams,
+}
+
+/// A configuration that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The text is not TOML of the right shape.
+    #[error("{origin}:{line}:{column}: {message}")]
+    Parse {
+        /// The file (or `<default>`).
+        origin: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong, with the key.
+        message: String,
+    },
+    /// A value is out of range or inconsistent.
+    #[error("{origin}: {message}")]
+    Invalid {
+        /// The file (or `<default>`).
+        origin: String,
+        /// The key and what is wrong.
+        message: String,
+    },
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl Config {
+    /// Parses and checks a configuration; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+            ConfigError::Parse {
+                origin: origin.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        config.validate().map_err(|message| ConfigError::Invalid { origin: origin.to_string(), message })?;
+        Ok(config)
+    }
+
+    /// Reads, parses and checks a configuration file.
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ConfigError::Read { path: path.display().to_string(), source })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Checks every table; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        self.robot.validate()?;
+        self.sim.validate().map_err(|e| format!("sim.{}: {}", e.key, e.problem))?;
+        self.wallfollow.validate()?;
+        self.centerfollow.validate()?;
+        self.executive.validate()?;
+        let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
+        self.planner.validate(&modes)?;
+        let behaviours = self.executive.behaviours();
+        if let Some(unknown) = behaviours.iter().find(|b| !KNOWN_BEHAVIOURS.contains(&b.as_str())) {
+            return Err(format!(
+                "executive.modes: behaviour '{unknown}' is not one this stack runs {KNOWN_BEHAVIOURS:?}"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The behaviour components `orsa run` starts.
+pub const KNOWN_BEHAVIOURS: [&str; 2] = ["wallfollow", "centerfollow"];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_default_file_parses_to_the_defaults() {
+        let parsed = Config::from_toml(DEFAULT_CONFIG, "config/orsa.toml").expect("default file parses");
+        assert_eq!(parsed, Config::default());
+    }
+
+    #[test]
+    fn errors_name_the_place_and_the_key() {
+        let e = Config::from_toml("[wallfollow]\ntarget_m = 0.2\nk_dd = 3.0\n", "my.toml")
+            .expect_err("unknown key");
+        let text = e.to_string();
+        assert!(text.starts_with("my.toml:3:1:") && text.contains("k_dd"), "{text}");
+        let e = Config::from_toml("[wallfollow.loops]\nk_alpha = 2.0\n", "my.toml").expect_err("bad sign");
+        assert_eq!(e.to_string(), "my.toml: wallfollow.k_alpha: must be a negative number");
+        let e = Config::from_toml("[robot]\ncmd_timeout_s = -1\n", "my.toml").expect_err("bad value");
+        assert!(e.to_string().contains("robot.cmd_timeout_s"), "{e}");
+        let e = Config::from_toml("[planner]\nmission = [{ mode = \"dance\" }]\n", "my.toml")
+            .expect_err("bad mode");
+        assert!(e.to_string().contains("planner.mission[0].mode: 'dance'"), "{e}");
+        let e = Config::from_toml("[executive.modes.x]\nbehaviours = [\"teleop\"]\n", "m.toml")
+            .expect_err("unknown");
+        assert!(e.to_string().contains("'teleop'"), "{e}");
+        let e = Config::load(Path::new("/nonexistent/orsa.toml")).expect_err("missing file");
+        assert!(e.to_string().starts_with("/nonexistent/orsa.toml: cannot read"), "{e}");
+    }
+}

@@ -1,0 +1,201 @@
+//! The thesis' measures of a corridor run, taken from ground truth.
+//!
+//! - **behaviour share**: the fraction of time each behaviour was wired to the motors;
+//! - **bumps**: contact onsets (the bumper ring going from free to pressed);
+//! - **wall-following clearance**: while wall following, the distance from the robot's edge to
+//!   the nearest obstacle on the followed (left) side;
+//! - **center-following offset**: while center following, half the difference between the
+//!   free distances straight out to the left and to the right, perpendicular to the heading
+//!   (positive: left of the centre);
+//! - **stalls**: 60 s windows (from the start, back to back) in which the robot travelled less
+//!   than 0.10 m.
+//!
+//! [`Metrics`] is a pure accumulator fed with [`Sample`]s at a fixed period; the mission samples
+//! the simulator's truth on tokio's clock.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// One look at the truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    /// Simulated time, s.
+    pub t_s: f64,
+    /// Position, m.
+    pub x_m: f64,
+    /// Position, m.
+    pub y_m: f64,
+    /// Distance travelled since the start, m.
+    pub travelled_m: f64,
+    /// The behaviour wired to the motors, if any.
+    pub driving: Option<String>,
+    /// Nearest obstacle on the left (only needed while wall following), m.
+    pub left_nearest_m: Option<f64>,
+    /// Free distance straight out left and right, m.
+    pub left_m: Option<f64>,
+    /// Free distance straight out right, m.
+    pub right_m: Option<f64>,
+    /// Contact onsets so far.
+    pub bumps: u64,
+}
+
+/// Mean and standard deviation of a series.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Samples.
+    pub n: u64,
+    /// Sum.
+    sum: f64,
+    /// Sum of squares.
+    sum_sq: f64,
+}
+
+impl Stats {
+    fn add(&mut self, v: f64) {
+        self.n += 1;
+        self.sum += v;
+        self.sum_sq += v * v;
+    }
+
+    /// The mean (None without samples).
+    pub fn mean(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.sum / self.n as f64)
+    }
+
+    /// The population standard deviation (None without samples).
+    pub fn std(&self) -> Option<f64> {
+        let m = self.mean()?;
+        Some((self.sum_sq / self.n as f64 - m * m).max(0.0).sqrt())
+    }
+}
+
+/// The accumulated measures of a run.
+#[derive(Debug, Clone, Default)]
+pub struct Metrics {
+    period_s: f64,
+    last_t_s: Option<f64>,
+    /// Seconds each behaviour (or "none") drove.
+    pub driving_s: BTreeMap<String, f64>,
+    /// Clearance while wall following.
+    pub clearance: Stats,
+    /// Signed offset while center following.
+    pub offset: Stats,
+    /// |offset| while center following.
+    pub abs_offset: Stats,
+    /// Windows of 60 s that count as stalls.
+    pub stalls: u64,
+    window_start: (f64, f64),
+    /// Contact onsets.
+    pub bumps: u64,
+    /// Distance travelled, m.
+    pub distance_m: f64,
+    /// Trajectory and series for the plot: (t, x, y, driving).
+    pub trajectory: Vec<(f64, f64, f64, Option<String>)>,
+    /// (t, offset) while center following.
+    pub offset_series: Vec<(f64, f64)>,
+    /// (t, clearance) while wall following.
+    pub clearance_series: Vec<(f64, f64)>,
+    /// (t, x, y) of each bump.
+    pub bump_points: Vec<(f64, f64, f64)>,
+}
+
+/// The label of "no behaviour wired".
+pub const NONE: &str = "none";
+
+impl Metrics {
+    /// An accumulator for samples taken every `period_s`.
+    pub fn new(period_s: f64) -> Self {
+        Metrics { period_s, ..Default::default() }
+    }
+
+    /// Adds one sample; each sample stands for the `period_s` before it.
+    pub fn add(&mut self, s: &Sample) {
+        let dt = match self.last_t_s {
+            Some(t) => s.t_s - t,
+            None => self.period_s.min(s.t_s),
+        };
+        self.last_t_s = Some(s.t_s);
+        let who = s.driving.clone().unwrap_or_else(|| NONE.to_string());
+        *self.driving_s.entry(who).or_insert(0.0) += dt;
+        match s.driving.as_deref() {
+            Some("wallfollow") => {
+                if let Some(c) = s.left_nearest_m {
+                    self.clearance.add(c);
+                    self.clearance_series.push((s.t_s, c));
+                }
+            }
+            Some("centerfollow") => {
+                if let (Some(l), Some(r)) = (s.left_m, s.right_m) {
+                    let off = (r - l) / 2.0;
+                    self.offset.add(off);
+                    self.abs_offset.add(off.abs());
+                    self.offset_series.push((s.t_s, off));
+                }
+            }
+            _ => {}
+        }
+        if s.bumps > self.bumps {
+            self.bump_points.push((s.t_s, s.x_m, s.y_m));
+        }
+        self.bumps = s.bumps;
+        self.distance_m = s.travelled_m;
+        // Whole 60 s windows that ended at or before this sample.
+        while s.t_s >= self.window_start.0 + 60.0 - 1e-9 {
+            if s.travelled_m - self.window_start.1 < 0.10 {
+                self.stalls += 1;
+            }
+            self.window_start = (self.window_start.0 + 60.0, s.travelled_m);
+        }
+        self.trajectory.push((s.t_s, s.x_m, s.y_m, s.driving.clone()));
+    }
+
+    /// Each behaviour's share of the time.
+    pub fn shares(&self) -> BTreeMap<String, f64> {
+        let total: f64 = self.driving_s.values().sum();
+        self.driving_s.iter().map(|(k, v)| (k.clone(), if total > 0.0 { v / total } else { 0.0 })).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(t: f64, travelled: f64, driving: Option<&str>, bumps: u64) -> Sample {
+        Sample {
+            t_s: t,
+            x_m: t,
+            y_m: 0.0,
+            travelled_m: travelled,
+            driving: driving.map(str::to_string),
+            left_nearest_m: Some(0.21),
+            left_m: Some(1.0),
+            right_m: Some(0.8),
+            bumps,
+        }
+    }
+
+    #[test]
+    fn shares_clearance_offset_bumps_and_stalls() {
+        let mut m = Metrics::new(1.0);
+        for k in 1..=180 {
+            let t = f64::from(k);
+            // 0-59 s wall following and moving; 60-119 s center following, barely moving;
+            // 120-180 center following and moving again; one bump at 150 s.
+            let (who, travelled) = match k {
+                1..=60 => ("wallfollow", 0.2 * t),
+                61..=120 => ("centerfollow", 12.0 + 0.001 * (t - 60.0)),
+                _ => ("centerfollow", 12.06 + 0.2 * (t - 120.0)),
+            };
+            m.add(&sample(t, travelled, Some(who), u64::from(k >= 150)));
+        }
+        let shares = m.shares();
+        assert!((shares["wallfollow"] - 60.0 / 180.0).abs() < 1e-12);
+        assert_eq!(m.stalls, 1, "only the second minute");
+        assert_eq!(m.bumps, 1);
+        assert_eq!(m.bump_points, vec![(150.0, 150.0, 0.0)]);
+        assert!((m.clearance.mean().expect("samples") - 0.21).abs() < 1e-12);
+        assert!((m.offset.mean().expect("samples") + 0.1).abs() < 1e-12, "left farther: right of centre");
+        assert!(m.offset.std().expect("samples") < 1e-9);
+        assert_eq!(m.clearance.n, 60);
+    }
+}

@@ -1,0 +1,167 @@
+//! The corridor mission: the whole stack on the simulator, measured as the thesis measured it.
+//!
+//! - [`stack`]: brings the components up under one supervisor;
+//! - [`metrics`]: the thesis' measures, from ground truth;
+//! - [`report`]: `report.json` and the table against the original experiment.
+//!
+//! [`run`] is what `orsa run` does, minus argument parsing and printing: it runs on whatever
+//! tokio runtime calls it, so the same code runs an hour in seconds on a paused clock or in
+//! real time, and tests call it directly.
+
+pub mod metrics;
+pub mod report;
+pub mod stack;
+
+use crate::config::Config;
+use metrics::{Metrics, Sample};
+use orsa_actors::push_newest::PushNewestClient;
+use orsa_actors::query::QueryClient;
+use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
+use orsa_actors::{Empty, Sink, Update};
+use orsa_executive::WiringChange;
+use orsa_hardware::server::SafetyCounters;
+use orsa_hardware::sim::Side;
+use orsa_hardware::world::World;
+use report::{Report, SafetyFigures};
+use stack::{Stack, StackError};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// What a run needs.
+pub struct RunOptions {
+    /// The world.
+    pub world: World,
+    /// How the report names it (the file, or `palazzina (built in)`).
+    pub world_label: String,
+    /// The stack's configuration.
+    pub config: Config,
+    /// The seed of every noise source.
+    pub seed: u64,
+    /// Simulated seconds to run.
+    pub duration_s: f64,
+    /// How often the truth is sampled for metrics, s.
+    pub sample_period_s: f64,
+    /// Called with the simulated time every `progress_every_s`.
+    pub progress: Option<Arc<dyn Fn(f64) + Send + Sync>>,
+    /// How often to call `progress`, simulated s.
+    pub progress_every_s: f64,
+}
+
+impl RunOptions {
+    /// Options with the defaults: 10 Hz sampling, no progress reports.
+    pub fn new(
+        world: World,
+        world_label: impl Into<String>,
+        config: Config,
+        seed: u64,
+        duration_s: f64,
+    ) -> Self {
+        RunOptions {
+            world,
+            world_label: world_label.into(),
+            config,
+            seed,
+            duration_s,
+            sample_period_s: 0.1,
+            progress: None,
+            progress_every_s: 10.0,
+        }
+    }
+}
+
+/// What a run produced.
+pub struct RunOutcome {
+    /// The report (`wall_seconds` is left for the caller to fill).
+    pub report: Report,
+    /// Every measure and series, for plots.
+    pub metrics: Metrics,
+    /// What the supervisor reported.
+    pub supervisor_events: Vec<SupervisorEvent>,
+}
+
+/// Why a run could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    /// The stack did not come up.
+    #[error(transparent)]
+    Stack(#[from] StackError),
+    /// A stack service could not be reached.
+    #[error("{0}")]
+    Service(#[from] orsa_actors::PatternError),
+    /// A duration or period that cannot be run.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Runs the corridor mission for `duration_s` simulated seconds and measures it.
+pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
+    if !(opts.duration_s.is_finite() && opts.duration_s > 0.0) {
+        return Err(MissionError::Invalid(format!(
+            "duration must be a positive number of seconds, not {}",
+            opts.duration_s
+        )));
+    }
+    let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
+    let stack = Stack::start(opts.world, &opts.config, opts.seed, opts.duration_s, move |e| {
+        // The receiver lives until the run ends.
+        let _ = ev_tx.send(e);
+    })
+    .await?;
+
+    let (wtx, mut wrx) = mpsc::unbounded_channel::<Update<WiringChange>>();
+    let wiring = PushNewestClient::connect_to(&stack.registry, "master/driving", Sink::channel(wtx))?;
+    wiring.subscribe()?;
+
+    let period = Duration::from_secs_f64(opts.sample_period_s);
+    let samples = (opts.duration_s / opts.sample_period_s).round() as u64;
+    let progress_every = ((opts.progress_every_s / opts.sample_period_s).round() as u64).max(1);
+    let mut metrics = Metrics::new(opts.sample_period_s);
+    let mut driving: Option<String> = None;
+    let start = tokio::time::Instant::now();
+    let mut ticks = tokio::time::interval_at(start + period, period);
+    for k in 1..=samples {
+        ticks.tick().await;
+        while let Ok(change) = wrx.try_recv() {
+            driving = change.driving.clone();
+        }
+        let t = stack.truth.truth();
+        let left_nearest = (driving.as_deref() == Some("wallfollow"))
+            .then(|| stack.truth.side_nearest(Side::Left))
+            .flatten();
+        metrics.add(&Sample {
+            t_s: k as f64 * opts.sample_period_s,
+            x_m: t.x_m,
+            y_m: t.y_m,
+            travelled_m: t.travelled_m,
+            driving: driving.clone(),
+            left_nearest_m: left_nearest,
+            left_m: stack.truth.side_clearance(Side::Left),
+            right_m: stack.truth.side_clearance(Side::Right),
+            bumps: t.contact_onsets,
+        });
+        if k % progress_every == 0
+            && let Some(p) = &opts.progress
+        {
+            p(k as f64 * opts.sample_period_s);
+        }
+    }
+    let robot = opts.config.robot.name.as_str();
+    let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, (robot, "safety"))?
+        .query(Empty {}, Some(Duration::from_secs(1)))
+        .await?;
+    drop(wiring);
+    stack.shutdown().await;
+    let mut events = Vec::new();
+    while let Ok(e) = ev_rx.try_recv() {
+        events.push(e);
+    }
+    let restarts = events.iter().filter(|e| e.kind == SupervisorEventKind::Restarted).count() as u64;
+    let safety = SafetyFigures {
+        commands_applied: safety.applied,
+        stale_commands_refused: safety.stale_refused,
+        command_timeouts: safety.timeouts,
+    };
+    let report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
+    Ok(RunOutcome { report, metrics, supervisor_events: events })
+}

@@ -1,0 +1,144 @@
+//! The report of a run: the JSON file and the table set against the original experiment.
+
+use super::metrics::{Metrics, NONE};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// The wall-following figures.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WallFollowFigures {
+    /// Mean clearance to the followed wall while wall following, m.
+    pub mean_clearance_m: Option<f64>,
+    /// Its standard deviation, m.
+    pub std_clearance_m: Option<f64>,
+}
+
+/// The center-following figures.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CenterFollowFigures {
+    /// Mean |offset| from the corridor centre while center following, m.
+    pub mean_abs_offset_m: Option<f64>,
+    /// Standard deviation of the signed offset, m.
+    pub std_offset_m: Option<f64>,
+}
+
+/// What the robot server did with velocity commands.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SafetyFigures {
+    /// Commands applied to the motors.
+    pub commands_applied: u64,
+    /// Commands refused as older than the velocity timeout.
+    pub stale_commands_refused: u64,
+    /// Times the robot was stopped for lack of fresh commands.
+    pub command_timeouts: u64,
+}
+
+/// Everything `report.json` says about a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// The world's name and where it came from.
+    pub world: String,
+    /// The seed.
+    pub seed: u64,
+    /// Simulated duration, s.
+    pub sim_seconds: f64,
+    /// Wall-clock duration, s (the only figure that differs between two runs of one seed).
+    pub wall_seconds: f64,
+    /// Distance driven, m.
+    pub distance_m: f64,
+    /// Contact onsets.
+    pub bumps: u64,
+    /// 60 s windows with less than 0.10 m travelled.
+    pub stalls: u64,
+    /// Fraction of the time each behaviour was wired to the motors (`none`: nothing was).
+    pub behaviour_share: BTreeMap<String, f64>,
+    /// Wall following.
+    pub wallfollow: WallFollowFigures,
+    /// Center following.
+    pub centerfollow: CenterFollowFigures,
+    /// Component restarts by the supervisor.
+    pub restarts: u64,
+    /// The robot server's command safety figures.
+    pub safety: SafetyFigures,
+}
+
+impl Report {
+    /// A report from a run's metrics.
+    pub fn new(
+        world: String,
+        seed: u64,
+        sim_seconds: f64,
+        m: &Metrics,
+        restarts: u64,
+        safety: SafetyFigures,
+    ) -> Self {
+        Report {
+            world,
+            seed,
+            sim_seconds,
+            wall_seconds: 0.0,
+            distance_m: m.distance_m,
+            bumps: m.bumps,
+            stalls: m.stalls,
+            behaviour_share: m.shares(),
+            wallfollow: WallFollowFigures {
+                mean_clearance_m: m.clearance.mean(),
+                std_clearance_m: m.clearance.std(),
+            },
+            centerfollow: CenterFollowFigures {
+                mean_abs_offset_m: m.abs_offset.mean(),
+                std_offset_m: m.offset.std(),
+            },
+            restarts,
+            safety,
+        }
+    }
+
+    fn share(&self, who: &str) -> f64 {
+        self.behaviour_share.get(who).copied().unwrap_or(0.0)
+    }
+
+    /// The original experiment's table beside this run's.
+    pub fn table(&self) -> String {
+        let cm = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1} cm", v * 100.0));
+        let pct = |v: f64| format!("{:.1} %", v * 100.0);
+        let mut rows: Vec<(String, String, String)> = vec![
+            ("time center following".into(), "91.3 %".into(), pct(self.share("centerfollow"))),
+            ("time wall following".into(), "8.7 %".into(), pct(self.share("wallfollow"))),
+        ];
+        if self.share(NONE) > 0.0 {
+            rows.push(("time with nothing wired".into(), "-".into(), pct(self.share(NONE))));
+        }
+        rows.extend([
+            ("bumps".to_string(), "2".to_string(), self.bumps.to_string()),
+            (
+                "wall clearance, mean (target 20 cm)".into(),
+                "18.3 cm".into(),
+                cm(self.wallfollow.mean_clearance_m),
+            ),
+            ("wall clearance, std".into(), "-".into(), cm(self.wallfollow.std_clearance_m)),
+            ("offset from centre, mean |.|".into(), "9.3 cm".into(), cm(self.centerfollow.mean_abs_offset_m)),
+            ("offset from centre, std".into(), "-".into(), cm(self.centerfollow.std_offset_m)),
+            ("stalls (60 s under 10 cm)".into(), "-".into(), self.stalls.to_string()),
+            ("distance driven".into(), "-".into(), format!("{:.0} m", self.distance_m)),
+        ]);
+        let head = ("", "thesis (2004)", format!("orsa (seed {})", self.seed));
+        let w0 = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+        let w1 = head.1.len().max(rows.iter().map(|r| r.1.len()).max().unwrap_or(0));
+        let mut out = String::new();
+        let _ = writeln!(out, "{:w0$}  {:>w1$}  {}", head.0, head.1, head.2);
+        for (a, b, c) in &rows {
+            let _ = writeln!(out, "{a:w0$}  {b:>w1$}  {c}");
+        }
+        let _ = write!(
+            out,
+            "{} simulated s in {:.1} wall s ({:.0}x real time), {} restarts",
+            self.sim_seconds,
+            self.wall_seconds,
+            if self.wall_seconds > 0.0 { self.sim_seconds / self.wall_seconds } else { 0.0 },
+            self.restarts
+        );
+        out
+    }
+}
