@@ -11,7 +11,7 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, Side, fuse, wall};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, fuse, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -73,7 +73,9 @@ impl CenterFollowParams {
 #[derive(Debug, Clone)]
 pub struct CenterFollower {
     params: CenterFollowParams,
-    ring_radius_m: f64,
+    radius_m: f64,
+    ir_half_beam_rad: f64,
+    sonar_half_beam_rad: f64,
 }
 
 /// What the controller saw and decided.
@@ -83,12 +85,20 @@ pub struct CenterFollowStep {
     pub cmd: NavigationVelocity,
     /// Estimated offset from the centre, m, positive to the right of it (None: not both sides).
     pub offset_m: Option<f64>,
+    /// The wall angle used, rad.
+    pub alpha_rad: f64,
 }
 
 impl CenterFollower {
-    /// A controller for a robot whose sensors sit at `ring_radius_m` from its centre.
-    pub fn new(params: CenterFollowParams, ring_radius_m: f64) -> Self {
-        CenterFollower { params, ring_radius_m }
+    /// A controller for a robot whose sensors sit at `radius_m` from its centre, with
+    /// infrared and sonar beams of these widths.
+    pub fn new(params: CenterFollowParams, radius_m: f64, ir_beam_rad: f64, sonar_beam_rad: f64) -> Self {
+        CenterFollower {
+            params,
+            radius_m,
+            ir_half_beam_rad: ir_beam_rad / 2.0,
+            sonar_half_beam_rad: sonar_beam_rad / 2.0,
+        }
     }
 
     /// The parameters.
@@ -100,9 +110,11 @@ impl CenterFollower {
     /// (that of the newer scan used).
     pub fn step(&mut self, ir: &Ranges, sonar: &Ranges, stamp: Timestamp) -> CenterFollowStep {
         let p = &self.params;
-        let r = fuse(ir, sonar, p.ir_below_m);
-        let left = wall(&r, Side::Left, p.estimator, self.ring_radius_m, p.l_m);
-        let right = wall(&r, Side::Right, p.estimator, self.ring_radius_m, p.l_m);
+        let (r, half_beam_rad) =
+            fuse(ir, sonar, p.ir_below_m, self.ir_half_beam_rad, self.sonar_half_beam_rad);
+        let ring = RingGeometry { radius_m: self.radius_m, half_beam_rad };
+        let left = wall(&r, Side::Left, p.estimator, &ring, p.l_m);
+        let right = wall(&r, Side::Right, p.estimator, &ring, p.l_m);
         let (error_left, alpha, offset) = match (left, right) {
             (Some(l), Some(rt)) => {
                 let e = (l.distance_m - rt.distance_m) / 2.0;
@@ -115,7 +127,11 @@ impl CenterFollower {
         let omega = p.loops.omega(error_left, alpha);
         let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
         let v = if front.is_finite() { (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s) } else { p.v_max_m_s };
-        CenterFollowStep { cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega }, offset_m: offset }
+        CenterFollowStep {
+            cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega },
+            offset_m: offset,
+            alpha_rad: alpha,
+        }
     }
 }
 
@@ -139,14 +155,15 @@ mod tests {
     #[test]
     fn centred_and_parallel_goes_straight() {
         let (ir, so) = views(2.4, 0.0, 0.0);
-        let s = CenterFollower::new(CenterFollowParams::default(), 0.25).step(&ir, &so, Timestamp(3));
+        let s =
+            CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(3));
         assert!(s.cmd.omega_rad_s.abs() < 1e-9 && s.offset_m.is_some_and(|o| o.abs() < 1e-9));
         assert_eq!(s.cmd.v_m_s, 0.25);
     }
 
     #[test]
     fn off_centre_turns_back_toward_the_middle() {
-        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25);
+        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0);
         let (ir, so) = views(2.4, 0.3, 0.0);
         assert!(c.step(&ir, &so, Timestamp(0)).cmd.omega_rad_s < -0.05, "left of centre: turn right");
         let (ir, so) = views(2.4, -0.3, 0.0);
@@ -155,7 +172,7 @@ mod tests {
 
     #[test]
     fn closed_loop_settles_on_the_centre_line() {
-        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25);
+        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0);
         let (mut y, mut theta) = (0.5f64, 0.2f64);
         let dt = 0.064;
         for _ in 0..(30.0 / dt) as usize {

@@ -8,7 +8,7 @@
 //! robot dimension is hard-coded, and publishes what it saw and decided on `status`.
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
-use crate::ring::{Ranges, ranges};
+use crate::ring::{Ranges, RingGeometry, ranges};
 use crate::wallfollow::{WallFollowParams, WallFollower};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::state::StateSpec;
@@ -34,6 +34,8 @@ pub struct BehaviourStatus {
     pub wall_m: Option<f64>,
     /// Estimated offset from the corridor centre, positive right of it (center following), m.
     pub offset_m: Option<f64>,
+    /// The wall angle the step used (see [`crate::ring`]), rad.
+    pub alpha_rad: f64,
     /// Whether the command left through a wired port.
     pub delivered: bool,
 }
@@ -43,13 +45,13 @@ fn states() -> StateSpec {
     StateSpec::new().main_state(ACTIVE, &[COMPUTE])
 }
 
-async fn ring_radius(ctx: &Ctx<impl ractor::Message>, robot: &str) -> Result<f64, ComponentError> {
+async fn robot_params(ctx: &Ctx<impl ractor::Message>, robot: &str) -> Result<RobotParams, ComponentError> {
     let params: RobotParams = ctx
         .query_client::<Empty, RobotParams>((robot, "robotparams"))?
         .query(Empty {}, Some(Duration::from_secs(2)))
         .await
         .map_err(|e| format!("{}: cannot get {robot}/robotparams: {e}", ctx.name()))?;
-    Ok(params.infrared.mount_radius_m)
+    Ok(params)
 }
 
 fn sent(result: Result<(), PatternError>) -> bool {
@@ -92,11 +94,12 @@ impl Component for WallFollow {
 
     async fn setup(&self, ctx: &Ctx<WallFollowMsg>) -> Result<WallFollowState, ComponentError> {
         ctx.declare_states(states())?;
-        let radius = ring_radius(ctx, &self.robot).await?;
+        let robot = robot_params(ctx, &self.robot).await?;
+        let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
         let vel = ctx.send_port::<NavigationVelocity>("vel")?;
         let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, WallFollowMsg::Ir)?;
-        Ok(WallFollowState { ctl: WallFollower::new(self.params, radius), vel, status })
+        Ok(WallFollowState { ctl: WallFollower::new(self.params, ring), vel, status })
     }
 
     async fn handle(
@@ -114,6 +117,7 @@ impl Component for WallFollow {
             cmd: step.cmd,
             wall_m: step.wall_m,
             offset_m: None,
+            alpha_rad: step.alpha_rad,
             delivered,
         });
         Ok(())
@@ -153,13 +157,18 @@ impl Component for CenterFollow {
 
     async fn setup(&self, ctx: &Ctx<CenterFollowMsg>) -> Result<CenterFollowState, ComponentError> {
         ctx.declare_states(states())?;
-        let radius = ring_radius(ctx, &self.robot).await?;
+        let robot = robot_params(ctx, &self.robot).await?;
         let vel = ctx.send_port::<NavigationVelocity>("vel")?;
         let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, CenterFollowMsg::Ir)?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceson"), 1, CenterFollowMsg::Sonar)?;
         Ok(CenterFollowState {
-            ctl: CenterFollower::new(self.params, radius),
+            ctl: CenterFollower::new(
+                self.params,
+                robot.infrared.mount_radius_m,
+                robot.infrared.beam_width_rad,
+                robot.sonar.beam_width_rad,
+            ),
             vel,
             status,
             ir: None,
@@ -194,6 +203,7 @@ impl Component for CenterFollow {
             cmd: step.cmd,
             wall_m: None,
             offset_m: step.offset_m,
+            alpha_rad: step.alpha_rad,
             delivered,
         });
         Ok(())

@@ -13,10 +13,16 @@
 //!   middle sensor (4 left, 12 right) and `l = 0.17 m`. Where it is fragile orsa does the sound
 //!   thing: the asin argument is clamped to [-1, 1]; a neighbour that is invalid (out of range)
 //!   or outside the ring's side drops the fine term and keeps the coarse `pi/8 (m - c)`.
-//! - [`AngleEstimator::LineFit`]: the hit points of sensors `m-1, m, m+1` (each sensor's
-//!   position on the ring plus its reading along its direction) are fitted with a line; `alpha`
-//!   is that line's direction and `d` its distance from the body's edge. For a flat wall this is
-//!   exact at any angle, where the original is a small-angle approximation; it is the default.
+//! - [`AngleEstimator::LineFit`]: the wall through the echoes of the nearest sensor's two
+//!   neighbours. A sensor reports the nearest surface anywhere in its beam; for a neighbour of
+//!   the nearest sensor that is where the beam's edge closest to the perpendicular meets the
+//!   wall. Placing each neighbour's echo on that edge (the sensor's position on the ring, plus
+//!   its reading along the edge) puts both points exactly on a flat wall, so the line through
+//!   them gives `alpha` and `d` exactly at any angle and any beam width (25 degree sonar beams
+//!   included), where the original is a small-angle, narrow-beam approximation. When the two
+//!   neighbours disagree with the nearest reading (they see different objects), or one is
+//!   missing, it falls back to the nearest reading and the coarse angle `pi/8 (m - c)`. It is
+//!   the default.
 
 use orsa_hardware::comm::{DistanceScan, RING_SIZE, ring_angle_rad};
 use serde::{Deserialize, Serialize};
@@ -77,16 +83,27 @@ pub fn ranges(scan: &DistanceScan) -> Ranges {
 }
 
 /// Fuses infrared and sonar per sensor: infrared where it reads under `ir_below_m`, sonar
-/// otherwise (the original rule; infrared is precise up close, sonar sees far).
-pub fn fuse(ir: &Ranges, sonar: &Ranges, ir_below_m: f64) -> Ranges {
+/// otherwise (the original rule; infrared is precise up close, sonar sees far). Also gives each
+/// sensor's half beam width: `ir_half_beam` or `sonar_half_beam`, whichever was used.
+pub fn fuse(
+    ir: &Ranges,
+    sonar: &Ranges,
+    ir_below_m: f64,
+    ir_half_beam: f64,
+    sonar_half_beam: f64,
+) -> (Ranges, [f64; RING_SIZE]) {
     let mut out = [None; RING_SIZE];
+    let mut beams = [sonar_half_beam; RING_SIZE];
     for i in 0..RING_SIZE {
         out[i] = match ir[i] {
-            Some(d) if d < ir_below_m => Some(d),
+            Some(d) if d < ir_below_m => {
+                beams[i] = ir_half_beam;
+                Some(d)
+            }
             _ => sonar[i],
         };
     }
-    out
+    (out, beams)
 }
 
 /// The wall seen on one side.
@@ -105,16 +122,34 @@ pub fn side_min(r: &Ranges, side: Side) -> Option<(usize, f64)> {
     side.sensors().filter_map(|i| r[i].map(|d| (i, d))).min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
-/// Estimates the wall on `side` from ring readings. `ring_radius_m` is where the sensors sit.
+/// Where the sensors are and how wide they see.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RingGeometry {
+    /// Distance of the sensor faces from the centre, m.
+    pub radius_m: f64,
+    /// Half the beam width of each sensor's reading, rad (per sensor: a fused ring mixes
+    /// infrared and sonar).
+    pub half_beam_rad: [f64; RING_SIZE],
+}
+
+impl RingGeometry {
+    /// A ring of identical sensors.
+    pub fn uniform(radius_m: f64, beam_width_rad: f64) -> Self {
+        RingGeometry { radius_m, half_beam_rad: [beam_width_rad / 2.0; RING_SIZE] }
+    }
+}
+
+/// Estimates the wall on `side` from ring readings.
 pub fn wall(
     r: &Ranges,
     side: Side,
     how: AngleEstimator,
-    ring_radius_m: f64,
+    ring: &RingGeometry,
     l_m: f64,
 ) -> Option<WallEstimate> {
     let (m, d_min) = side_min(r, side)?;
     let coarse = PI / 8.0 * (m as f64 - side.middle() as f64);
+    let fallback = WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m };
     let in_side = |i: usize| side.sensors().contains(&i);
     match how {
         AngleEstimator::Original => {
@@ -127,23 +162,26 @@ pub fn wall(
             Some(WallEstimate { distance_m: d_min, alpha_rad: coarse + fine, nearest: m })
         }
         AngleEstimator::LineFit => {
-            let pts: Vec<(f64, f64)> = [m - 1, m, m + 1]
-                .into_iter()
-                .filter(|&i| i < RING_SIZE)
-                .filter_map(|i| {
-                    let d = r[i]?;
-                    let a = ring_angle_rad(i);
-                    Some(((ring_radius_m + d) * a.cos(), (ring_radius_m + d) * a.sin()))
-                })
-                .collect();
-            match line_fit(&pts) {
-                Some((alpha, dist_centre)) => Some(WallEstimate {
-                    distance_m: dist_centre - ring_radius_m,
-                    alpha_rad: alpha,
-                    nearest: m,
-                }),
-                None => Some(WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m }),
+            let before = (m + RING_SIZE - 1) % RING_SIZE;
+            let after = (m + 1) % RING_SIZE;
+            let echo = |j: usize, toward: f64| {
+                let d = r[j]?;
+                let axis = ring_angle_rad(j);
+                let edge = axis + toward * ring.half_beam_rad[j];
+                Some((
+                    ring.radius_m * axis.cos() + d * edge.cos(),
+                    ring.radius_m * axis.sin() + d * edge.sin(),
+                ))
+            };
+            let (Some(p), Some(q)) = (echo(before, 1.0), echo(after, -1.0)) else { return Some(fallback) };
+            let Some((alpha, dist_centre)) = line_fit(&[p, q]) else { return Some(fallback) };
+            let d = dist_centre - ring.radius_m;
+            // The nearest reading lies on the same wall when the neighbours do: it sees the
+            // wall's closest point from a face at most the ring's radius from the centre.
+            if (d - d_min).abs() > 0.03 + 0.05 * d_min {
+                return Some(fallback);
             }
+            Some(WallEstimate { distance_m: d.min(d_min), alpha_rad: alpha, nearest: m })
         }
     }
 }
@@ -185,19 +223,40 @@ pub(crate) mod synthetic {
     /// the distances from the robot's centre to the left/right walls measured perpendicular to
     /// the walls, `theta` the heading relative to the walls (CCW positive), `max` the range.
     pub(crate) fn corridor(left: Option<f64>, right: Option<f64>, theta: f64, r0: f64, max: f64) -> Ranges {
+        corridor_beam(left, right, theta, r0, max, 0.0)
+    }
+
+    /// The same with beams `2 half_beam` wide: each sensor reports the nearest echo of 41 rays
+    /// across its beam, cast from its face on the ring (as the simulator does).
+    pub(crate) fn corridor_beam(
+        left: Option<f64>,
+        right: Option<f64>,
+        theta: f64,
+        r0: f64,
+        max: f64,
+        half_beam: f64,
+    ) -> Ranges {
         let mut out = [None; RING_SIZE];
         for (i, slot) in out.iter_mut().enumerate() {
-            // Sensor direction in the wall frame.
-            let a = ring_angle_rad(i) + theta;
-            let s = a.sin();
+            let axis = ring_angle_rad(i) + theta;
+            // The face, in the wall frame: y is the signed distance towards the left wall.
+            let face_y = r0 * axis.sin();
             let mut best: Option<f64> = None;
-            if let Some(l) = left.filter(|_| s > 1e-9) {
-                best = Some(l / s);
+            for k in 0..41 {
+                let a = axis + half_beam * (f64::from(k) / 20.0 - 1.0);
+                let s = a.sin();
+                let hit = if s > 1e-9 {
+                    left.map(|l| (l - face_y) / s)
+                } else if s < -1e-9 {
+                    right.map(|rr| (rr + face_y) / -s)
+                } else {
+                    None
+                };
+                if let Some(t) = hit.filter(|t| *t >= 0.0) {
+                    best = Some(best.map_or(t, |b: f64| b.min(t)));
+                }
             }
-            if let Some(rr) = right.filter(|_| s < -1e-9) {
-                best = Some(rr / -s);
-            }
-            *slot = best.map(|t| t - r0).filter(|d| *d > 0.0 && *d <= max);
+            *slot = best.filter(|d| *d <= max);
         }
         out
     }
@@ -213,23 +272,58 @@ mod tests {
         for theta_deg in [-20.0f64, -8.0, 0.0, 5.0, 15.0] {
             let theta = theta_deg.to_radians();
             let r = corridor(Some(0.45), None, theta, 0.25, 0.6);
-            let w = wall(&r, Side::Left, AngleEstimator::LineFit, 0.25, 0.17).expect("wall seen");
+            let w = wall(&r, Side::Left, AngleEstimator::LineFit, &RingGeometry::uniform(0.25, 0.0), 0.17)
+                .expect("wall seen");
             assert!((w.alpha_rad + theta).abs() < 1e-9, "theta {theta_deg}: alpha {}", w.alpha_rad);
             assert!((w.distance_m - 0.20).abs() < 1e-9, "theta {theta_deg}: d {}", w.distance_m);
         }
     }
 
     #[test]
+    fn line_fit_is_exact_with_wide_beams_and_steep_angles() {
+        // 25 degree sonar beams, and a robot turned up to 65 degrees into the wall.
+        for (half_beam_deg, theta_deg) in
+            [(12.5f64, 0.0f64), (12.5, 8.0), (12.5, -15.0), (3.0, 40.0), (3.0, 65.0)]
+        {
+            let (hb, theta) = (half_beam_deg.to_radians(), theta_deg.to_radians());
+            let r = super::synthetic::corridor_beam(Some(0.25 + 0.9), None, theta, 0.25, 6.0, hb);
+            let ring = RingGeometry::uniform(0.25, 2.0 * hb);
+            let w = wall(&r, Side::Left, AngleEstimator::LineFit, &ring, 0.17).expect("wall");
+            assert!(
+                (w.alpha_rad + theta).abs() < 0.01,
+                "beam {half_beam_deg}, theta {theta_deg}: alpha {}",
+                w.alpha_rad
+            );
+            assert!(
+                (w.distance_m - 0.9).abs() < 0.01,
+                "beam {half_beam_deg}, theta {theta_deg}: d {}",
+                w.distance_m
+            );
+        }
+    }
+
+    #[test]
     fn original_estimator_has_the_right_sign_and_is_exact_when_parallel() {
         let r = corridor(Some(0.45), None, 0.0, 0.25, 0.6);
-        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        let w = wall(&r, Side::Left, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+            .expect("wall");
         assert_eq!(w.nearest, 4);
         assert!(w.alpha_rad.abs() < 1e-12 && (w.distance_m - 0.20).abs() < 1e-12);
         // Heading into the left wall: alpha < 0. Into the right wall: alpha > 0.
         let r = corridor(Some(0.45), None, 0.15, 0.25, 0.6);
-        assert!(wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall").alpha_rad < -0.05);
+        assert!(
+            wall(&r, Side::Left, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+                .expect("wall")
+                .alpha_rad
+                < -0.05
+        );
         let r = corridor(None, Some(0.45), -0.15, 0.25, 0.6);
-        assert!(wall(&r, Side::Right, AngleEstimator::Original, 0.25, 0.17).expect("wall").alpha_rad > 0.05);
+        assert!(
+            wall(&r, Side::Right, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+                .expect("wall")
+                .alpha_rad
+                > 0.05
+        );
     }
 
     #[test]
@@ -238,16 +332,27 @@ mod tests {
         let mut r = [None; RING_SIZE];
         r[7] = Some(0.3);
         r[8] = Some(0.2);
-        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        let w = wall(&r, Side::Left, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+            .expect("wall");
         assert!((w.alpha_rad - 3.0 * PI / 8.0).abs() < 1e-12, "coarse only: {}", w.alpha_rad);
         // Neighbours so different that the asin argument leaves [-1, 1].
         let mut r = [None; RING_SIZE];
         r[3] = Some(0.05);
         r[4] = Some(0.04);
         r[5] = Some(0.59);
-        let w = wall(&r, Side::Left, AngleEstimator::Original, 0.25, 0.17).expect("wall");
+        let w = wall(&r, Side::Left, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+            .expect("wall");
         assert!((w.alpha_rad + PI / 2.0).abs() < 1e-12 && w.alpha_rad.is_finite());
-        assert!(wall(&[None; RING_SIZE], Side::Left, AngleEstimator::Original, 0.25, 0.17).is_none());
+        assert!(
+            wall(
+                &[None; RING_SIZE],
+                Side::Left,
+                AngleEstimator::Original,
+                &RingGeometry::uniform(0.25, 0.0),
+                0.17
+            )
+            .is_none()
+        );
     }
 
     #[test]
@@ -259,7 +364,8 @@ mod tests {
         ir[2] = Some(0.65);
         so[2] = Some(0.66);
         so[3] = Some(2.0);
-        let f = fuse(&ir, &so, 0.6);
+        let (f, beams) = fuse(&ir, &so, 0.6, 0.05, 0.2);
         assert_eq!((f[1], f[2], f[3], f[4]), (Some(0.3), Some(0.66), Some(2.0), None));
+        assert_eq!((beams[1], beams[2]), (0.05, 0.2));
     }
 }

@@ -15,7 +15,7 @@
 //!   front of it.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, Side, side_min, wall};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, side_min, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -86,7 +86,7 @@ impl WallFollowParams {
 #[derive(Debug, Clone)]
 pub struct WallFollower {
     params: WallFollowParams,
-    ring_radius_m: f64,
+    ring: RingGeometry,
 }
 
 /// What the controller saw and decided, for logs and plots.
@@ -101,9 +101,9 @@ pub struct WallFollowStep {
 }
 
 impl WallFollower {
-    /// A controller for a robot whose sensors sit at `ring_radius_m` from its centre.
-    pub fn new(params: WallFollowParams, ring_radius_m: f64) -> Self {
-        WallFollower { params, ring_radius_m }
+    /// A controller for a robot whose infrared ring is `ring`.
+    pub fn new(params: WallFollowParams, ring: RingGeometry) -> Self {
+        WallFollower { params, ring }
     }
 
     /// The parameters.
@@ -115,7 +115,7 @@ impl WallFollower {
     /// the scan's stamp, so its age says how old the data it was computed from is.
     pub fn step(&mut self, ir: &Ranges, stamp: Timestamp) -> WallFollowStep {
         let p = &self.params;
-        let estimate = wall(ir, Side::Left, p.estimator, self.ring_radius_m, p.l_m);
+        let estimate = wall(ir, Side::Left, p.estimator, &self.ring, p.l_m);
         let (mut d, mut alpha) = match estimate {
             Some(w) => (w.distance_m, w.alpha_rad),
             None => (p.ir_range_m, 0.0),
@@ -150,7 +150,7 @@ mod tests {
     use crate::ring::synthetic::corridor;
 
     fn ctl() -> WallFollower {
-        WallFollower::new(WallFollowParams::default(), 0.25)
+        WallFollower::new(WallFollowParams::default(), RingGeometry::uniform(0.25, 0.0))
     }
 
     /// The scan of a robot `left_edge_m` from the left wall (edge to wall), heading `theta`.
@@ -198,7 +198,7 @@ mod tests {
     fn closed_loop_converges_to_the_target_distance() {
         for estimator in [AngleEstimator::LineFit, AngleEstimator::Original] {
             let params = WallFollowParams { estimator, ..Default::default() };
-            let mut c = WallFollower::new(params, 0.25);
+            let mut c = WallFollower::new(params, RingGeometry::uniform(0.25, 0.0));
             let (mut edge, mut theta) = (0.35f64, -10f64.to_radians());
             let dt = 0.04;
             for _ in 0..(15.0 / dt) as usize {

@@ -39,33 +39,32 @@ pub struct Sample {
     pub bumps: u64,
 }
 
-/// Mean and standard deviation of a series.
+/// Mean and standard deviation of a series (Welford's running algorithm: no cancellation, so
+/// a nearly constant series over an hour keeps its small deviation exact).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
     /// Samples.
     pub n: u64,
-    /// Sum.
-    sum: f64,
-    /// Sum of squares.
-    sum_sq: f64,
+    mean: f64,
+    m2: f64,
 }
 
 impl Stats {
     fn add(&mut self, v: f64) {
         self.n += 1;
-        self.sum += v;
-        self.sum_sq += v * v;
+        let delta = v - self.mean;
+        self.mean += delta / self.n as f64;
+        self.m2 += delta * (v - self.mean);
     }
 
     /// The mean (None without samples).
     pub fn mean(&self) -> Option<f64> {
-        (self.n > 0).then(|| self.sum / self.n as f64)
+        (self.n > 0).then_some(self.mean)
     }
 
     /// The population standard deviation (None without samples).
     pub fn std(&self) -> Option<f64> {
-        let m = self.mean()?;
-        Some((self.sum_sq / self.n as f64 - m * m).max(0.0).sqrt())
+        (self.n > 0).then(|| (self.m2 / self.n as f64).max(0.0).sqrt())
     }
 }
 
@@ -195,7 +194,13 @@ mod tests {
         assert_eq!(m.bump_points, vec![(150.0, 150.0, 0.0)]);
         assert!((m.clearance.mean().expect("samples") - 0.21).abs() < 1e-12);
         assert!((m.offset.mean().expect("samples") + 0.1).abs() < 1e-12, "left farther: right of centre");
-        assert!(m.offset.std().expect("samples") < 1e-9);
+        assert!(m.offset.std().expect("samples") < 1e-12);
+        let mut s = Stats::default();
+        for v in [0.18, 0.22, 0.20, 0.20] {
+            s.add(v);
+        }
+        // Deviations of +-0.02, 0, 0: variance 0.0002.
+        assert!((s.std().expect("samples") - 0.0002f64.sqrt()).abs() < 1e-12);
         assert_eq!(m.clearance.n, 60);
     }
 }
