@@ -128,7 +128,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     report.wall_seconds = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
-    println!("{}", report.table());
+    say(&report.table());
     let json = serde_json::to_string_pretty(&report)?;
     std::fs::write(&args.report, json)
         .with_context(|| format!("{}: cannot write the report", args.report.display()))?;
@@ -146,6 +146,12 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         targets: Targets::default(),
     };
     write_plot(&args.plot, &plot)?;
-    println!("report: {}\nplot:   {}", args.report.display(), args.plot.display());
+    say(&format!("report: {}\nplot:   {}", args.report.display(), args.plot.display()));
     Ok(())
+}
+
+/// Prints a line to stdout; a reader that went away (`orsa run | head`) is not an error.
+fn say(text: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
 }

@@ -11,7 +11,7 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, fuse, wall};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -32,6 +32,11 @@ pub struct CenterFollowParams {
     pub l_m: f64,
     /// How the wall angle is estimated.
     pub estimator: AngleEstimator,
+    /// The left sensors whose nearest reading is the left wall, first and last (the thesis:
+    /// 1 to 7).
+    pub left_sensors: [usize; 2],
+    /// The right sensors, first and last (the thesis: 9 to 15).
+    pub right_sensors: [usize; 2],
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
 }
@@ -45,6 +50,8 @@ impl Default for CenterFollowParams {
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
+            left_sensors: [1, 5],
+            right_sensors: [11, 15],
             loops: CascadeParams { k_d: 1.5, k_alpha: -2.0, ..CascadeParams::default() },
         }
     }
@@ -65,6 +72,14 @@ impl CenterFollowParams {
         pos(self.v_min_m_s, "v_min_m_s")?;
         pos(self.ir_below_m, "ir_below_m")?;
         pos(self.l_m, "l_m")?;
+        let [a, b] = self.left_sensors;
+        if !(1..=7).contains(&a) || !(a..=7).contains(&b) {
+            return Err(format!("centerfollow.left_sensors: [{a}, {b}] must be first and last of 1..7"));
+        }
+        let [a, b] = self.right_sensors;
+        if !(9..=15).contains(&a) || !(a..=15).contains(&b) {
+            return Err(format!("centerfollow.right_sensors: [{a}, {b}] must be first and last of 9..15"));
+        }
         self.loops.validate("centerfollow")
     }
 }
@@ -113,8 +128,10 @@ impl CenterFollower {
         let (r, half_beam_rad) =
             fuse(ir, sonar, p.ir_below_m, self.ir_half_beam_rad, self.sonar_half_beam_rad);
         let ring = RingGeometry { radius_m: self.radius_m, half_beam_rad };
-        let left = wall(&r, Side::Left, p.estimator, &ring, p.l_m);
-        let right = wall(&r, Side::Right, p.estimator, &ring, p.l_m);
+        let [l0, l1] = p.left_sensors;
+        let [r0, r1] = p.right_sensors;
+        let left = wall_in(&r, Side::Left, l0..=l1, p.estimator, &ring, p.l_m);
+        let right = wall_in(&r, Side::Right, r0..=r1, p.estimator, &ring, p.l_m);
         let (error_left, alpha, offset) = match (left, right) {
             (Some(l), Some(rt)) => {
                 let e = (l.distance_m - rt.distance_m) / 2.0;

@@ -119,7 +119,12 @@ pub struct WallEstimate {
 
 /// The minimum valid reading on `side` and the sensor that gave it.
 pub fn side_min(r: &Ranges, side: Side) -> Option<(usize, f64)> {
-    side.sensors().filter_map(|i| r[i].map(|d| (i, d))).min_by(|a, b| a.1.total_cmp(&b.1))
+    window_min(r, side.sensors())
+}
+
+/// The minimum valid reading among `sensors` and the sensor that gave it.
+pub fn window_min(r: &Ranges, sensors: std::ops::RangeInclusive<usize>) -> Option<(usize, f64)> {
+    sensors.filter_map(|i| r.get(i).copied().flatten().map(|d| (i, d))).min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 /// Where the sensors are and how wide they see.
@@ -147,7 +152,20 @@ pub fn wall(
     ring: &RingGeometry,
     l_m: f64,
 ) -> Option<WallEstimate> {
-    let (m, d_min) = side_min(r, side)?;
+    wall_in(r, side, side.sensors(), how, ring, l_m)
+}
+
+/// Estimates the wall on `side` from the nearest reading among `window` (a sub-range of the
+/// side's sensors) and its neighbours.
+pub fn wall_in(
+    r: &Ranges,
+    side: Side,
+    window: std::ops::RangeInclusive<usize>,
+    how: AngleEstimator,
+    ring: &RingGeometry,
+    l_m: f64,
+) -> Option<WallEstimate> {
+    let (m, d_min) = window_min(r, window)?;
     let coarse = PI / 8.0 * (m as f64 - side.middle() as f64);
     let fallback = WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m };
     let in_side = |i: usize| side.sensors().contains(&i);

@@ -5,8 +5,11 @@
 //! - **wall-following clearance**: while wall following, the distance from the robot's edge to
 //!   the nearest obstacle on the followed (left) side;
 //! - **center-following offset**: while center following, half the difference between the
-//!   free distances straight out to the left and to the right, perpendicular to the heading
-//!   (positive: left of the centre);
+//!   left and right clearances (positive: left of the centre), each clearance measured as for
+//!   wall following: the distance from the robot's edge to the nearest obstacle in that side's
+//!   half-plane, left or right of the heading. Along a corridor this is the perpendicular
+//!   definition; while the robot turns round at a corridor's end it stays bounded, where
+//!   perpendicular rays would run the corridor's length and report tens of metres;
 //! - **stalls**: 60 s windows (from the start, back to back) in which the robot travelled less
 //!   than 0.10 m.
 //!
@@ -29,11 +32,9 @@ pub struct Sample {
     pub travelled_m: f64,
     /// The behaviour wired to the motors, if any.
     pub driving: Option<String>,
-    /// Nearest obstacle on the left (only needed while wall following), m.
-    pub left_nearest_m: Option<f64>,
-    /// Free distance straight out left and right, m.
+    /// Nearest obstacle in the left half-plane (needed while a behaviour drives), m.
     pub left_m: Option<f64>,
-    /// Free distance straight out right, m.
+    /// Nearest obstacle in the right half-plane (needed while center following), m.
     pub right_m: Option<f64>,
     /// Contact onsets so far.
     pub bumps: u64,
@@ -118,7 +119,7 @@ impl Metrics {
         *self.driving_s.entry(who).or_insert(0.0) += dt;
         match s.driving.as_deref() {
             Some("wallfollow") => {
-                if let Some(c) = s.left_nearest_m {
+                if let Some(c) = s.left_m {
                     self.clearance.add(c);
                     self.clearance_series.push((s.t_s, c));
                 }
@@ -166,8 +167,7 @@ mod tests {
             y_m: 0.0,
             travelled_m: travelled,
             driving: driving.map(str::to_string),
-            left_nearest_m: Some(0.21),
-            left_m: Some(1.0),
+            left_m: Some(if driving == Some("wallfollow") { 0.21 } else { 1.0 }),
             right_m: Some(0.8),
             bumps,
         }

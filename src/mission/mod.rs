@@ -126,18 +126,16 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
             driving = change.driving.clone();
         }
         let t = stack.truth.truth();
-        let left_nearest = (driving.as_deref() == Some("wallfollow"))
-            .then(|| stack.truth.side_nearest(Side::Left))
-            .flatten();
+        let following = driving.is_some();
+        let center = driving.as_deref() == Some("centerfollow");
         metrics.add(&Sample {
             t_s: k as f64 * opts.sample_period_s,
             x_m: t.x_m,
             y_m: t.y_m,
             travelled_m: t.travelled_m,
             driving: driving.clone(),
-            left_nearest_m: left_nearest,
-            left_m: stack.truth.side_clearance(Side::Left),
-            right_m: stack.truth.side_clearance(Side::Right),
+            left_m: following.then(|| stack.truth.side_nearest(Side::Left)).flatten(),
+            right_m: center.then(|| stack.truth.side_nearest(Side::Right)).flatten(),
             bumps: t.contact_onsets,
         });
         if k % progress_every == 0

@@ -99,7 +99,9 @@ pub fn max_travel_fraction(shape: &Shape, center: &Point, displacement: &Vector,
     let q = shape.closest_point(center);
     let (ax, ay) = (center.x - q.x, center.y - q.y);
     let gap = norm2(ax, ay);
-    if gap < radius {
+    // At exactly `radius` the body touches (entry_time would answer 0): moving away or along
+    // must stay free, or a body stopped against a wall at the kept margin is glued to it.
+    if gap <= radius {
         let away = displacement.x * ax + displacement.y * ay;
         return if gap > 0.0 && away >= 0.0 { 1.0 } else { 0.0 };
     }
@@ -121,6 +123,20 @@ mod tests {
     }
     fn v(x: f64, y: f64) -> Vector {
         Vector::new(x, y)
+    }
+
+    #[test]
+    fn a_body_touching_exactly_can_leave_or_slide_but_not_push_in() {
+        let wall = Shape::Segment(Segment::new(p(7.0, 0.0), p(14.0, 0.0)));
+        let c = p(13.7824, 0.25 + 1e-6);
+        let r = 0.25 + 1e-6;
+        let h = 163.2f64.to_radians();
+        assert_eq!(max_travel_fraction(&wall, &c, &v(0.0025 * h.cos(), 0.0025 * h.sin()), r), 1.0, "away");
+        assert_eq!(max_travel_fraction(&wall, &c, &v(-0.0025, 0.0), r), 1.0, "along");
+        assert_eq!(max_travel_fraction(&wall, &c, &v(0.0, -0.0025), r), 0.0, "into");
+        let disc = Shape::Circle(Circle::new(p(0.0, 0.0), 1.0));
+        assert_eq!(max_travel_fraction(&disc, &p(2.0, 0.0), &v(0.1, 0.0), 1.0), 1.0, "away from a disc");
+        assert_eq!(max_travel_fraction(&disc, &p(2.0, 0.0), &v(-0.1, 0.0), 1.0), 0.0, "into a disc");
     }
 
     #[test]
