@@ -10,14 +10,20 @@ use super::{Circle, Point, Segment, Shape, Vector, norm2};
 
 /// The first time `t >= 0` at which the point `p + t·d` is within `radius` of `center`, if ever.
 /// Returns 0 when `p` already is.
+/// How far inside counts as touching rather than overlapping: rounding, not geometry.
+const TOUCH: f64 = 1e-9;
+
 fn disc_entry(p: &Point, d: &Vector, center: &Point, radius: f64) -> Option<f64> {
     let (mx, my) = (p.x - center.x, p.y - center.y);
     let c = mx * mx + my * my - radius * radius;
+    let b = mx * d.x + my * d.y;
     if c <= 0.0 {
-        return Some(0.0);
+        // Overlapping: entered already. Touching to within rounding: entering only when
+        // moving inward, so a body can always leave what it touches.
+        let depth = radius - (mx * mx + my * my).sqrt();
+        return (depth > TOUCH || b < 0.0).then_some(0.0);
     }
     let a = d.x * d.x + d.y * d.y;
-    let b = mx * d.x + my * d.y;
     if a == 0.0 || b >= 0.0 {
         return None;
     }
@@ -40,8 +46,13 @@ fn earliest(a: Option<f64>, b: Option<f64>) -> Option<f64> {
 /// The first time `t >= 0` at which `p + t·d` is within `radius` of `seg`, if ever.
 /// Returns 0 when `p` already is.
 fn capsule_entry(p: &Point, d: &Vector, seg: &Segment, radius: f64) -> Option<f64> {
-    if seg.distance(p) <= radius {
-        return Some(0.0);
+    let dist = seg.distance(p);
+    if dist <= radius {
+        // As for a disc: touching to within rounding enters only when moving toward the
+        // closest point (a segment is convex).
+        let q = seg.closest_point(p);
+        let inward = (q.x - p.x) * d.x + (q.y - p.y) * d.y;
+        return (radius - dist > TOUCH || inward > 0.0).then_some(0.0);
     }
     let mut best = earliest(disc_entry(p, d, &seg.a, radius), disc_entry(p, d, &seg.b, radius));
     let (ex, ey) = (seg.b.x - seg.a.x, seg.b.y - seg.a.y);
@@ -137,6 +148,14 @@ mod tests {
         let disc = Shape::Circle(Circle::new(p(0.0, 0.0), 1.0));
         assert_eq!(max_travel_fraction(&disc, &p(2.0, 0.0), &v(0.1, 0.0), 1.0), 1.0, "away from a disc");
         assert_eq!(max_travel_fraction(&disc, &p(2.0, 0.0), &v(-0.1, 0.0), 1.0), 0.0, "into a disc");
+        // The case found in a run: touching a person to within rounding, moving away.
+        let person = Shape::Circle(Circle::new(p(28.420168560325532, 0.6), 0.25));
+        let at = p(28.8806, 0.4050);
+        let gap = person.distance(&at);
+        let h = 50.1f64.to_radians();
+        let f = max_travel_fraction(&person, &at, &v(0.0025 * h.cos(), 0.0025 * h.sin()), gap);
+        assert_eq!(f, 1.0, "moving away from a person it touches");
+        assert_eq!(entry_time(&person, &at, &v(0.0025 * h.cos(), 0.0025 * h.sin()), gap + 1e-15), None);
     }
 
     #[test]
