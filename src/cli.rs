@@ -51,6 +51,9 @@ pub struct RunArgs {
     /// Write the report as JSON here.
     #[arg(long, value_name = "PATH.json", default_value = "out/report.json")]
     pub report: PathBuf,
+    /// Record every pattern message and control event here, as MCAP (Foxglove, `mcap` CLI).
+    #[arg(long, value_name = "PATH.mcap")]
+    pub record: Option<PathBuf>,
     /// Write the trajectory and the offset and clearance over time here (.svg or .png).
     #[arg(long, value_name = "PATH.svg", default_value = "out/run.svg")]
     pub plot: PathBuf,
@@ -91,7 +94,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         Some(p) => Config::load(p)?,
         None => Config::default(),
     };
-    for p in [&args.report, &args.plot] {
+    for p in [Some(&args.report), Some(&args.plot), args.record.as_ref()].into_iter().flatten() {
         ensure_parent(p)?;
     }
     let ext = args.plot.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -116,6 +119,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     let b = bar.clone();
     opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
+    opts.record = args.record.clone();
 
     let mut rt = tokio::runtime::Builder::new_current_thread();
     rt.enable_time();
@@ -124,7 +128,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     }
     let rt = rt.build().context("cannot start the tokio runtime")?;
     let wall = std::time::Instant::now();
-    let RunOutcome { mut report, metrics, .. } = rt.block_on(mission::run(opts))?;
+    let RunOutcome { mut report, metrics, recording, .. } = rt.block_on(mission::run(opts))?;
     report.wall_seconds = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
@@ -147,6 +151,11 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     };
     write_plot(&args.plot, &plot)?;
     say(&format!("report: {}\nplot:   {}", args.report.display(), args.plot.display()));
+    if let Some(r) = recording {
+        let topics = r.messages.len();
+        let total: u64 = r.messages.values().sum();
+        say(&format!("record: {} ({total} messages on {topics} topics)", r.path.display()));
+    }
     Ok(())
 }
 

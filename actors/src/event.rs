@@ -75,6 +75,8 @@ struct Activation<P, E> {
 
 pub(crate) struct EventEndpoint<P, E> {
     addr: ServiceAddr,
+    topic: String,
+    tap: crate::tap::TapSlot,
     clock: Clock,
     activations: Mutex<BTreeMap<ActivationId, Activation<P, E>>>,
     next_id: AtomicU64,
@@ -119,6 +121,8 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
     ) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
         let endpoint = Arc::new(EventEndpoint {
+            topic: addr.to_string(),
+            tap: registry.tap_slot(),
             addr: addr.clone(),
             clock: registry.clock(),
             activations: Mutex::new(BTreeMap::new()),
@@ -150,6 +154,7 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             let Some(event) = event else { continue };
             let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
             let msg = Fired { activation: id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
+            ep.tap.record(&ep.topic, E::ID, msg.event.stamp, &msg);
             match sink.deliver(msg) {
                 Ok(()) => {
                     fired += 1;

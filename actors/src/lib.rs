@@ -24,6 +24,7 @@
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
+//! - [`tap`]: an observer of every message and control event (what recordings are made of).
 //! - [`sink`]: where patterns deliver (a component's mailbox, a channel); [`error`]: the status
 //!   values of every operation.
 
@@ -42,6 +43,7 @@ pub mod sink;
 pub mod stamped;
 pub mod state;
 pub mod supervision;
+pub mod tap;
 pub mod transport;
 pub mod wiring;
 

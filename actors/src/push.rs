@@ -46,6 +46,8 @@ pub struct PushStats {
 
 pub(crate) struct PushEndpoint<T> {
     pub(crate) addr: ServiceAddr,
+    topic: String,
+    tap: crate::tap::TapSlot,
     clock: Clock,
     /// Copy-on-write: a publisher clones the `Arc` and delivers with no lock held, so a sink may
     /// subscribe, unsubscribe or publish without deadlocking.
@@ -67,6 +69,8 @@ impl<T: CommObject> PushEndpoint<T> {
         active: bool,
     ) -> PatternResult<Arc<Self>> {
         let endpoint = Arc::new(PushEndpoint {
+            topic: addr.to_string(),
+            tap: registry.tap_slot(),
             addr: addr.clone(),
             clock: registry.clock(),
             subs: RwLock::new(Arc::new(Vec::new())),
@@ -89,6 +93,7 @@ impl<T: CommObject> PushEndpoint<T> {
     pub(crate) fn put(&self, value: T) -> usize {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
         let update = Arc::new(Stamped { seq, stamp: self.clock.now(), value });
+        self.tap.record(&self.topic, T::ID, update.stamp, &*update);
         {
             let mut latest = self.latest.write();
             if latest.as_ref().is_none_or(|l| l.seq < seq) {

@@ -65,12 +65,15 @@ pub struct Responder<Ans> {
     tx: oneshot::Sender<Stamped<Ans>>,
     seq: u64,
     stamp: crate::clock::Clock,
+    tap: crate::tap::TapSlot,
+    answer_topic: Arc<str>,
 }
 
 impl<Ans: CommObject> Responder<Ans> {
     /// Sends the answer. Fails with [`PatternError::NotActive`] if the client stopped waiting.
     pub fn answer(self, answer: Ans) -> PatternResult<()> {
         let msg = Stamped { seq: self.seq, stamp: self.stamp.now(), value: answer };
+        self.tap.record(&self.answer_topic, Ans::ID, msg.stamp, &msg);
         self.tx
             .send(msg)
             .map_err(|_| PatternError::NotActive("the client no longer waits for this answer".into()))
@@ -79,6 +82,9 @@ impl<Ans: CommObject> Responder<Ans> {
 
 pub(crate) struct QueryEndpoint<Req, Ans> {
     addr: ServiceAddr,
+    topic: String,
+    answer_topic: Arc<str>,
+    tap: crate::tap::TapSlot,
     sink: Sink<QueryRequest<Req, Ans>>,
 }
 
@@ -101,7 +107,13 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
         sink: Sink<QueryRequest<Req, Ans>>,
     ) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
-        let endpoint = Arc::new(QueryEndpoint { addr: addr.clone(), sink });
+        let endpoint = Arc::new(QueryEndpoint {
+            topic: addr.to_string(),
+            answer_topic: format!("{addr}/answer").into(),
+            tap: registry.tap_slot(),
+            addr: addr.clone(),
+            sink,
+        });
         registry.register_service(addr, info::<Req, Ans>(), endpoint.clone())?;
         Ok(QueryServer { endpoint })
     }
@@ -197,10 +209,18 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
         let (tx, rx) = oneshot::channel();
         let clock = self.registry.clock();
+        let ep = &self.endpoint;
         let msg = QueryRequest {
             request: Stamped { seq, stamp: clock.now(), value: request },
-            responder: Responder { tx, seq, stamp: clock },
+            responder: Responder {
+                tx,
+                seq,
+                stamp: clock,
+                tap: ep.tap.clone(),
+                answer_topic: Arc::clone(&ep.answer_topic),
+            },
         };
+        ep.tap.record(&ep.topic, Req::ID, msg.request.stamp, &msg.request);
         self.endpoint.sink.deliver(msg).map_err(|_| PatternError::Unavailable(self.endpoint.addr.clone()))?;
         Ok(PendingQuery { addr: self.endpoint.addr.clone(), rx, cancel: self.cancel.clone() })
     }

@@ -180,6 +180,7 @@ impl fmt::Debug for LocalService {
 
 struct Inner {
     clock: Clock,
+    tap: crate::tap::TapSlot,
     services: RwLock<BTreeMap<ServiceAddr, LocalService>>,
     components: RwLock<BTreeMap<String, ()>>,
     transport: RwLock<Option<Arc<dyn Transport>>>,
@@ -210,6 +211,7 @@ impl Registry {
         Registry {
             inner: Arc::new(Inner {
                 clock,
+                tap: crate::tap::TapSlot::default(),
                 services: RwLock::new(BTreeMap::new()),
                 components: RwLock::new(BTreeMap::new()),
                 transport: RwLock::new(None),
@@ -225,6 +227,16 @@ impl Registry {
     /// The current robot time.
     pub fn now(&self) -> Timestamp {
         self.inner.clock.now()
+    }
+
+    /// Installs (or, with `None`, removes) the tap that sees every message (see
+    /// [`crate::tap`]).
+    pub fn set_tap(&self, tap: Option<Arc<dyn crate::tap::Tap>>) {
+        self.inner.tap.set(tap);
+    }
+
+    pub(crate) fn tap_slot(&self) -> crate::tap::TapSlot {
+        self.inner.tap.clone()
     }
 
     /// Installs the transport that resolves services not hosted in this process.

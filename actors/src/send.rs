@@ -35,12 +35,15 @@ pub(crate) fn info<T: CommObject>() -> ServiceInfo {
 
 pub(crate) struct SendEndpoint<T> {
     addr: ServiceAddr,
+    topic: String,
+    tap: crate::tap::TapSlot,
     sink: Sink<Stamped<T>>,
     received: AtomicU64,
 }
 
 impl<T: CommObject> SendEndpoint<T> {
     pub(crate) fn accept(&self, msg: Stamped<T>) -> PatternResult<()> {
+        self.tap.record(&self.topic, T::ID, msg.stamp, &msg);
         match self.sink.deliver(msg) {
             Ok(()) => {
                 self.received.fetch_add(1, Ordering::Relaxed);
@@ -69,7 +72,13 @@ impl<T: CommObject> SendServer<T> {
     /// Registers a Send service at `addr` delivering into `sink`.
     pub fn register(registry: &Registry, addr: impl IntoAddr, sink: Sink<Stamped<T>>) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
-        let endpoint = Arc::new(SendEndpoint { addr: addr.clone(), sink, received: AtomicU64::new(0) });
+        let endpoint = Arc::new(SendEndpoint {
+            topic: addr.to_string(),
+            tap: registry.tap_slot(),
+            addr: addr.clone(),
+            sink,
+            received: AtomicU64::new(0),
+        });
         registry.register_service(addr, info::<T>(), endpoint.clone())?;
         Ok(SendServer { endpoint })
     }

@@ -158,6 +158,9 @@ impl Inner {
 /// The slave side of the State pattern: one per component, registered as `component/state`.
 pub struct StateSlave {
     addr: ServiceAddr,
+    topic: String,
+    tap: crate::tap::TapSlot,
+    clock: crate::clock::Clock,
     inner: Mutex<Inner>,
     version: watch::Sender<u64>,
     cancel: watch::Sender<u64>,
@@ -203,6 +206,9 @@ impl StateSlave {
         spec.check()?;
         let addr = ServiceAddr::new(component, "state");
         let slave = Arc::new(StateSlave {
+            topic: addr.to_string(),
+            tap: registry.tap_slot(),
+            clock: registry.clock(),
             addr: addr.clone(),
             inner: Mutex::new(Inner {
                 current: spec.initial.clone(),
@@ -240,6 +246,12 @@ impl StateSlave {
     /// A token that aborts blocking calls on deactivation.
     pub fn cancel_token(&self) -> Cancel {
         Cancel { rx: self.cancel.subscribe() }
+    }
+
+    /// Shows the tap the state as it now stands (topic `component/state`).
+    fn record(&self) {
+        let status = self.status();
+        self.tap.record(&self.topic, StateStatus::ID, self.clock.now(), &status);
     }
 
     fn bump(&self) {
@@ -285,6 +297,7 @@ impl StateSlave {
                     drop(inner);
                     withdraw.armed = false;
                     self.bump();
+                    self.record();
                     return Ok(());
                 }
             }
@@ -307,6 +320,7 @@ impl StateSlave {
         inner.current = main.to_string();
         drop(inner);
         self.bump();
+        self.record();
         Ok(())
     }
 

@@ -191,6 +191,8 @@ pub(crate) fn info() -> ServiceInfo {
 /// The slave side of Wiring: a component's table of ports, registered as `component/wiring`.
 pub struct WiringSlave {
     component: String,
+    topic: String,
+    tap: crate::tap::TapSlot,
     registry: Registry,
     ports: RwLock<BTreeMap<String, Arc<dyn Port>>>,
     cancel: Option<Cancel>,
@@ -209,6 +211,8 @@ impl WiringSlave {
     ) -> PatternResult<Arc<Self>> {
         let slave = Arc::new(WiringSlave {
             component: component.to_string(),
+            topic: format!("{component}/wiring"),
+            tap: registry.tap_slot(),
             registry: registry.clone(),
             ports: RwLock::new(BTreeMap::new()),
             cancel,
@@ -259,13 +263,24 @@ impl WiringSlave {
 
     /// Connects port `name` to `target`.
     pub fn connect(&self, name: &str, target: &ServiceAddr) -> PatternResult<()> {
-        self.port(name)?.connect(&self.registry, target)
+        let port = self.port(name)?;
+        port.connect(&self.registry, target)?;
+        self.record(name, port.as_ref());
+        Ok(())
     }
 
     /// Disconnects port `name`.
     pub fn disconnect(&self, name: &str) -> PatternResult<()> {
-        self.port(name)?.disconnect();
+        let port = self.port(name)?;
+        port.disconnect();
+        self.record(name, port.as_ref());
         Ok(())
+    }
+
+    /// Shows the tap a port as it now stands (topic `component/wiring`).
+    fn record(&self, name: &str, port: &dyn Port) {
+        let status = PortStatus { port: name.to_string(), info: port.info(), target: port.target() };
+        self.tap.record(&self.topic, PortStatus::ID, self.registry.now(), &status);
     }
 
     /// Every port with its connection.

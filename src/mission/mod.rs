@@ -9,6 +9,7 @@
 //! real time, and tests call it directly.
 
 pub mod metrics;
+pub mod recording;
 pub mod report;
 pub mod stack;
 
@@ -46,6 +47,8 @@ pub struct RunOptions {
     pub progress: Option<Arc<dyn Fn(f64) + Send + Sync>>,
     /// How often to call `progress`, simulated s.
     pub progress_every_s: f64,
+    /// Record every message to this MCAP file.
+    pub record: Option<std::path::PathBuf>,
 }
 
 impl RunOptions {
@@ -66,6 +69,7 @@ impl RunOptions {
             sample_period_s: 0.1,
             progress: None,
             progress_every_s: 10.0,
+            record: None,
         }
     }
 }
@@ -78,6 +82,8 @@ pub struct RunOutcome {
     pub metrics: Metrics,
     /// What the supervisor reported.
     pub supervisor_events: Vec<SupervisorEvent>,
+    /// What the recording holds, if one was made.
+    pub recording: Option<crate::record::RecordSummary>,
 }
 
 /// Why a run could not be made.
@@ -92,6 +98,9 @@ pub enum MissionError {
     /// A duration or period that cannot be run.
     #[error("{0}")]
     Invalid(String),
+    /// The recording could not be written.
+    #[error("recording: {0}")]
+    Record(#[from] crate::record::RecordError),
 }
 
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.
@@ -102,8 +111,24 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
             opts.duration_s
         )));
     }
+    let recording = match &opts.record {
+        Some(path) => {
+            let mut meta = std::collections::BTreeMap::new();
+            meta.insert("world".to_string(), opts.world_label.clone());
+            meta.insert("seed".to_string(), opts.seed.to_string());
+            meta.insert("duration_s".to_string(), opts.duration_s.to_string());
+            meta.insert("orsa".to_string(), env!("CARGO_PKG_VERSION").to_string());
+            Some(Arc::new(recording::McapTap::create(path, meta)?))
+        }
+        None => None,
+    };
     let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
-    let stack = Stack::start(opts.world, &opts.config, opts.seed, opts.duration_s, move |e| {
+    let ev_rec = recording.clone();
+    let tap = recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>);
+    let stack = Stack::start(opts.world, &opts.config, opts.seed, opts.duration_s, tap, move |e| {
+        if let Some(r) = &ev_rec {
+            r.supervisor_event(&e);
+        }
         // The receiver lives until the run ends.
         let _ = ev_tx.send(e);
     })
@@ -161,5 +186,9 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         command_timeouts: safety.timeouts,
     };
     let report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
-    Ok(RunOutcome { report, metrics, supervisor_events: events })
+    let recording = match recording {
+        Some(r) => r.finish()?,
+        None => None,
+    };
+    Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
 }

@@ -50,17 +50,19 @@ pub enum StackError {
 
 impl Stack {
     /// Brings a stack up on `world` with `config` and `seed`; the mission runs for
-    /// `duration_s` when the planner's mission is the default. Supervisor events go to
-    /// `on_event`. Must run inside a tokio runtime (paused or not).
+    /// `duration_s` when the planner's mission is the default. `tap`, if given, sees every
+    /// message from the first one on; supervisor events go to `on_event`. Must run inside a tokio runtime (paused or not).
     pub async fn start(
         world: World,
         config: &Config,
         seed: u64,
         duration_s: f64,
+        tap: Option<std::sync::Arc<dyn orsa_actors::tap::Tap>>,
         on_event: impl Fn(SupervisorEvent) + Send + Sync + 'static,
     ) -> Result<Stack, StackError> {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
+        registry.set_tap(tap);
         let sim =
             SimNomad200::new(world, config.sim.clone(), seed).map_err(|e| StackError::Sim(e.to_string()))?;
         let sim = SimRobot::spawn(sim, clock);

@@ -8,6 +8,7 @@ mod query;
 mod restart;
 mod send;
 mod state;
+mod tap;
 mod wiring;
 
 use orsa_actors::{Stamped, comm_object};

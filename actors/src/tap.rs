@@ -1,0 +1,55 @@
+//! Observing a system: every pattern message and every control event, as it happens.
+//!
+//! A [`Tap`] installed on a [`Registry`](crate::Registry) sees each message every pattern
+//! carries, once, where it enters the pattern: a Send when the server accepts it, a Query's
+//! request and its answer, a push when it is published (not once per subscriber), an event when
+//! it fires, and every change of a component's main state or wiring. Topics are
+//! `component/service` (`component/service/answer` for query answers), so a recording reads
+//! like the system's own map. `orsa run --record` writes what a tap sees as MCAP.
+//!
+//! With no tap installed, the cost is one uncontended read of a lock per message; with one,
+//! the message is turned into JSON for it.
+
+use crate::clock::Timestamp;
+use parking_lot::RwLock;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// Something that wants to see every message.
+pub trait Tap: Send + Sync + 'static {
+    /// One message on `topic`, of communication object `type_id`, stamped `stamp`.
+    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, message: serde_json::Value);
+}
+
+/// The tap shared by a registry and all its endpoints.
+#[derive(Clone, Default)]
+pub(crate) struct TapSlot(Arc<RwLock<Option<Arc<dyn Tap>>>>);
+
+impl std::fmt::Debug for TapSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.read().is_some() { "TapSlot(installed)" } else { "TapSlot(none)" })
+    }
+}
+
+impl TapSlot {
+    pub(crate) fn set(&self, tap: Option<Arc<dyn Tap>>) {
+        *self.0.write() = tap;
+    }
+
+    /// Hands `message` to the tap, if one is installed.
+    pub(crate) fn record<T: Serialize + ?Sized>(
+        &self,
+        topic: &str,
+        type_id: &str,
+        stamp: Timestamp,
+        message: &T,
+    ) {
+        let tap = self.0.read().clone();
+        if let Some(tap) = tap {
+            match serde_json::to_value(message) {
+                Ok(value) => tap.record(topic, type_id, stamp, value),
+                Err(e) => tracing::warn!("tap: cannot encode a message on {topic}: {e}"),
+            }
+        }
+    }
+}
