@@ -26,7 +26,7 @@ use std::fmt::Debug;
 
 /// A type that can travel through a communication pattern.
 ///
-/// Implement it with [`comm_object!`]. The identifier has the form `namespace.Name/version`; bump
+/// Implement it with [`comm_object!`](crate::comm_object). The identifier has the form `namespace.Name/version`; bump
 /// the version whenever the serialised form changes incompatibly.
 pub trait CommObject: Serialize + DeserializeOwned + Clone + Debug + Send + Sync + 'static {
     /// The stable identifier of this type, e.g. `orsa.DistanceScan/1`.

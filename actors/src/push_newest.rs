@@ -106,7 +106,8 @@ impl<T: CommObject> PushNewestClient<T> {
         self.core.subscribe(1)
     }
 
-    /// Stops the updates. [`PatternError::NotActive`] if not subscribed.
+    /// Stops the updates. [`PatternError::NotActive`](crate::PatternError::NotActive) if not
+    /// subscribed.
     pub fn unsubscribe(&self) -> PatternResult<()> {
         self.core.unsubscribe()
     }

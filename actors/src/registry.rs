@@ -3,7 +3,7 @@
 //!
 //! Every service is addressed as `component/service` ([`ServiceAddr`]). A [`Registry`] is the
 //! directory of one orsa system: the components and services hosted in this process, and behind
-//! them the [`Transport`](crate::transport::Transport) seam for services hosted elsewhere. A
+//! them the [`crate::transport::Transport`] seam for services hosted elsewhere. A
 //! client resolves an address once; the registry answers with the service's pattern and
 //! communication object identifiers, and the client checks them against its own before it
 //! sends a byte, answering [`PatternError::IncompatibleService`] on a mismatch.
