@@ -186,7 +186,7 @@ impl World {
     pub fn from_path(path: impl AsRef<Path>) -> Result<World, WorldError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
-            .map_err(|source| WorldError::Read { path: path.to_path_buf(), source })?;
+            .map_err(|source| WorldError::Read { path: path.to_path_buf(), error: source })?;
         World::from_str(&text, &path.display().to_string())
     }
 

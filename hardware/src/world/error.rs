@@ -48,12 +48,13 @@ fn key_prefix(key: &str) -> String {
 #[derive(Debug, thiserror::Error)]
 pub enum WorldError {
     /// The file could not be read.
-    #[error("cannot read world file {}: {source}", path.display())]
+    #[error("cannot read world file {}: {error}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
-        /// What the operating system said.
-        source: std::io::Error,
+        /// What the operating system said (in the message, not as a chained source, so that
+        /// it is printed once).
+        error: std::io::Error,
     },
     /// The text is not valid TOML.
     #[error("{origin}{}: not valid TOML: {problem}", place(at))]
