@@ -5,13 +5,16 @@
 //! otherwise; the lateral error is half the difference between the nearest left (1..7) and the
 //! nearest right (9..15) distance (positive: the left wall is farther, move left), and the wall
 //! angle comes from the nearer side; both go through the [`cascade`](crate::cascade). Speed is
-//! proportional to the nearest fused front distance (sensors 15, 0, 1), capped at `v_max`.
+//! proportional to the nearest fused front distance (sensors 15, 0, 1), capped at `v_max`;
+//! anything closer than `stop_below` within 45 degrees of the front (sensors 14 to 2) stops
+//! forward motion while the robot turns, so it never drives its front into what it turns away
+//! from.
 //!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, fuse, wall_in};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -26,6 +29,8 @@ pub struct CenterFollowParams {
     pub k_v: f64,
     /// Slowest speed while something is in front, m/s.
     pub v_min_m_s: f64,
+    /// Anything this close within 45 degrees of the front: turn in place, m.
+    pub stop_below_m: f64,
     /// Infrared is trusted under this distance, sonar beyond, m.
     pub ir_below_m: f64,
     /// Baseline of the original angle formula, m.
@@ -47,6 +52,7 @@ impl Default for CenterFollowParams {
             v_max_m_s: 0.25,
             k_v: 0.5,
             v_min_m_s: 0.07,
+            stop_below_m: 0.08,
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
@@ -70,6 +76,7 @@ impl CenterFollowParams {
         pos(self.v_max_m_s, "v_max_m_s")?;
         pos(self.k_v, "k_v")?;
         pos(self.v_min_m_s, "v_min_m_s")?;
+        pos(self.stop_below_m, "stop_below_m")?;
         pos(self.ir_below_m, "ir_below_m")?;
         pos(self.l_m, "l_m")?;
         let [a, b] = self.left_sensors;
@@ -143,7 +150,13 @@ impl CenterFollower {
         };
         let omega = p.loops.omega(error_left, alpha);
         let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
-        let v = if front.is_finite() { (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s) } else { p.v_max_m_s };
+        let v = if front_min(&r).is_some_and(|d| d < p.stop_below_m) {
+            0.0
+        } else if front.is_finite() {
+            (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s)
+        } else {
+            p.v_max_m_s
+        };
         CenterFollowStep {
             cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega },
             offset_m: offset,

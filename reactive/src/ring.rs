@@ -106,6 +106,14 @@ pub fn fuse(
     (out, beams)
 }
 
+/// The sensors that look ahead, within 45 degrees of the front (14, 15, 0, 1, 2).
+pub const FRONT_ARC: [usize; 5] = [14, 15, 0, 1, 2];
+
+/// The nearest valid reading within 45 degrees of the front.
+pub fn front_min(r: &Ranges) -> Option<f64> {
+    FRONT_ARC.iter().filter_map(|&i| r[i]).min_by(f64::total_cmp)
+}
+
 /// The wall seen on one side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WallEstimate {

@@ -5,7 +5,10 @@
 //! sensor and its neighbours, see [`crate::ring`]); the lateral error is `d - target` (positive:
 //! the wall is too far, move left) and goes through the [`cascade`](crate::cascade). Speed is
 //! proportional to infrared sensor 1 (front-left), capped at `v_max`, and drops to `v_slow` when
-//! any of the three front sensors (15, 0, 1) reads under `slow_below`.
+//! any of the three front sensors (15, 0, 1) reads under `slow_below`. Where the original is
+//! silent about contact orsa adds one rule: anything closer than `stop_below` within 45 degrees
+//! of the front (sensors 14 to 2) stops forward motion, and the robot turns in place (a
+//! cylinder turning in place moves into nothing), instead of creeping into it at `v_slow`.
 //!
 //! Where the original is silent or fragile orsa does the sound thing:
 //! - with no wall in infrared range on the left, the robot is told the wall is at the end of the
@@ -15,7 +18,7 @@
 //!   front of it.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, side_min, wall};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -35,6 +38,8 @@ pub struct WallFollowParams {
     pub v_slow_m_s: f64,
     /// "Close in front": a front sensor under this, m.
     pub slow_below_m: f64,
+    /// Anything this close within 45 degrees of the front: turn in place, m.
+    pub stop_below_m: f64,
     /// Infrared range: an invalid reading means free space up to here, m.
     pub ir_range_m: f64,
     /// Baseline of the original angle formula, m.
@@ -53,6 +58,7 @@ impl Default for WallFollowParams {
             k_v: 0.6,
             v_slow_m_s: 0.07,
             slow_below_m: 0.20,
+            stop_below_m: 0.08,
             ir_range_m: 0.60,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
@@ -76,6 +82,7 @@ impl WallFollowParams {
         pos(self.k_v, "k_v")?;
         pos(self.v_slow_m_s, "v_slow_m_s")?;
         pos(self.slow_below_m, "slow_below_m")?;
+        pos(self.stop_below_m, "stop_below_m")?;
         pos(self.ir_range_m, "ir_range_m")?;
         pos(self.l_m, "l_m")?;
         self.loops.validate("wallfollow")
@@ -126,7 +133,9 @@ impl WallFollower {
         }
         let omega = p.loops.omega(d - p.target_m, alpha);
         let front_close = [15, 0, 1].iter().any(|&i| ir[i].is_some_and(|x| x < p.slow_below_m));
-        let v = if front_close {
+        let v = if front_min(ir).is_some_and(|d| d < p.stop_below_m) {
+            0.0
+        } else if front_close {
             p.v_slow_m_s
         } else {
             ir[1].map_or(p.v_max_m_s, |d1| (p.k_v * d1).min(p.v_max_m_s))
@@ -181,6 +190,15 @@ mod tests {
         let s = ctl().step(&none, Timestamp(0));
         assert!(s.cmd.omega_rad_s < 0.0);
         assert_eq!(s.cmd.v_m_s, 0.07);
+    }
+
+    #[test]
+    fn something_touching_ahead_stops_forward_motion_but_not_the_turn() {
+        let mut r = scan(0.20, 0.0);
+        r[2] = Some(0.03);
+        let s = ctl().step(&r, Timestamp(0));
+        assert_eq!(s.cmd.v_m_s, 0.0);
+        assert!(s.cmd.omega_rad_s < 0.0, "turns right, away from the left");
     }
 
     #[test]
