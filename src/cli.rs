@@ -151,10 +151,16 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     };
     write_plot(&args.plot, &plot)?;
     say(&format!("report: {}\nplot:   {}", args.report.display(), args.plot.display()));
-    if let Some(r) = recording {
-        let topics = r.messages.len();
-        let total: u64 = r.messages.values().sum();
-        say(&format!("record: {} ({total} messages on {topics} topics)", r.path.display()));
+    match recording {
+        Some(Ok(r)) => {
+            let topics = r.messages.len();
+            let total: u64 = r.messages.values().sum();
+            say(&format!("record: {} ({total} messages on {topics} topics)", r.path.display()));
+        }
+        Some(Err(e)) => {
+            anyhow::bail!("the run finished and its report was written, but its recording failed: {e}")
+        }
+        None => {}
     }
     Ok(())
 }

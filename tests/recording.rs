@@ -14,7 +14,7 @@ async fn a_recorded_run_holds_every_stream_and_every_control_event() {
         RunOptions::new(World::palazzina().expect("world"), "palazzina", Config::default(), 5, 60.0);
     opts.record = Some(path.clone());
     let out = mission::run(opts).await.expect("run");
-    let summary = out.recording.expect("a recording was made");
+    let summary = out.recording.expect("a recording was made").expect("and written");
 
     let bytes = std::fs::read(&path).expect("read");
     let mut counts: BTreeMap<String, u64> = BTreeMap::new();

@@ -1,8 +1,9 @@
 //! Observing a system: every pattern message and every control event, as it happens.
 //!
 //! A [`Tap`] installed on a [`Registry`](crate::Registry) sees each message every pattern
-//! carries, once, where it enters the pattern: a Send when the server accepts it, a Query's
-//! request and its answer, a push when it is published (not once per subscriber), an event when
+//! carries, once, where it enters the pattern: a Send when a client hands it over (also when
+//! the server then turns out to be unavailable), a Query's request when it is made and its
+//! answer when it is given, a push when it is published (not once per subscriber), an event when
 //! it fires, and every change of a component's main state or wiring. Topics are
 //! `component/service` (`component/service/answer` for query answers), so a recording reads
 //! like the system's own map. `orsa run --record` writes what a tap sees as MCAP.

@@ -5,8 +5,10 @@
 //! On every scan it runs the current mode's priority list ([`crate::rules`]) and, if the answer
 //! changed, rewires: it disconnects the old behaviour's `vel` port and connects the new one to
 //! the robot's `navigationvelocity`, in that order and with nothing in between, so two
-//! behaviours are never wired at once and the motors are never unwired for longer than the two
-//! calls take. When a mode wires nothing, the master sends the motors one zero command.
+//! behaviours are never wired at once and a switch between behaviours leaves the motors
+//! unwired only for the two calls. Whenever the master leaves nothing wired (a mode without a
+//! rule that holds, between goals, while a goal's behaviours are being activated) it sends the
+//! motors a zero command, and the robot server's timeout stops them in any case.
 //!
 //! Goals arrive by Query on `goal` ([`Goal`] -> [`GoalReply`]): a goal names a mode and how
 //! long to run it. Starting a goal activates its mode's behaviours (State `active`) and
@@ -28,6 +30,9 @@ use orsa_reactive::components::ACTIVE;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Duration;
+
+/// The longest goal, s (about a year): longer ones are refused rather than overflow a timer.
+pub const MAX_GOAL_S: f64 = 3.2e7;
 
 /// The name of every behaviour's wireable velocity port.
 pub const VEL_PORT: &str = "vel";
@@ -268,10 +273,10 @@ impl Master {
             };
         };
         if let Some(s) = goal.for_s
-            && !(s.is_finite() && s >= 0.0)
+            && !(s.is_finite() && (0.0..=MAX_GOAL_S).contains(&s))
         {
             return GoalReply::Rejected {
-                reason: format!("for_s must be a non-negative number of seconds, not {s}"),
+                reason: format!("for_s must be a number of seconds from 0 to {MAX_GOAL_S}, not {s}"),
             };
         }
         if let Some(old) = st.goal.take() {

@@ -15,12 +15,15 @@
 //! `omega` is applied to steer and turret together, as the original did, so the sensor rings
 //! keep facing the direction of travel.
 //!
-//! Safety: a command is judged by its own timestamp. One older than `cmd_timeout` when it
-//! arrives is refused; and when no command younger than `cmd_timeout` has arrived for
-//! `cmd_timeout`, the server commands zero velocity, exactly at that deadline on tokio's clock
-//! (a robot that loses its commander stops, every time). When the component stops, it stops the
-//! motors and waits for the axes to come to rest, as the original's RobotConnection destructor
-//! did.
+//! Safety: a command is judged by its own timestamp. It is refused if it is older than
+//! `cmd_timeout` when it arrives, older than the last command applied (out of order), or stamped
+//! in the future by more than `max_clock_skew`. A command applied may drive the robot until its
+//! stamp (or now, if earlier) plus `cmd_timeout`; at that deadline, unless a fresher command has
+//! moved it, a watchdog stops the motors itself, exactly on tokio's clock, retrying until the
+//! board accepts. The watchdog holds its own handle on the motor board and outlives a failed or
+//! killed server instance, so a robot that loses its commander, or its server, stops, every
+//! time. When the component stops normally, it stops the motors and waits for the axes to come
+//! to rest, as the original's RobotConnection destructor did.
 
 use crate::board::{AxisVelocities, MotorBoard, SensorBoard};
 use crate::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams};
@@ -52,6 +55,9 @@ pub struct ServerParams {
     pub cmd_timeout_s: f64,
     /// How long to wait for the axes to stop when the component stops, s.
     pub stop_wait_s: f64,
+    /// A command stamped later than now by more than this is refused (a peer's clock is
+    /// ahead), s.
+    pub max_clock_skew_s: f64,
 }
 
 impl Default for ServerParams {
@@ -65,6 +71,7 @@ impl Default for ServerParams {
             basestate_period_s: p.basestate_s,
             cmd_timeout_s: 0.5,
             stop_wait_s: 3.0,
+            max_clock_skew_s: 0.05,
         }
     }
 }
@@ -82,6 +89,7 @@ impl ServerParams {
             ("basestate_period_s", self.basestate_period_s),
             ("cmd_timeout_s", self.cmd_timeout_s),
             ("stop_wait_s", self.stop_wait_s),
+            ("max_clock_skew_s", self.max_clock_skew_s),
         ] {
             if !(v.is_finite() && v > 0.0 && v < 3600.0) {
                 return Err(format!("robot.{key}: must be a positive number of seconds, not {v}"));
@@ -106,8 +114,11 @@ impl ServerParams {
 pub struct SafetyCounters {
     /// Commands applied to the motors.
     pub applied: u64,
-    /// Commands refused because they were older than the timeout on arrival.
+    /// Commands refused because they were older than the timeout on arrival, or older than the
+    /// last command applied.
     pub stale_refused: u64,
+    /// Commands refused because they were stamped in the future.
+    pub future_refused: u64,
     /// Times the watchdog stopped the robot for lack of fresh commands.
     pub timeouts: u64,
     /// Commands whose values were clamped to the robot's limits.
@@ -149,8 +160,6 @@ pub enum Nomad200Msg {
     Velocity(Stamped<NavigationVelocity>),
     /// A request for the robot's parameters.
     Params(QueryRequest<Empty, RobotParams>),
-    /// The command deadline set at this time has passed.
-    Watchdog(Timestamp),
     /// A request for the safety counters.
     Safety(QueryRequest<Empty, SafetyCounters>),
 }
@@ -162,10 +171,9 @@ pub struct Nomad200State {
     bumpers: PushTimedServer<ContactScan>,
     base: PushTimedServer<BaseState>,
     deadline: watch::Sender<Option<Timestamp>>,
-    watchdog: tokio::task::JoinHandle<()>,
-    moving: bool,
+    last_applied: Option<Timestamp>,
     counters: SafetyCounters,
-    generation: Arc<AtomicU64>,
+    timeouts: Arc<AtomicU64>,
 }
 
 fn secs(s: f64) -> Duration {
@@ -175,14 +183,15 @@ fn secs(s: f64) -> Duration {
 impl<S, M> Nomad200<S, M>
 where
     S: SensorBoard + 'static,
-    M: MotorBoard + 'static,
+    M: MotorBoard + Clone + 'static,
 {
-    async fn drive(&self, st: &mut Nomad200State, v: f64, omega: f64) {
+    async fn drive(&self, st: &mut Nomad200State, v: f64, omega: f64) -> bool {
         match self.motors.move_velocity(AxisVelocities::synchro(v, omega)).await {
-            Ok(()) => st.moving = v != 0.0 || omega != 0.0,
+            Ok(()) => true,
             Err(e) => {
                 st.counters.failed += 1;
                 tracing::warn!("nomad200: motor board refused ({v}, {omega}): {e}");
+                false
             }
         }
     }
@@ -190,9 +199,14 @@ where
     async fn on_velocity(&self, ctx: &Ctx<Nomad200Msg>, st: &mut Nomad200State, cmd: NavigationVelocity) {
         let now = ctx.now();
         let timeout = secs(self.params.cmd_timeout_s);
-        if now.saturating_since(cmd.stamp) > timeout {
+        if cmd.stamp > now.after(secs(self.params.max_clock_skew_s)) {
+            st.counters.future_refused += 1;
+            tracing::warn!("nomad200: refused a command stamped {} in the future at {now}", cmd.stamp);
+            return;
+        }
+        if now.saturating_since(cmd.stamp) > timeout || st.last_applied.is_some_and(|l| cmd.stamp < l) {
             st.counters.stale_refused += 1;
-            tracing::debug!("nomad200: refused a command stamped {} at {now}", cmd.stamp);
+            tracing::debug!("nomad200: refused a stale command stamped {} at {now}", cmd.stamp);
             return;
         }
         if !(cmd.v_m_s.is_finite() && cmd.omega_rad_s.is_finite()) {
@@ -205,12 +219,12 @@ where
         if v != cmd.v_m_s || w != cmd.omega_rad_s {
             st.counters.clamped += 1;
         }
-        self.drive(st, v, w).await;
-        st.counters.applied += 1;
-        // The robot may go on with this command until it is cmd_timeout old.
-        let deadline = cmd.stamp.after(timeout);
-        if st.deadline.borrow().is_none_or(|d| deadline > d) {
-            st.deadline.send_replace(Some(deadline));
+        if self.drive(st, v, w).await {
+            st.counters.applied += 1;
+            st.last_applied = Some(cmd.stamp);
+            // The robot may go on with this command until it is cmd_timeout old (counted from
+            // now at the latest, whatever a skewed clock says).
+            st.deadline.send_replace(Some(cmd.stamp.min(now).after(timeout)));
         }
     }
 }
@@ -218,7 +232,7 @@ where
 impl<S, M> Component for Nomad200<S, M>
 where
     S: SensorBoard + 'static,
-    M: MotorBoard + 'static,
+    M: MotorBoard + Clone + 'static,
 {
     type Msg = Nomad200Msg;
     type State = Nomad200State;
@@ -241,41 +255,21 @@ where
         bumpers.start();
         base.start();
 
-        // The watchdog sleeps until the current command deadline and reports it.
-        let (deadline, mut rx) = watch::channel::<Option<Timestamp>>(None);
-        let clock = ctx.clock();
-        let mailbox = ctx.mailbox().clone();
-        let watchdog = tokio::spawn(async move {
-            loop {
-                let current = *rx.borrow_and_update();
-                match current {
-                    Some(d) => tokio::select! {
-                        () = tokio::time::sleep_until(clock.instant_of(d)) => {
-                            if mailbox.cast(Nomad200Msg::Watchdog(d)).is_err() {
-                                return;
-                            }
-                            if rx.changed().await.is_err() { return; }
-                        }
-                        changed = rx.changed() => if changed.is_err() { return },
-                    },
-                    None => {
-                        if rx.changed().await.is_err() {
-                            return;
-                        }
-                    }
-                }
-            }
-        });
+        // The watchdog: an activity of this instance with its own handle on the motors. It
+        // sleeps until the current command deadline and stops the robot there; if the instance
+        // ends (its deadline sender is dropped) it still stops the robot at the last deadline.
+        let (deadline, rx) = watch::channel::<Option<Timestamp>>(None);
+        let timeouts = Arc::new(AtomicU64::new(0));
+        ctx.spawn_activity(watchdog(self.motors.clone(), ctx.clock(), rx, Arc::clone(&timeouts)));
         Ok(Nomad200State {
             ir,
             sonar,
             bumpers,
             base,
             deadline,
-            watchdog,
-            moving: false,
+            last_applied: None,
             counters: SafetyCounters::default(),
-            generation: Arc::new(AtomicU64::new(0)),
+            timeouts,
         })
     }
 
@@ -305,31 +299,80 @@ where
                 let _ = q.answer(self.robot.clone());
             }
             Nomad200Msg::Safety(q) => {
-                let _ = q.answer(st.counters);
-            }
-            Nomad200Msg::Watchdog(d) => {
-                if *st.deadline.borrow() == Some(d) {
-                    st.deadline.send_replace(None);
-                    if st.moving {
-                        st.counters.timeouts += 1;
-                        tracing::info!("nomad200: no fresh command since {d}: stopping");
-                        self.drive(st, 0.0, 0.0).await;
-                    }
-                }
+                let counters =
+                    SafetyCounters { timeouts: st.timeouts.load(Ordering::Relaxed), ..st.counters };
+                let _ = q.answer(counters);
             }
         }
-        st.generation.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
 
-    async fn teardown(&self, _ctx: &Ctx<Nomad200Msg>, st: &mut Nomad200State) {
-        st.watchdog.abort();
+    async fn teardown(&self, _ctx: &Ctx<Nomad200Msg>, _st: &mut Nomad200State) {
         if let Err(e) = self.motors.stop().await {
             tracing::warn!("nomad200: cannot stop the motors on shutdown: {e}");
             return;
         }
         if let Err(e) = self.motors.wait_stop(secs(self.params.stop_wait_s)).await {
             tracing::warn!("nomad200: the axes did not come to rest: {e}");
+        }
+    }
+}
+
+/// Stops the motors at each command deadline, retrying until the board accepts; ends once the
+/// instance that set the deadlines is gone and the last one has been enforced.
+async fn watchdog<M: MotorBoard>(
+    motors: M,
+    clock: orsa_actors::Clock,
+    mut rx: watch::Receiver<Option<Timestamp>>,
+    timeouts: Arc<AtomicU64>,
+) {
+    loop {
+        let current = *rx.borrow_and_update();
+        let Some(d) = current else {
+            if rx.changed().await.is_err() {
+                return; // no command was ever applied and the instance is gone
+            }
+            continue;
+        };
+        let instance_gone = tokio::select! {
+            () = tokio::time::sleep_until(clock.instant_of(d)) => false,
+            changed = rx.changed() => {
+                if changed.is_ok() {
+                    continue; // a fresher command moved the deadline
+                }
+                tokio::time::sleep_until(clock.instant_of(d)).await;
+                true
+            }
+        };
+        let moving = motors.read_state().await.map(|m| !m.stopped).unwrap_or(true);
+        if moving {
+            tracing::info!("nomad200: no fresh command since {d}: stopping");
+            timeouts.fetch_add(1, Ordering::Relaxed);
+            stop_until_accepted(&motors).await;
+        }
+        if instance_gone {
+            return;
+        }
+        // Sleep until a new command sets a new deadline.
+        if *rx.borrow() == Some(d) && rx.changed().await.is_err() {
+            return;
+        }
+    }
+}
+
+/// Stops the motors, retrying every 50 ms while the board refuses (but not once it is gone).
+async fn stop_until_accepted<M: MotorBoard>(motors: &M) {
+    loop {
+        match motors.stop().await {
+            Ok(()) => return,
+            Err(crate::board::BoardError::Disconnected(e)) => {
+                tracing::warn!("nomad200: cannot stop the motors, the board is gone: {e}");
+                return;
+            }
+            Err(e) => {
+                tracing::warn!("nomad200: the motor board refused to stop: {e}; retrying");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
         }
     }
 }

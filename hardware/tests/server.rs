@@ -159,3 +159,39 @@ async fn server_stops_and_waits_for_the_axes_when_it_stops() {
     assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "at rest when stop() returns");
     assert!(!r.registry.has_component("nomad200"));
 }
+
+#[tokio::test(start_paused = true)]
+async fn server_refuses_commands_from_the_future_and_out_of_order() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let now = r.registry.now();
+    // A peer whose clock runs 30 s ahead must not keep the robot driving.
+    let ahead = orsa_actors::Timestamp(now.as_nanos() + 30_000_000_000);
+    client.send(NavigationVelocity { stamp: ahead, v_m_s: 0.2, omega_rad_s: 0.3 }).expect("send");
+    // A fresh command, then an older one arriving late.
+    client.send(NavigationVelocity { stamp: now, v_m_s: 0.1, omega_rad_s: 0.0 }).expect("send");
+    let older = orsa_actors::Timestamp(now.as_nanos() - 100_000_000);
+    client.send(NavigationVelocity { stamp: older, v_m_s: 0.4, omega_rad_s: 0.0 }).expect("send");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let s = safety(&r.registry).await;
+    assert_eq!((s.future_refused, s.stale_refused, s.applied, s.timeouts), (1, 1, 1, 1));
+    let t = r.sim.truth().truth();
+    assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "stopped 0.5 s after the one command applied");
+}
+
+#[tokio::test(start_paused = true)]
+async fn server_whose_instance_dies_still_stops_the_robot_at_the_deadline() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    drive(&client, &r.registry, 0.3, 0.2, 1.0).await;
+    // Kill the instance (no supervisor restarts it): nothing runs its handlers or teardown.
+    r.server.instance().expect("running").kill();
+    tokio::time::sleep(Duration::from_millis(350)).await;
+    assert!(r.sim.truth().truth().v_m_s > 0.25, "still on the last command before its deadline");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let t = r.sim.truth().truth();
+    assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "the watchdog stopped the robot on its own");
+}

@@ -53,9 +53,12 @@ impl PlannerParams {
                 ));
             }
             if let Some(s) = step.for_s
-                && !(s.is_finite() && s >= 0.0)
+                && !(s.is_finite() && (0.0..=orsa_executive::master::MAX_GOAL_S).contains(&s))
             {
-                return Err(format!("planner.mission[{i}].for_s: must be a non-negative number of seconds"));
+                return Err(format!(
+                    "planner.mission[{i}].for_s: must be a number of seconds from 0 to {}",
+                    orsa_executive::master::MAX_GOAL_S
+                ));
             }
         }
         Ok(())

@@ -77,6 +77,12 @@ impl CenterFollowParams {
         pos(self.k_v, "k_v")?;
         pos(self.v_min_m_s, "v_min_m_s")?;
         pos(self.stop_below_m, "stop_below_m")?;
+        if self.v_min_m_s > self.v_max_m_s {
+            return Err(format!(
+                "centerfollow.v_min_m_s: {} is above v_max_m_s ({})",
+                self.v_min_m_s, self.v_max_m_s
+            ));
+        }
         pos(self.ir_below_m, "ir_below_m")?;
         pos(self.l_m, "l_m")?;
         let [a, b] = self.left_sensors;
@@ -105,7 +111,7 @@ pub struct CenterFollower {
 pub struct CenterFollowStep {
     /// The command.
     pub cmd: NavigationVelocity,
-    /// Estimated offset from the centre, m, positive to the right of it (None: not both sides).
+    /// Estimated offset from the centre, m, positive to the left of it (None: not both sides).
     pub offset_m: Option<f64>,
     /// The wall angle used, rad.
     pub alpha_rad: f64,
@@ -129,7 +135,8 @@ impl CenterFollower {
     }
 
     /// One control step on the latest infrared and sonar ranges; the command carries `stamp`
-    /// (that of the newer scan used).
+    /// (the component passes the older of the two scans' stamps: the command is as old as the
+    /// oldest data it used).
     pub fn step(&mut self, ir: &Ranges, sonar: &Ranges, stamp: Timestamp) -> CenterFollowStep {
         let p = &self.params;
         let (r, half_beam_rad) =
@@ -143,7 +150,8 @@ impl CenterFollower {
             (Some(l), Some(rt)) => {
                 let e = (l.distance_m - rt.distance_m) / 2.0;
                 let alpha = if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad };
-                (e, alpha, Some(e))
+                // Left wall farther (e > 0): the robot is right of the centre.
+                (e, alpha, Some(-e))
             }
             (Some(w), None) | (None, Some(w)) => (0.0, w.alpha_rad, None),
             (None, None) => (0.0, 0.0, None),
@@ -198,6 +206,16 @@ mod tests {
         assert!(c.step(&ir, &so, Timestamp(0)).cmd.omega_rad_s < -0.05, "left of centre: turn right");
         let (ir, so) = views(2.4, -0.3, 0.0);
         assert!(c.step(&ir, &so, Timestamp(0)).cmd.omega_rad_s > 0.05, "right of centre: turn left");
+    }
+
+    #[test]
+    fn offset_is_positive_left_of_the_centre_and_speeds_are_checked() {
+        let (ir, so) = views(2.4, 0.3, 0.0);
+        let s =
+            CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
+        assert!((s.offset_m.expect("both sides") - 0.3).abs() < 0.01, "{:?}", s.offset_m);
+        let bad = CenterFollowParams { v_min_m_s: 0.3, ..Default::default() };
+        assert!(bad.validate().expect_err("v_min above v_max").starts_with("centerfollow.v_min_m_s"));
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub struct BehaviourStatus {
     pub cmd: NavigationVelocity,
     /// Estimated distance to the followed wall (wall following), m.
     pub wall_m: Option<f64>,
-    /// Estimated offset from the corridor centre, positive right of it (center following), m.
+    /// Estimated offset from the corridor centre, positive left of it (center following), m.
     pub offset_m: Option<f64>,
     /// The wall angle the step used (see [`crate::ring`]), rad.
     pub alpha_rad: f64,

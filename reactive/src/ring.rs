@@ -179,10 +179,11 @@ pub fn wall_in(
     let in_side = |i: usize| side.sensors().contains(&i);
     match how {
         AngleEstimator::Original => {
-            let fine = match (r[m - 1], r[m + 1]) {
-                (Some(a), Some(b)) if in_side(m - 1) && in_side(m + 1) => {
-                    ((a - b) / l_m).clamp(-1.0, 1.0).asin()
-                }
+            // Neighbours are read only inside the side (m - 1 or m + 1 may be off the ring).
+            let neighbour =
+                |i: Option<usize>| i.filter(|&i| in_side(i)).and_then(|i| r.get(i).copied().flatten());
+            let fine = match (neighbour(m.checked_sub(1)), neighbour(Some(m + 1))) {
+                (Some(a), Some(b)) => ((a - b) / l_m).clamp(-1.0, 1.0).asin(),
                 _ => 0.0,
             };
             Some(WallEstimate { distance_m: d_min, alpha_rad: coarse + fine, nearest: m })
@@ -379,6 +380,18 @@ mod tests {
             )
             .is_none()
         );
+    }
+
+    #[test]
+    fn original_estimator_is_safe_at_the_right_sides_last_sensor() {
+        let mut r = [None; RING_SIZE];
+        r[15] = Some(0.2);
+        r[14] = Some(0.3);
+        r[0] = Some(0.25);
+        let w = wall(&r, Side::Right, AngleEstimator::Original, &RingGeometry::uniform(0.25, 0.0), 0.17)
+            .expect("wall");
+        assert_eq!(w.nearest, 15);
+        assert!((w.alpha_rad - 3.0 * PI / 8.0).abs() < 1e-12, "coarse only: {}", w.alpha_rad);
     }
 
     #[test]

@@ -83,6 +83,12 @@ impl WallFollowParams {
         pos(self.v_slow_m_s, "v_slow_m_s")?;
         pos(self.slow_below_m, "slow_below_m")?;
         pos(self.stop_below_m, "stop_below_m")?;
+        if self.v_slow_m_s > self.v_max_m_s {
+            return Err(format!(
+                "wallfollow.v_slow_m_s: {} is above v_max_m_s ({})",
+                self.v_slow_m_s, self.v_max_m_s
+            ));
+        }
         pos(self.ir_range_m, "ir_range_m")?;
         pos(self.l_m, "l_m")?;
         self.loops.validate("wallfollow")

@@ -82,8 +82,9 @@ pub struct RunOutcome {
     pub metrics: Metrics,
     /// What the supervisor reported.
     pub supervisor_events: Vec<SupervisorEvent>,
-    /// What the recording holds, if one was made.
-    pub recording: Option<crate::record::RecordSummary>,
+    /// What the recording holds, if one was made, or why it failed (the run's figures stand
+    /// either way).
+    pub recording: Option<Result<crate::record::RecordSummary, crate::record::RecordError>>,
 }
 
 /// Why a run could not be made.
@@ -186,9 +187,6 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         command_timeouts: safety.timeouts,
     };
     let report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
-    let recording = match recording {
-        Some(r) => r.finish()?,
-        None => None,
-    };
+    let recording = recording.and_then(|r| r.finish().transpose());
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
 }

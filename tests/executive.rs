@@ -1,0 +1,112 @@
+//! The master as a component, with the robot server and both behaviours on the simulator:
+//! goals, their events, and the wiring invariant, watched through a tap on the registry.
+
+use orsa_actors::component::spawn;
+use orsa_actors::event::{EventClient, EventMode};
+use orsa_actors::query::QueryClient;
+use orsa_actors::tap::Tap;
+use orsa_actors::{Clock, Registry, Timestamp};
+use orsa_executive::{ExecutiveParams, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, Master};
+use orsa_hardware::server::{Nomad200, ServerParams};
+use orsa_hardware::sim::{SimConfig, SimNomad200, SimRobot};
+use orsa_hardware::world::World;
+use orsa_reactive::{CenterFollow, WallFollow};
+use parking_lot::Mutex;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Tracks which behaviour ports point at the motors, and the most that ever did at once.
+#[derive(Default)]
+struct WiringWatch {
+    wired: Mutex<BTreeMap<String, bool>>,
+    most_at_once: Mutex<usize>,
+}
+impl Tap for WiringWatch {
+    fn record(&self, topic: &str, _type_id: &str, _stamp: Timestamp, message: serde_json::Value) {
+        if let Some(component) = topic.strip_suffix("/wiring") {
+            let to_motors = message["target"]["service"] == "navigationvelocity";
+            let mut wired = self.wired.lock();
+            wired.insert(component.to_string(), to_motors);
+            let n = wired.values().filter(|w| **w).count();
+            let mut most = self.most_at_once.lock();
+            *most = (*most).max(n);
+        }
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn master_runs_goals_reports_them_and_never_wires_two_behaviours() {
+    let clock = Clock::start();
+    let registry = Registry::with_clock(clock);
+    let watch = Arc::new(WiringWatch::default());
+    registry.set_tap(Some(watch.clone()));
+    let config = SimConfig::default();
+    let params = ServerParams::default();
+    let robot = config.robot_params(params.push_periods());
+    let sim = SimRobot::spawn(
+        SimNomad200::new(World::palazzina().expect("world"), config, 11).expect("sim"),
+        clock,
+    );
+    let truth = sim.truth();
+    let _s =
+        spawn(&registry, "nomad200", Nomad200::new(params, robot, sim.sensor_board(), sim.motor_board()))
+            .await
+            .expect("server");
+    let _w =
+        spawn(&registry, "wallfollow", WallFollow { params: Default::default(), robot: "nomad200".into() })
+            .await
+            .expect("wallfollow");
+    let _c = spawn(
+        &registry,
+        "centerfollow",
+        CenterFollow { params: Default::default(), robot: "nomad200".into() },
+    )
+    .await
+    .expect("centerfollow");
+    let _m = spawn(&registry, "master", Master { params: ExecutiveParams::default() }).await.expect("master");
+
+    let goals = QueryClient::<Goal, GoalReply>::connect(&registry, "master/goal").expect("goal");
+    let mut events = EventClient::<GoalFilter, GoalEvent>::connect(&registry, "master/goals")
+        .expect("events")
+        .activate(EventMode::Continuous, GoalFilter::default())
+        .expect("activate");
+    let ask = |mode: &str, for_s: Option<f64>| Goal { mode: mode.into(), for_s };
+    let timeout = Some(Duration::from_secs(5));
+
+    let bad = goals.query(ask("dance", None), timeout).await.expect("answer");
+    assert!(matches!(bad, GoalReply::Rejected { ref reason } if reason.contains("dance")), "{bad:?}");
+    let bad = goals.query(ask("patrol", Some(1e20)), timeout).await.expect("answer");
+    assert!(matches!(bad, GoalReply::Rejected { .. }), "{bad:?}");
+
+    let Ok(GoalReply::Accepted { id: patrol }) = goals.query(ask("patrol", None), timeout).await else {
+        panic!("patrol refused")
+    };
+    let e = events.next().await.expect("event").event.value;
+    assert_eq!((e.id, e.status), (patrol, GoalStatus::Started));
+    tokio::time::sleep(Duration::from_secs(120)).await;
+    assert!(truth.truth().travelled_m > 10.0, "patrolling moves the robot");
+
+    let Ok(GoalReply::Accepted { id: wall }) =
+        goals.query(ask("follow_left_wall", Some(30.0)), timeout).await
+    else {
+        panic!("follow_left_wall refused")
+    };
+    let e = events.next().await.expect("event").event.value;
+    assert_eq!((e.id, e.status), (patrol, GoalStatus::Preempted));
+    let e = events.next().await.expect("event").event.value;
+    assert_eq!((e.id, e.status), (wall, GoalStatus::Started));
+    let started = tokio::time::Instant::now();
+    let e = events.next().await.expect("event").event.value;
+    assert_eq!((e.id, e.status), (wall, GoalStatus::Reached));
+    assert_eq!(started.elapsed(), Duration::from_secs(30), "reached exactly at its time");
+
+    let Ok(GoalReply::Accepted { .. }) = goals.query(ask("stop", None), timeout).await else {
+        panic!("stop refused")
+    };
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let t = truth.truth();
+    assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "the stop mode stops the robot");
+    assert!(watch.wired.lock().values().all(|w| !w), "nothing wired in the stop mode");
+    assert_eq!(*watch.most_at_once.lock(), 1, "never two behaviours wired to the motors");
+}
