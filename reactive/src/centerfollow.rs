@@ -14,7 +14,7 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, fuse, wall_in};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -31,6 +31,11 @@ pub struct CenterFollowParams {
     pub v_min_m_s: f64,
     /// Anything this close within 45 degrees of the front: turn in place, m.
     pub stop_below_m: f64,
+    /// Left plus right clearance under this, with something within `open_front_m` ahead: the
+    /// robot is wedged; it turns in place, always the same way, until the front is open, m.
+    pub tight_gap_m: f64,
+    /// The front (45 degrees each side) counts as open when nothing is nearer than this, m.
+    pub open_front_m: f64,
     /// Infrared is trusted under this distance, sonar beyond, m.
     pub ir_below_m: f64,
     /// Baseline of the original angle formula, m.
@@ -53,6 +58,8 @@ impl Default for CenterFollowParams {
             k_v: 0.5,
             v_min_m_s: 0.07,
             stop_below_m: 0.08,
+            tight_gap_m: 0.15,
+            open_front_m: 0.30,
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
@@ -77,6 +84,8 @@ impl CenterFollowParams {
         pos(self.k_v, "k_v")?;
         pos(self.v_min_m_s, "v_min_m_s")?;
         pos(self.stop_below_m, "stop_below_m")?;
+        pos(self.tight_gap_m, "tight_gap_m")?;
+        pos(self.open_front_m, "open_front_m")?;
         if self.v_min_m_s > self.v_max_m_s {
             return Err(format!(
                 "centerfollow.v_min_m_s: {} is above v_max_m_s ({})",
@@ -101,6 +110,8 @@ impl CenterFollowParams {
 #[derive(Debug, Clone)]
 pub struct CenterFollower {
     params: CenterFollowParams,
+    /// Getting out of gaps barely wider than the body.
+    wedge: Wedge,
     radius_m: f64,
     ir_half_beam_rad: f64,
     sonar_half_beam_rad: f64,
@@ -122,6 +133,7 @@ impl CenterFollower {
     /// infrared and sonar beams of these widths.
     pub fn new(params: CenterFollowParams, radius_m: f64, ir_beam_rad: f64, sonar_beam_rad: f64) -> Self {
         CenterFollower {
+            wedge: Wedge::default(),
             params,
             radius_m,
             ir_half_beam_rad: ir_beam_rad / 2.0,
@@ -156,9 +168,14 @@ impl CenterFollower {
             (Some(w), None) | (None, Some(w)) => (0.0, w.alpha_rad, None),
             (None, None) => (0.0, 0.0, None),
         };
-        let omega = p.loops.omega(error_left, alpha);
+        let mut omega = p.loops.omega(error_left, alpha);
+        let wmax = p.loops.omega_max_deg_s.to_radians();
+        let wedged = self.wedge.step(&r, p.tight_gap_m, p.open_front_m, wmax);
+        if let Some(turn) = wedged {
+            omega = turn;
+        }
         let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
-        let v = if front_min(&r).is_some_and(|d| d < p.stop_below_m) {
+        let v = if wedged.is_some() || front_min(&r).is_some_and(|d| d < p.stop_below_m) {
             0.0
         } else if front.is_finite() {
             (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s)

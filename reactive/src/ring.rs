@@ -114,6 +114,45 @@ pub fn front_min(r: &Ranges) -> Option<f64> {
     FRONT_ARC.iter().filter_map(|&i| r[i]).min_by(f64::total_cmp)
 }
 
+/// Getting out of a gap barely wider than the body.
+///
+/// The robot is wedged when its nearest left and right obstacles (sensors 1..7 and 9..15) add
+/// up to less than `tight_gap_m` and something is within `open_front_m` ahead (45 degrees each
+/// side). Then it turns in place, always in the direction it first chose (toward the more open
+/// front diagonal), until the front is open again: choosing anew at each step makes it rock back
+/// and forth between the two sides of the gap and never leave.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Wedge {
+    turn: Option<f64>,
+}
+
+impl Wedge {
+    /// The turn rate to turn in place at, while wedged; `None` when free.
+    pub fn step(
+        &mut self,
+        r: &Ranges,
+        tight_gap_m: f64,
+        open_front_m: f64,
+        omega_max_rad_s: f64,
+    ) -> Option<f64> {
+        let front_open = front_min(r).is_none_or(|d| d > open_front_m);
+        if front_open {
+            self.turn = None;
+            return None;
+        }
+        let tight = match (side_min(r, Side::Left), side_min(r, Side::Right)) {
+            (Some((_, l)), Some((_, rt))) => l + rt < tight_gap_m,
+            _ => false,
+        };
+        if !tight && self.turn.is_none() {
+            return None;
+        }
+        let open = |i: usize| r[i].unwrap_or(f64::INFINITY);
+        let left_more_open = open(2).min(open(1)) >= open(14).min(open(15));
+        Some(*self.turn.get_or_insert(if left_more_open { omega_max_rad_s } else { -omega_max_rad_s }))
+    }
+}
+
 /// The wall seen on one side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WallEstimate {
@@ -392,6 +431,33 @@ mod tests {
             .expect("wall");
         assert_eq!(w.nearest, 15);
         assert!((w.alpha_rad - 3.0 * PI / 8.0).abs() < 1e-12, "coarse only: {}", w.alpha_rad);
+    }
+
+    #[test]
+    fn a_wedged_robot_keeps_turning_one_way_until_the_front_is_open() {
+        let mut w = Wedge::default();
+        let mut r = [None; RING_SIZE];
+        r[4] = Some(0.05);
+        r[12] = Some(0.02);
+        r[1] = Some(0.10);
+        r[15] = Some(0.20);
+        // Wedged; the right diagonal is more open: turn right.
+        assert_eq!(w.step(&r, 0.15, 0.3, 0.8), Some(-0.8));
+        // The diagonals swap as it turns: it keeps turning right, it does not rock back.
+        r[1] = Some(0.25);
+        r[15] = Some(0.05);
+        assert_eq!(w.step(&r, 0.15, 0.3, 0.8), Some(-0.8));
+        // Front open: free again.
+        for i in [14, 15, 0, 1, 2] {
+            r[i] = None;
+        }
+        assert_eq!(w.step(&r, 0.15, 0.3, 0.8), None);
+        // Sides wide apart: not wedged, whatever is ahead.
+        let mut r = [None; RING_SIZE];
+        r[4] = Some(0.5);
+        r[12] = Some(0.5);
+        r[0] = Some(0.1);
+        assert_eq!(Wedge::default().step(&r, 0.15, 0.3, 0.8), None);
     }
 
     #[test]

@@ -18,7 +18,7 @@
 //!   front of it.
 
 use crate::cascade::CascadeParams;
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, side_min, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -40,6 +40,11 @@ pub struct WallFollowParams {
     pub slow_below_m: f64,
     /// Anything this close within 45 degrees of the front: turn in place, m.
     pub stop_below_m: f64,
+    /// Left plus right clearance under this, with something within `open_front_m` ahead: the
+    /// robot is wedged and turns in place, always the same way, until the front is open, m.
+    pub tight_gap_m: f64,
+    /// The front (45 degrees each side) counts as open when nothing is nearer than this, m.
+    pub open_front_m: f64,
     /// Infrared range: an invalid reading means free space up to here, m.
     pub ir_range_m: f64,
     /// Baseline of the original angle formula, m.
@@ -59,6 +64,8 @@ impl Default for WallFollowParams {
             v_slow_m_s: 0.07,
             slow_below_m: 0.20,
             stop_below_m: 0.08,
+            tight_gap_m: 0.15,
+            open_front_m: 0.30,
             ir_range_m: 0.60,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
@@ -83,6 +90,8 @@ impl WallFollowParams {
         pos(self.v_slow_m_s, "v_slow_m_s")?;
         pos(self.slow_below_m, "slow_below_m")?;
         pos(self.stop_below_m, "stop_below_m")?;
+        pos(self.tight_gap_m, "tight_gap_m")?;
+        pos(self.open_front_m, "open_front_m")?;
         if self.v_slow_m_s > self.v_max_m_s {
             return Err(format!(
                 "wallfollow.v_slow_m_s: {} is above v_max_m_s ({})",
@@ -100,6 +109,7 @@ impl WallFollowParams {
 pub struct WallFollower {
     params: WallFollowParams,
     ring: RingGeometry,
+    wedge: Wedge,
 }
 
 /// What the controller saw and decided, for logs and plots.
@@ -116,7 +126,7 @@ pub struct WallFollowStep {
 impl WallFollower {
     /// A controller for a robot whose infrared ring is `ring`.
     pub fn new(params: WallFollowParams, ring: RingGeometry) -> Self {
-        WallFollower { params, ring }
+        WallFollower { params, ring, wedge: Wedge::default() }
     }
 
     /// The parameters.
@@ -137,9 +147,13 @@ impl WallFollower {
             d = front;
             alpha = -FRAC_PI_2;
         }
-        let omega = p.loops.omega(d - p.target_m, alpha);
+        let mut omega = p.loops.omega(d - p.target_m, alpha);
+        let wedged = self.wedge.step(ir, p.tight_gap_m, p.open_front_m, p.loops.omega_max_deg_s.to_radians());
+        if let Some(turn) = wedged {
+            omega = turn;
+        }
         let front_close = [15, 0, 1].iter().any(|&i| ir[i].is_some_and(|x| x < p.slow_below_m));
-        let v = if front_min(ir).is_some_and(|d| d < p.stop_below_m) {
+        let v = if wedged.is_some() || front_min(ir).is_some_and(|d| d < p.stop_below_m) {
             0.0
         } else if front_close {
             p.v_slow_m_s
