@@ -65,7 +65,7 @@ impl Default for CenterFollowParams {
             estimator: AngleEstimator::default(),
             left_sensors: [1, 5],
             right_sensors: [11, 15],
-            loops: CascadeParams { k_d: 1.5, k_alpha: -2.0, ..CascadeParams::default() },
+            loops: CascadeParams { k_d: 5.0, k_alpha: -2.0, ..CascadeParams::default() },
         }
     }
 }
