@@ -28,6 +28,15 @@ pub struct CascadeParams {
     pub omega_max_deg_s: f64,
 }
 
+/// Checks that each `(key, value)` is a positive finite number; the error names
+/// `prefix.key`, as every behaviour's parameter checks do.
+pub fn check_positive(prefix: &str, values: &[(&str, f64)]) -> Result<(), String> {
+    match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+        Some((key, _)) => Err(format!("{prefix}.{key}: must be a positive number")),
+        None => Ok(()),
+    }
+}
+
 impl Default for CascadeParams {
     fn default() -> Self {
         CascadeParams { k_d: 3.0, k_alpha: -2.5, alpha_max_deg: 30.0, omega_max_deg_s: 45.0 }

@@ -13,7 +13,7 @@
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
-use crate::cascade::CascadeParams;
+use crate::cascade::{CascadeParams, check_positive};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
@@ -73,27 +73,25 @@ impl Default for CenterFollowParams {
 impl CenterFollowParams {
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        let pos = |v: f64, key: &str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("centerfollow.{key}: must be a positive number"))
-            }
-        };
-        pos(self.v_max_m_s, "v_max_m_s")?;
-        pos(self.k_v, "k_v")?;
-        pos(self.v_min_m_s, "v_min_m_s")?;
-        pos(self.stop_below_m, "stop_below_m")?;
-        pos(self.tight_gap_m, "tight_gap_m")?;
-        pos(self.open_front_m, "open_front_m")?;
+        check_positive(
+            "centerfollow",
+            &[
+                ("v_max_m_s", self.v_max_m_s),
+                ("k_v", self.k_v),
+                ("v_min_m_s", self.v_min_m_s),
+                ("stop_below_m", self.stop_below_m),
+                ("tight_gap_m", self.tight_gap_m),
+                ("open_front_m", self.open_front_m),
+                ("ir_below_m", self.ir_below_m),
+                ("l_m", self.l_m),
+            ],
+        )?;
         if self.v_min_m_s > self.v_max_m_s {
             return Err(format!(
                 "centerfollow.v_min_m_s: {} is above v_max_m_s ({})",
                 self.v_min_m_s, self.v_max_m_s
             ));
         }
-        pos(self.ir_below_m, "ir_below_m")?;
-        pos(self.l_m, "l_m")?;
         let [a, b] = self.left_sensors;
         if !(1..=7).contains(&a) || !(a..=7).contains(&b) {
             return Err(format!("centerfollow.left_sensors: [{a}, {b}] must be first and last of 1..7"));

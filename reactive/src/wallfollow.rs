@@ -17,7 +17,7 @@
 //!   -90 degrees): the robot turns right, away from it, rather than ignoring what is straight in
 //!   front of it.
 
-use crate::cascade::CascadeParams;
+use crate::cascade::{CascadeParams, check_positive};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, side_min, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
@@ -77,29 +77,27 @@ impl Default for WallFollowParams {
 impl WallFollowParams {
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        let pos = |v: f64, key: &str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("wallfollow.{key}: must be a positive number"))
-            }
-        };
-        pos(self.target_m, "target_m")?;
-        pos(self.v_max_m_s, "v_max_m_s")?;
-        pos(self.k_v, "k_v")?;
-        pos(self.v_slow_m_s, "v_slow_m_s")?;
-        pos(self.slow_below_m, "slow_below_m")?;
-        pos(self.stop_below_m, "stop_below_m")?;
-        pos(self.tight_gap_m, "tight_gap_m")?;
-        pos(self.open_front_m, "open_front_m")?;
+        check_positive(
+            "wallfollow",
+            &[
+                ("target_m", self.target_m),
+                ("v_max_m_s", self.v_max_m_s),
+                ("k_v", self.k_v),
+                ("v_slow_m_s", self.v_slow_m_s),
+                ("slow_below_m", self.slow_below_m),
+                ("stop_below_m", self.stop_below_m),
+                ("tight_gap_m", self.tight_gap_m),
+                ("open_front_m", self.open_front_m),
+                ("ir_range_m", self.ir_range_m),
+                ("l_m", self.l_m),
+            ],
+        )?;
         if self.v_slow_m_s > self.v_max_m_s {
             return Err(format!(
                 "wallfollow.v_slow_m_s: {} is above v_max_m_s ({})",
                 self.v_slow_m_s, self.v_max_m_s
             ));
         }
-        pos(self.ir_range_m, "ir_range_m")?;
-        pos(self.l_m, "l_m")?;
         self.loops.validate("wallfollow")
     }
 }
