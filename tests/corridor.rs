@@ -37,7 +37,10 @@ async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor()
         .set_state("active")
         .await
         .expect("activate");
-    WiringMaster::new(&registry).connect("centerfollow", "vel", "nomad200/navigationvelocity").expect("wire");
+    WiringMaster::new(&registry)
+        .connect("centerfollow", "vel", "nomad200/navigationvelocity")
+        .await
+        .expect("wire");
 
     let start = truth.truth();
     let mut worst_offset: f64 = 0.0;

@@ -5,6 +5,9 @@
 //! deterministically and as fast as the CPU allows. Nothing in pattern or control code reads
 //! `std::time::Instant` or `SystemTime`; this module is the only place that asks tokio for
 //! "now", and it reports it as a [`Timestamp`]: nanoseconds since the clock's epoch.
+//!
+//! For stamps that leave the process, a clock also knows the UNIX time of its epoch, read once
+//! from the system clock when the clock starts ([`Clock::unix_ns`], [`Clock::from_unix_ns`]).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -57,12 +60,32 @@ impl fmt::Display for Timestamp {
 #[derive(Debug, Clone, Copy)]
 pub struct Clock {
     epoch: Instant,
+    /// UNIX time of the epoch, in nanoseconds.
+    unix_epoch_ns: u64,
 }
 
 impl Clock {
     /// A clock whose epoch is tokio's "now". Must be called inside a tokio runtime.
     pub fn start() -> Self {
-        Clock { epoch: Instant::now() }
+        let unix = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+        Clock { epoch: Instant::now(), unix_epoch_ns: unix }
+    }
+
+    /// A clock with a given epoch and the UNIX time of that epoch (for tests and replays).
+    pub fn with_unix_epoch_ns(epoch: Instant, unix_epoch_ns: u64) -> Self {
+        Clock { epoch, unix_epoch_ns }
+    }
+
+    /// The UNIX time, in nanoseconds, of a timestamp of this clock (how stamps cross processes).
+    pub fn unix_ns(&self, t: Timestamp) -> u64 {
+        self.unix_epoch_ns.saturating_add(t.0)
+    }
+
+    /// The timestamp of this clock for a UNIX time in nanoseconds (zero before the epoch).
+    pub fn from_unix_ns(&self, unix_ns: u64) -> Timestamp {
+        Timestamp(unix_ns.saturating_sub(self.unix_epoch_ns))
     }
 
     /// The current robot time.

@@ -79,6 +79,15 @@ pub enum PatternError {
     /// A malformed argument, such as a zero `every` for a subscription.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// A message from another process could not be decoded.
+    #[error("undecodable message: {0}")]
+    Decode(String),
+    /// A peer in another process answered with an error that has no variant here.
+    #[error("remote error: {0}")]
+    Remote(String),
+    /// The transport to another process failed (no route, session closed).
+    #[error("link error: {0}")]
+    Link(String),
 }
 
 /// Shorthand for results of pattern operations.

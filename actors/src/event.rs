@@ -29,10 +29,11 @@
 use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
 use crate::state::Cancel;
+use crate::transport::{ByteSink, Served, Subscription};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -95,6 +96,47 @@ impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
     }
 }
 
+/// A firing on the wire.
+#[derive(Serialize, Deserialize)]
+struct WireFired<E> {
+    activation: u64,
+    seq: u64,
+    stamp_ns: u64,
+    value: E,
+}
+
+impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
+    fn serve_activate(
+        self: Arc<Self>,
+        mode: EventMode,
+        params: &[u8],
+        sink: ByteSink,
+    ) -> PatternResult<Subscription> {
+        let params: P = crate::wire::decode(params, P::ID)
+            .map_err(|e| PatternError::Decode(format!("activation of {}: {e}", self.addr)))?;
+        let clock = self.clock;
+        let wire_sink = Sink::from_fn(move |f: Fired<E>| {
+            let wire = WireFired {
+                activation: f.activation.0,
+                seq: f.event.seq,
+                stamp_ns: clock.unix_ns(f.event.stamp),
+                value: f.event.value,
+            };
+            if sink(&crate::wire::encode(&wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
+        });
+        let id = EventEndpoint::activate(&self, mode, params, wire_sink);
+        struct Deactivate<P: CommObject, E: CommObject>(std::sync::Weak<EventEndpoint<P, E>>, ActivationId);
+        impl<P: CommObject, E: CommObject> Drop for Deactivate<P, E> {
+            fn drop(&mut self) {
+                if let Some(ep) = self.0.upgrade() {
+                    ep.deactivate(self.1);
+                }
+            }
+        }
+        Ok(Subscription::new(Deactivate(Arc::downgrade(&self), id)))
+    }
+}
+
 /// The server side of an Event service over activation parameters `P`, events `E` and server
 /// state `S` (which need not be a communication object: it never leaves the server).
 pub struct EventServer<P, E, S> {
@@ -129,7 +171,7 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             next_id: AtomicU64::new(1),
             seq: AtomicU64::new(0),
         });
-        registry.register_service(addr, info::<P, E>(), endpoint.clone())?;
+        registry.register_service(addr, info::<P, E>(), endpoint.clone(), endpoint.clone())?;
         Ok(EventServer { endpoint, test: Arc::new(test) })
     }
 
@@ -191,20 +233,44 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
 
 /// The client side of an Event service.
 pub struct EventClient<P, E> {
-    endpoint: Arc<EventEndpoint<P, E>>,
+    addr: ServiceAddr,
+    via: Via<P, E>,
     cancel: Option<Cancel>,
 }
 
 impl<P, E> Clone for EventClient<P, E> {
     fn clone(&self) -> Self {
-        EventClient { endpoint: Arc::clone(&self.endpoint), cancel: self.cancel.clone() }
+        EventClient { addr: self.addr.clone(), via: self.via.clone(), cancel: self.cancel.clone() }
     }
+}
+
+type Live = Arc<Mutex<BTreeMap<ActivationId, Subscription>>>;
+
+enum Via<P, E> {
+    Local(Arc<EventEndpoint<P, E>>),
+    Remote { remote: Remote, next_id: Arc<AtomicU64>, live: Live },
+}
+
+impl<P, E> Clone for Via<P, E> {
+    fn clone(&self) -> Self {
+        match self {
+            Via::Local(e) => Via::Local(Arc::clone(e)),
+            Via::Remote { remote, next_id, live } => {
+                Via::Remote { remote: remote.clone(), next_id: Arc::clone(next_id), live: Arc::clone(live) }
+            }
+        }
+    }
+}
+
+enum Guard<P, E> {
+    Local(Arc<EventEndpoint<P, E>>),
+    Remote(#[allow(dead_code)] Subscription),
 }
 
 /// An activation whose events the client reads itself. Dropping it deactivates it.
 pub struct EventActivation<P: CommObject, E: CommObject> {
     id: ActivationId,
-    endpoint: Arc<EventEndpoint<P, E>>,
+    guard: Guard<P, E>,
     rx: mpsc::UnboundedReceiver<Fired<E>>,
     cancel: Option<Cancel>,
 }
@@ -246,7 +312,9 @@ impl<P: CommObject, E: CommObject> EventActivation<P, E> {
 
 impl<P: CommObject, E: CommObject> Drop for EventActivation<P, E> {
     fn drop(&mut self) {
-        self.endpoint.deactivate(self.id);
+        if let Guard::Local(e) = &self.guard {
+            e.deactivate(self.id);
+        }
     }
 }
 
@@ -254,10 +322,15 @@ impl<P: CommObject, E: CommObject> EventClient<P, E> {
     /// Connects to the Event service at `addr`, checking its parameter and event types.
     pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
-        let endpoint = registry
-            .resolve_local::<EventEndpoint<P, E>>(&addr, &info::<P, E>())?
-            .ok_or_else(|| registry.not_found(&addr))?;
-        Ok(EventClient { endpoint, cancel: None })
+        let via = match registry.resolve::<EventEndpoint<P, E>>(&addr, &info::<P, E>())? {
+            Resolved::Local(e) => Via::Local(e),
+            Resolved::Remote(remote) => Via::Remote {
+                remote,
+                next_id: Arc::new(AtomicU64::new(1)),
+                live: Arc::new(Mutex::new(BTreeMap::new())),
+            },
+        };
+        Ok(EventClient { addr, via, cancel: None })
     }
 
     /// This client, with its blocking waits aborted by `cancel` (a component's deactivation).
@@ -269,8 +342,14 @@ impl<P: CommObject, E: CommObject> EventClient<P, E> {
     /// Activates an event; read its firings from the returned activation.
     pub fn activate(&self, mode: EventMode, params: P) -> PatternResult<EventActivation<P, E>> {
         let (tx, rx) = mpsc::unbounded_channel();
-        let id = self.endpoint.activate(mode, params, Sink::channel(tx));
-        Ok(EventActivation { id, endpoint: Arc::clone(&self.endpoint), rx, cancel: self.cancel.clone() })
+        let (id, guard) = match &self.via {
+            Via::Local(e) => (e.activate(mode, params, Sink::channel(tx)), Guard::Local(Arc::clone(e))),
+            Via::Remote { remote, next_id, .. } => {
+                let id = ActivationId(next_id.fetch_add(1, Ordering::Relaxed));
+                (id, Guard::Remote(remote_activate(remote, id, mode, &params, Sink::channel(tx))?))
+            }
+        };
+        Ok(EventActivation { id, guard, rx, cancel: self.cancel.clone() })
     }
 
     /// Activates an event whose firings go into `sink` (a component's mailbox). It lives until
@@ -281,20 +360,64 @@ impl<P: CommObject, E: CommObject> EventClient<P, E> {
         params: P,
         sink: Sink<Fired<E>>,
     ) -> PatternResult<ActivationId> {
-        Ok(self.endpoint.activate(mode, params, sink))
+        match &self.via {
+            Via::Local(e) => Ok(e.activate(mode, params, sink)),
+            Via::Remote { remote, next_id, live } => {
+                let id = ActivationId(next_id.fetch_add(1, Ordering::Relaxed));
+                let sub = remote_activate(remote, id, mode, &params, sink)?;
+                live.lock().insert(id, sub);
+                Ok(id)
+            }
+        }
     }
 
     /// Ends an activation made with [`activate_to`](Self::activate_to).
     pub fn deactivate(&self, id: ActivationId) -> PatternResult<()> {
-        if self.endpoint.deactivate(id) {
-            Ok(())
-        } else {
-            Err(PatternError::Unknown { kind: "activation", name: id.0.to_string() })
-        }
+        let known = match &self.via {
+            Via::Local(e) => e.deactivate(id),
+            Via::Remote { live, .. } => live.lock().remove(&id).is_some(),
+        };
+        if known { Ok(()) } else { Err(PatternError::Unknown { kind: "activation", name: id.0.to_string() }) }
     }
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        &self.addr
     }
+}
+
+/// Activates a remote event: firings are decoded, renumbered with the client's activation id,
+/// and delivered into `sink`; a single-shot activation delivers at most one.
+fn remote_activate<P: CommObject, E: CommObject>(
+    remote: &Remote,
+    id: ActivationId,
+    mode: EventMode,
+    params: &P,
+    sink: Sink<Fired<E>>,
+) -> PatternResult<Subscription> {
+    let clock = remote.registry.clock();
+    let slot = Mutex::new(Some(sink));
+    let r = remote.clone();
+    let bytes: ByteSink = Arc::new(move |b: &[u8]| {
+        let wire = match crate::wire::decode::<WireFired<E>>(b, E::ID) {
+            Ok(w) => w,
+            Err(e) => {
+                r.bad_message(&e);
+                return true;
+            }
+        };
+        let mut slot = slot.lock();
+        let Some(sink) = slot.as_ref() else { return false };
+        let fired = Fired {
+            activation: id,
+            event: Stamped { seq: wire.seq, stamp: clock.from_unix_ns(wire.stamp_ns), value: wire.value },
+        };
+        let open = sink.deliver(fired) != Err(Undeliverable::Closed);
+        if !open || mode == EventMode::Single {
+            *slot = None;
+            return false;
+        }
+        true
+    });
+    remote.transport.activate(&remote.addr, mode, crate::wire::encode(params), bytes)
 }

@@ -20,7 +20,8 @@
 //! - [`component`]: a component is a named actor hosting services, ports, state and
 //!   subscriptions; a restarted instance keeps all of them.
 //! - [`registry`]: addresses (`component/service`) and the directory that resolves them, with the
-//!   type check between client and service; [`transport`]: the seam for other processes.
+//!   type check between client and service; [`transport`]: the seam for other processes, and
+//!   [`wire`]: the CBOR encoding of what crosses it.
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
@@ -45,6 +46,7 @@ pub mod state;
 pub mod supervision;
 pub mod tap;
 pub mod transport;
+pub mod wire;
 pub mod wiring;
 
 pub use clock::{Clock, Timestamp};

@@ -10,10 +10,11 @@
 use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
 use crate::state::Cancel;
+use crate::transport::{ByteSink, Served, Subscription};
 use parking_lot::{Mutex, RwLock};
 use std::num::NonZeroU32;
 use std::sync::Arc;
@@ -81,7 +82,7 @@ impl<T: CommObject> PushEndpoint<T> {
             failed: AtomicU64::new(0),
             active: watch::Sender::new(active),
         });
-        registry.register_service(addr, info::<T>(kind), endpoint.clone())?;
+        registry.register_service(addr, info::<T>(kind), endpoint.clone(), endpoint.clone())?;
         Ok(endpoint)
     }
 
@@ -165,10 +166,42 @@ impl<T: CommObject> PushEndpoint<T> {
     }
 }
 
+impl<T: CommObject> Served for PushEndpoint<T> {
+    fn serve_subscribe(self: Arc<Self>, every: NonZeroU32, sink: ByteSink) -> PatternResult<Subscription> {
+        let clock = self.clock;
+        let bytes_sink = Sink::from_fn(move |u: Update<T>| {
+            if sink(&crate::wire::encode_stamped(&u, &clock)) { Ok(()) } else { Err(Undeliverable::Closed) }
+        });
+        let id = PushEndpoint::subscribe(&self, every, bytes_sink);
+        struct Unsubscribe<T: CommObject>(std::sync::Weak<PushEndpoint<T>>, u64);
+        impl<T: CommObject> Drop for Unsubscribe<T> {
+            fn drop(&mut self) {
+                if let Some(ep) = self.0.upgrade() {
+                    ep.unsubscribe(self.1);
+                }
+            }
+        }
+        Ok(Subscription::new(Unsubscribe(Arc::downgrade(&self), id)))
+    }
+}
+
+enum Via<T> {
+    Local(Arc<PushEndpoint<T>>),
+    Remote(Remote),
+}
+
+enum SubHandle {
+    Local(u64),
+    Remote(#[allow(dead_code)] Subscription),
+}
+
 /// The client half shared by both push patterns.
 pub(crate) struct PushClientCore<T> {
-    pub(crate) endpoint: Arc<PushEndpoint<T>>,
-    sub: Mutex<Option<u64>>,
+    pub(crate) addr: ServiceAddr,
+    via: Via<T>,
+    /// Whether the server produces; a remote server is taken as producing.
+    active: watch::Receiver<bool>,
+    sub: Mutex<Option<SubHandle>>,
     /// The newest update received, and the subscription generation (bumped on every subscribe
     /// and unsubscribe, so a waiter learns that its subscription ended).
     newest: Arc<watch::Sender<Option<Update<T>>>>,
@@ -185,11 +218,17 @@ impl<T: CommObject> PushClientCore<T> {
         forward: Option<Sink<Update<T>>>,
         cancel: Option<Cancel>,
     ) -> PatternResult<Self> {
-        let endpoint = registry
-            .resolve_local::<PushEndpoint<T>>(addr, &info::<T>(kind))?
-            .ok_or_else(|| registry.not_found(addr))?;
+        let (via, active) = match registry.resolve::<PushEndpoint<T>>(addr, &info::<T>(kind))? {
+            Resolved::Local(e) => {
+                let active = e.active.subscribe();
+                (Via::Local(e), active)
+            }
+            Resolved::Remote(r) => (Via::Remote(r), watch::Sender::new(true).subscribe()),
+        };
         Ok(PushClientCore {
-            endpoint,
+            addr: addr.clone(),
+            via,
+            active,
             sub: Mutex::new(None),
             newest: Arc::new(watch::Sender::new(None)),
             generation: watch::Sender::new(0),
@@ -199,7 +238,7 @@ impl<T: CommObject> PushClientCore<T> {
     }
 
     fn not_subscribed(&self) -> PatternError {
-        PatternError::NotActive(format!("not subscribed to {}", self.endpoint.addr))
+        PatternError::NotActive(format!("not subscribed to {}", self.addr))
     }
 
     pub(crate) fn subscribe(&self, every: u32) -> PatternResult<()> {
@@ -225,19 +264,43 @@ impl<T: CommObject> PushClientCore<T> {
         // with a sink; the old subscription ends before the new one starts (no duplicate).
         let mut sub = self.sub.lock();
         if let Some(old) = sub.take() {
-            self.endpoint.unsubscribe(old);
+            self.end(old);
         }
-        *sub = Some(self.endpoint.subscribe(every, sink));
+        *sub = Some(match &self.via {
+            Via::Local(e) => SubHandle::Local(e.subscribe(every, sink)),
+            Via::Remote(r) => {
+                let clock = r.registry.clock();
+                let remote = r.clone();
+                let bytes: ByteSink =
+                    Arc::new(move |b: &[u8]| match crate::wire::decode_stamped::<T>(b, T::ID, &clock) {
+                        Ok(u) => sink.deliver(Arc::new(u)) != Err(Undeliverable::Closed),
+                        Err(e) => {
+                            remote.bad_message(&e);
+                            true
+                        }
+                    });
+                SubHandle::Remote(r.transport.subscribe(&r.addr, every, bytes)?)
+            }
+        });
         drop(sub);
         self.generation.send_modify(|g| *g += 1);
         Ok(())
     }
 
     pub(crate) fn unsubscribe(&self) -> PatternResult<()> {
-        let id = self.sub.lock().take().ok_or_else(|| self.not_subscribed())?;
-        self.endpoint.unsubscribe(id);
+        let old = self.sub.lock().take().ok_or_else(|| self.not_subscribed())?;
+        self.end(old);
         self.generation.send_modify(|g| *g += 1);
         Ok(())
+    }
+
+    fn end(&self, sub: SubHandle) {
+        match (sub, &self.via) {
+            (SubHandle::Local(id), Via::Local(e)) => {
+                e.unsubscribe(id);
+            }
+            (other, _) => drop(other),
+        }
     }
 
     pub(crate) fn is_subscribed(&self) -> bool {
@@ -261,9 +324,9 @@ impl<T: CommObject> PushClientCore<T> {
         if !self.is_subscribed() {
             return Err(self.not_subscribed());
         }
-        let addr = self.endpoint.addr.clone();
+        let addr = self.addr.clone();
         let mut newest = self.newest.subscribe();
-        let mut active = self.endpoint.active.subscribe();
+        let mut active = self.active.clone();
         let mut generation = self.generation.subscribe();
         generation.borrow_and_update();
         let wait = async move {
@@ -303,8 +366,8 @@ impl<T: CommObject> PushClientCore<T> {
 
 impl<T> Drop for PushClientCore<T> {
     fn drop(&mut self) {
-        if let Some(id) = self.sub.get_mut().take() {
-            let mut subs = self.endpoint.subs.write();
+        if let (Some(SubHandle::Local(id)), Via::Local(e)) = (self.sub.get_mut().take(), &self.via) {
+            let mut subs = e.subs.write();
             if subs.iter().any(|s| s.id == id) {
                 *subs = Arc::new(subs.iter().filter(|s| s.id != id).cloned().collect());
             }

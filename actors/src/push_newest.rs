@@ -134,6 +134,6 @@ impl<T: CommObject> PushNewestClient<T> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.core.endpoint.addr
+        &self.core.addr
     }
 }

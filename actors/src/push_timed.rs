@@ -258,6 +258,6 @@ impl<T: CommObject> PushTimedClient<T> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.core.endpoint.addr
+        &self.core.addr
     }
 }

@@ -30,7 +30,7 @@
 
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::Sink;
 use crate::stamped::Stamped;
 use crate::state::Cancel;
@@ -62,7 +62,7 @@ impl<Req, Ans: CommObject> QueryRequest<Req, Ans> {
 /// The one-time right to answer a query. It may be kept and used after other messages.
 #[derive(Debug)]
 pub struct Responder<Ans> {
-    tx: oneshot::Sender<Stamped<Ans>>,
+    tx: oneshot::Sender<PatternResult<Stamped<Ans>>>,
     seq: u64,
     stamp: crate::clock::Clock,
     tap: crate::tap::TapSlot,
@@ -75,17 +75,61 @@ impl<Ans: CommObject> Responder<Ans> {
         let msg = Stamped { seq: self.seq, stamp: self.stamp.now(), value: answer };
         self.tap.record(&self.answer_topic, Ans::ID, msg.stamp, &msg);
         self.tx
-            .send(msg)
+            .send(Ok(msg))
             .map_err(|_| PatternError::NotActive("the client no longer waits for this answer".into()))
     }
 }
 
 pub(crate) struct QueryEndpoint<Req, Ans> {
     addr: ServiceAddr,
+    clock: crate::clock::Clock,
     topic: String,
     answer_topic: Arc<str>,
     tap: crate::tap::TapSlot,
     sink: Sink<QueryRequest<Req, Ans>>,
+}
+
+impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
+    /// Hands a stamped request to the server; the answer (or why there is none) arrives on
+    /// the returned channel.
+    fn deliver(
+        &self,
+        request: Stamped<Req>,
+    ) -> PatternResult<oneshot::Receiver<PatternResult<Stamped<Ans>>>> {
+        let (tx, rx) = oneshot::channel();
+        let seq = request.seq;
+        self.tap.record(&self.topic, Req::ID, request.stamp, &request);
+        let msg = QueryRequest {
+            request,
+            responder: Responder {
+                tx,
+                seq,
+                stamp: self.clock,
+                tap: self.tap.clone(),
+                answer_topic: Arc::clone(&self.answer_topic),
+            },
+        };
+        self.sink.deliver(msg).map_err(|_| PatternError::Unavailable(self.addr.clone()))?;
+        Ok(rx)
+    }
+}
+
+impl<Req: CommObject, Ans: CommObject> crate::transport::Served for QueryEndpoint<Req, Ans> {
+    fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
+        let clock = self.clock;
+        let addr = self.addr.clone();
+        let rx = crate::wire::decode_stamped::<Req>(payload, Req::ID, &clock)
+            .map_err(|e| PatternError::Decode(format!("request to {addr}: {e}")))
+            .and_then(|request| self.deliver(request));
+        Box::pin(async move {
+            let answer = match rx {
+                Ok(rx) => rx.await.unwrap_or_else(|_| Err(PatternError::NoAnswer(addr))),
+                Err(e) => Err(e),
+            };
+            let wire = answer.map(|a| crate::wire::WireStamped::from_stamped(a, &clock));
+            crate::wire::encode(&crate::wire::Reply::from_result(wire))
+        })
+    }
 }
 
 /// The server side of a Query service.
@@ -112,9 +156,10 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
             answer_topic: format!("{addr}/answer").into(),
             tap: registry.tap_slot(),
             addr: addr.clone(),
+            clock: registry.clock(),
             sink,
         });
-        registry.register_service(addr, info::<Req, Ans>(), endpoint.clone())?;
+        registry.register_service(addr, info::<Req, Ans>(), endpoint.clone(), endpoint.clone())?;
         Ok(QueryServer { endpoint })
     }
 
@@ -127,7 +172,8 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
 /// The client side of a Query service. Cheap to clone; usable from many tasks at once.
 pub struct QueryClient<Req, Ans> {
     registry: Registry,
-    endpoint: Arc<QueryEndpoint<Req, Ans>>,
+    addr: ServiceAddr,
+    endpoint: Via<Req, Ans>,
     seq: Arc<AtomicU64>,
     cancel: Option<Cancel>,
 }
@@ -136,9 +182,24 @@ impl<Req, Ans> Clone for QueryClient<Req, Ans> {
     fn clone(&self) -> Self {
         QueryClient {
             registry: self.registry.clone(),
-            endpoint: Arc::clone(&self.endpoint),
+            addr: self.addr.clone(),
+            endpoint: self.endpoint.clone(),
             seq: Arc::clone(&self.seq),
             cancel: self.cancel.clone(),
+        }
+    }
+}
+
+enum Via<Req, Ans> {
+    Local(Arc<QueryEndpoint<Req, Ans>>),
+    Remote(Remote),
+}
+
+impl<Req, Ans> Clone for Via<Req, Ans> {
+    fn clone(&self) -> Self {
+        match self {
+            Via::Local(e) => Via::Local(Arc::clone(e)),
+            Via::Remote(r) => Via::Remote(r.clone()),
         }
     }
 }
@@ -147,7 +208,7 @@ impl<Req, Ans> Clone for QueryClient<Req, Ans> {
 #[derive(Debug)]
 pub struct PendingQuery<Ans> {
     addr: ServiceAddr,
-    rx: oneshot::Receiver<Stamped<Ans>>,
+    rx: oneshot::Receiver<PatternResult<Stamped<Ans>>>,
     cancel: Option<Cancel>,
 }
 
@@ -160,7 +221,7 @@ impl<Ans: CommObject> PendingQuery<Ans> {
     /// Waits for the stamped answer, at most `timeout` if given.
     pub async fn receive_stamped(self, timeout: Option<Duration>) -> PatternResult<Stamped<Ans>> {
         let addr = self.addr;
-        let answer = async move { self.rx.await.map_err(|_| PatternError::NoAnswer(addr)) };
+        let answer = async move { self.rx.await.unwrap_or(Err(PatternError::NoAnswer(addr))) };
         let bounded = async move {
             match timeout {
                 Some(t) => tokio::time::timeout(t, answer).await.map_err(|_| PatternError::Timeout)?,
@@ -176,7 +237,7 @@ impl<Ans: CommObject> PendingQuery<Ans> {
     /// Takes the answer if it has arrived: `Ok(None)` if not yet.
     pub fn try_receive(&mut self) -> PatternResult<Option<Ans>> {
         match self.rx.try_recv() {
-            Ok(s) => Ok(Some(s.value)),
+            Ok(s) => s.map(|s| Some(s.value)),
             Err(oneshot::error::TryRecvError::Empty) => Ok(None),
             Err(oneshot::error::TryRecvError::Closed) => Err(PatternError::NoAnswer(self.addr.clone())),
         }
@@ -187,11 +248,13 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
     /// Connects to the Query service at `addr`, checking its request and answer types.
     pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
-        let endpoint = registry
-            .resolve_local::<QueryEndpoint<Req, Ans>>(&addr, &info::<Req, Ans>())?
-            .ok_or_else(|| registry.not_found(&addr))?;
+        let endpoint = match registry.resolve::<QueryEndpoint<Req, Ans>>(&addr, &info::<Req, Ans>())? {
+            Resolved::Local(e) => Via::Local(e),
+            Resolved::Remote(r) => Via::Remote(r),
+        };
         Ok(QueryClient {
             registry: registry.clone(),
+            addr,
             endpoint,
             seq: Arc::new(AtomicU64::new(0)),
             cancel: None,
@@ -206,32 +269,45 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
 
     /// Sends a request now; collect the answer later from the returned [`PendingQuery`].
     pub fn request(&self, request: Req) -> PatternResult<PendingQuery<Ans>> {
+        self.request_within(request, crate::transport::DEFAULT_REQUEST_TIMEOUT)
+    }
+
+    /// As [`request`](Self::request); a request to another process gives up after `timeout`
+    /// (an in-process request waits as long as its receiver does).
+    fn request_within(&self, request: Req, timeout: Duration) -> PatternResult<PendingQuery<Ans>> {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
-        let (tx, rx) = oneshot::channel();
         let clock = self.registry.clock();
-        let ep = &self.endpoint;
-        let msg = QueryRequest {
-            request: Stamped { seq, stamp: clock.now(), value: request },
-            responder: Responder {
-                tx,
-                seq,
-                stamp: clock,
-                tap: ep.tap.clone(),
-                answer_topic: Arc::clone(&ep.answer_topic),
-            },
+        let stamped = Stamped { seq, stamp: clock.now(), value: request };
+        let rx = match &self.endpoint {
+            Via::Local(ep) => ep.deliver(stamped)?,
+            Via::Remote(r) => {
+                let runtime = tokio::runtime::Handle::try_current().map_err(|_| {
+                    PatternError::InvalidArgument("a remote query needs a tokio runtime".into())
+                })?;
+                let (tx, rx) = oneshot::channel();
+                let reply =
+                    r.transport.request(&r.addr, crate::wire::encode_stamped(&stamped, &clock), timeout);
+                let addr = r.addr.clone();
+                runtime.spawn(async move {
+                    let answer = reply.await.and_then(|bytes| {
+                        crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(&bytes, &addr, Ans::ID)
+                    });
+                    let _ = tx.send(answer.map(|w| w.into_stamped(&clock)));
+                });
+                rx
+            }
         };
-        ep.tap.record(&ep.topic, Req::ID, msg.request.stamp, &msg.request);
-        self.endpoint.sink.deliver(msg).map_err(|_| PatternError::Unavailable(self.endpoint.addr.clone()))?;
-        Ok(PendingQuery { addr: self.endpoint.addr.clone(), rx, cancel: self.cancel.clone() })
+        Ok(PendingQuery { addr: self.addr.clone(), rx, cancel: self.cancel.clone() })
     }
 
     /// Sends a request and waits for its answer, at most `timeout` if given.
     pub async fn query(&self, request: Req, timeout: Option<Duration>) -> PatternResult<Ans> {
-        self.request(request)?.receive(timeout).await
+        let within = timeout.unwrap_or(crate::transport::DEFAULT_REQUEST_TIMEOUT);
+        self.request_within(request, within)?.receive(timeout).await
     }
 
     /// The address this client queries.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        &self.addr
     }
 }

@@ -10,7 +10,7 @@
 
 use crate::clock::{Clock, Timestamp};
 use crate::error::{PatternError, PatternResult};
-use crate::transport::Transport;
+use crate::transport::{Served, Transport};
 use parking_lot::RwLock;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
@@ -170,6 +170,31 @@ pub struct LocalService {
     pub info: ServiceInfo,
     /// The endpoint clients downcast to the pattern's typed endpoint.
     pub endpoint: Arc<dyn Any + Send + Sync>,
+    /// The service's byte-level face, for peers in other processes.
+    pub served: Arc<dyn Served>,
+}
+
+/// A service resolved for a client: in this process, or through the transport.
+pub(crate) enum Resolved<E> {
+    /// Hosted here: the typed endpoint.
+    Local(Arc<E>),
+    /// Hosted by a peer.
+    Remote(Remote),
+}
+
+/// A service hosted by a peer, as a client reaches it.
+#[derive(Clone)]
+pub(crate) struct Remote {
+    pub(crate) addr: ServiceAddr,
+    pub(crate) transport: Arc<dyn Transport>,
+    pub(crate) registry: Registry,
+}
+
+impl Remote {
+    /// Counts and logs a message from this service that did not decode.
+    pub(crate) fn bad_message(&self, e: &crate::wire::WireError) {
+        self.registry.note_decode_error(&self.addr, e);
+    }
 }
 
 impl fmt::Debug for LocalService {
@@ -184,6 +209,7 @@ struct Inner {
     services: RwLock<BTreeMap<ServiceAddr, LocalService>>,
     components: RwLock<BTreeMap<String, ()>>,
     transport: RwLock<Option<Arc<dyn Transport>>>,
+    decode_errors: std::sync::atomic::AtomicU64,
 }
 
 /// The directory of one orsa system; cheap to clone, shared by all its components.
@@ -215,6 +241,7 @@ impl Registry {
                 services: RwLock::new(BTreeMap::new()),
                 components: RwLock::new(BTreeMap::new()),
                 transport: RwLock::new(None),
+                decode_errors: std::sync::atomic::AtomicU64::new(0),
             }),
         }
     }
@@ -239,9 +266,27 @@ impl Registry {
         self.inner.tap.clone()
     }
 
-    /// Installs the transport that resolves services not hosted in this process.
+    /// Installs the transport that resolves services not hosted in this process, and offers it
+    /// every service hosted here (and, from now on, each new one).
     pub fn set_transport(&self, transport: Arc<dyn Transport>) {
-        *self.inner.transport.write() = Some(transport);
+        *self.inner.transport.write() = Some(Arc::clone(&transport));
+        let services: Vec<(ServiceAddr, LocalService)> =
+            self.inner.services.read().iter().map(|(a, s)| (a.clone(), s.clone())).collect();
+        for (addr, s) in services {
+            transport.service_added(&addr, &s.info, s.served);
+        }
+    }
+
+    /// Counts and logs a message from another process that did not decode. Nothing else
+    /// happens: the message is dropped and the receiver goes on.
+    pub fn note_decode_error(&self, from: &dyn fmt::Display, e: &crate::wire::WireError) {
+        self.inner.decode_errors.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        tracing::warn!("dropped an undecodable message from {from}: {e}");
+    }
+
+    /// How many messages from other processes failed to decode so far.
+    pub fn decode_errors(&self) -> u64 {
+        self.inner.decode_errors.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The installed transport, if any.
@@ -267,7 +312,19 @@ impl Registry {
     /// Removes a component and all its services.
     pub fn unregister_component(&self, name: &str) {
         self.inner.components.write().remove(name);
-        self.inner.services.write().retain(|addr, _| addr.component != name);
+        let mut removed = Vec::new();
+        self.inner.services.write().retain(|addr, _| {
+            let keep = addr.component != name;
+            if !keep {
+                removed.push(addr.clone());
+            }
+            keep
+        });
+        if let Some(t) = self.transport() {
+            for addr in removed {
+                t.service_removed(&addr);
+            }
+        }
     }
 
     /// Whether a component of this name is hosted here.
@@ -286,6 +343,7 @@ impl Registry {
         addr: ServiceAddr,
         info: ServiceInfo,
         endpoint: Arc<dyn Any + Send + Sync>,
+        served: Arc<dyn Served>,
     ) -> PatternResult<()> {
         if !valid_name(&addr.service) {
             return Err(PatternError::InvalidArgument(format!(
@@ -297,7 +355,12 @@ impl Registry {
         if services.contains_key(&addr) {
             return Err(PatternError::AlreadyRegistered(addr.to_string()));
         }
-        services.insert(addr, LocalService { info, endpoint });
+        services
+            .insert(addr.clone(), LocalService { info: info.clone(), endpoint, served: Arc::clone(&served) });
+        drop(services);
+        if let Some(t) = self.transport() {
+            t.service_added(&addr, &info, served);
+        }
         Ok(())
     }
 
@@ -336,6 +399,26 @@ impl Registry {
                 found: service.info.types.join(" -> "),
             }),
         }
+    }
+
+    /// Resolves a service for a client: hosted here (typed endpoint `E`), or by a peer the
+    /// installed transport knows, checking its pattern and communication objects against
+    /// `expected` either way.
+    pub(crate) fn resolve<E: Any + Send + Sync>(
+        &self,
+        addr: &ServiceAddr,
+        expected: &ServiceInfo,
+    ) -> PatternResult<Resolved<E>> {
+        if let Some(local) = self.resolve_local::<E>(addr, expected)? {
+            return Ok(Resolved::Local(local));
+        }
+        if let Some(transport) = self.transport()
+            && let Some(info) = transport.lookup(addr)
+        {
+            info.check(addr, expected)?;
+            return Ok(Resolved::Remote(Remote { addr: addr.clone(), transport, registry: self.clone() }));
+        }
+        Err(self.not_found(addr))
     }
 
     /// The error for an address that resolves nowhere.

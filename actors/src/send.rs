@@ -22,7 +22,7 @@
 
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
 use std::marker::PhantomData;
@@ -35,6 +35,7 @@ pub(crate) fn info<T: CommObject>() -> ServiceInfo {
 
 pub(crate) struct SendEndpoint<T> {
     addr: ServiceAddr,
+    clock: crate::clock::Clock,
     topic: String,
     tap: crate::tap::TapSlot,
     sink: Sink<Stamped<T>>,
@@ -53,6 +54,14 @@ impl<T: CommObject> SendEndpoint<T> {
                 Err(PatternError::Unavailable(self.addr.clone()))
             }
         }
+    }
+}
+
+impl<T: CommObject> crate::transport::Served for SendEndpoint<T> {
+    fn serve_send(&self, payload: &[u8]) -> PatternResult<()> {
+        let msg = crate::wire::decode_stamped::<T>(payload, T::ID, &self.clock)
+            .map_err(|e| PatternError::Decode(format!("to {}: {e}", self.addr)))?;
+        self.accept(msg)
     }
 }
 
@@ -76,10 +85,11 @@ impl<T: CommObject> SendServer<T> {
             topic: addr.to_string(),
             tap: registry.tap_slot(),
             addr: addr.clone(),
+            clock: registry.clock(),
             sink,
             received: AtomicU64::new(0),
         });
-        registry.register_service(addr, info::<T>(), endpoint.clone())?;
+        registry.register_service(addr, info::<T>(), endpoint.clone(), endpoint.clone())?;
         Ok(SendServer { endpoint })
     }
 
@@ -97,7 +107,8 @@ impl<T: CommObject> SendServer<T> {
 /// The client side of a Send service. Clones share one sequence counter.
 pub struct SendClient<T> {
     registry: Registry,
-    endpoint: Arc<SendEndpoint<T>>,
+    addr: ServiceAddr,
+    endpoint: Via<T>,
     /// The last sequence number used. Numbering and handing over happen under this lock, so
     /// clones sending from several threads still arrive in sequence order.
     seq: Arc<parking_lot::Mutex<u64>>,
@@ -108,9 +119,24 @@ impl<T> Clone for SendClient<T> {
     fn clone(&self) -> Self {
         SendClient {
             registry: self.registry.clone(),
-            endpoint: Arc::clone(&self.endpoint),
+            addr: self.addr.clone(),
+            endpoint: self.endpoint.clone(),
             seq: Arc::clone(&self.seq),
             _t: PhantomData,
+        }
+    }
+}
+
+enum Via<T> {
+    Local(Arc<SendEndpoint<T>>),
+    Remote(Remote),
+}
+
+impl<T> Clone for Via<T> {
+    fn clone(&self) -> Self {
+        match self {
+            Via::Local(e) => Via::Local(Arc::clone(e)),
+            Via::Remote(r) => Via::Remote(r.clone()),
         }
     }
 }
@@ -119,11 +145,13 @@ impl<T: CommObject> SendClient<T> {
     /// Connects to the Send service at `addr`, checking that it sends `T`.
     pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
         let addr = addr.into_addr()?;
-        let endpoint = registry
-            .resolve_local::<SendEndpoint<T>>(&addr, &info::<T>())?
-            .ok_or_else(|| registry.not_found(&addr))?;
+        let endpoint = match registry.resolve::<SendEndpoint<T>>(&addr, &info::<T>())? {
+            Resolved::Local(e) => Via::Local(e),
+            Resolved::Remote(r) => Via::Remote(r),
+        };
         Ok(SendClient {
             registry: registry.clone(),
+            addr,
             endpoint,
             seq: Arc::new(parking_lot::Mutex::new(0)),
             _t: PhantomData,
@@ -134,17 +162,27 @@ impl<T: CommObject> SendClient<T> {
     pub fn send(&self, value: T) -> PatternResult<()> {
         let mut seq = self.seq.lock();
         *seq += 1;
-        self.endpoint.accept(Stamped { seq: *seq, stamp: self.registry.now(), value })
+        self.send_stamped(Stamped { seq: *seq, stamp: self.registry.now(), value })
     }
 
     /// Sends an already stamped message unchanged (for forwarding and replay).
     pub fn send_stamped(&self, msg: Stamped<T>) -> PatternResult<()> {
-        self.endpoint.accept(msg)
+        match &self.endpoint {
+            Via::Local(e) => e.accept(msg),
+            Via::Remote(r) => {
+                r.transport.send(&r.addr, crate::wire::encode_stamped(&msg, &self.registry.clock()))
+            }
+        }
     }
 
     /// The address this client sends to.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        &self.addr
+    }
+
+    /// Whether the service is hosted by another process.
+    pub fn is_remote(&self) -> bool {
+        matches!(self.endpoint, Via::Remote(_))
     }
 
     /// How many messages this client (and its clones) sent.

@@ -28,20 +28,22 @@
 //! assert!(slave.handle().try_acquire("drive").is_err()); // neutral: no driving
 //! master.set_state("active").await?;
 //! let guard = slave.handle().acquire("drive").await?;    // critical section
-//! assert!(master.try_set_state("neutral").is_err());     // busy while "drive" is held
+//! assert!(master.try_set_state("neutral").await.is_err()); // busy while "drive" is held
 //! drop(guard);
-//! master.try_set_state("neutral")?;
+//! master.try_set_state("neutral").await?;
 //! # Ok(()) }
 //! ```
 
 use crate::comm_object;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::transport::{DEFAULT_REQUEST_TIMEOUT, Served};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::Arc;
+use std::time::Duration;
 use tokio::sync::watch;
 
 /// The name of the main state every component has, with no substates.
@@ -220,7 +222,7 @@ impl StateSlave {
             cancel: watch::Sender::new(0),
             change: tokio::sync::Mutex::new(()),
         });
-        registry.register_service(addr, info(), slave.clone())?;
+        registry.register_service(addr, info(), slave.clone(), slave.clone())?;
         Ok(slave)
     }
 
@@ -421,50 +423,149 @@ impl StateHandle {
     }
 }
 
-/// The master side of the State pattern, for one slave component.
+/// A master's request to a state slave in another process; every one is answered with the
+/// slave's [`StateStatus`] after it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+pub enum StateRequest {
+    /// Ask for a main state and wait at most `timeout_ms` for it to take effect.
+    Set {
+        /// The main state.
+        main: String,
+        /// How long to wait, in milliseconds.
+        timeout_ms: u64,
+    },
+    /// Switch at once or answer `busy`.
+    TrySet {
+        /// The main state.
+        main: String,
+    },
+    /// Abort blocking calls, then move to `neutral` (waiting at most `timeout_ms`).
+    Deactivate {
+        /// How long to wait, in milliseconds.
+        timeout_ms: u64,
+    },
+    /// Only the status.
+    Status,
+}
+
+impl Served for StateSlave {
+    fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
+        let request = crate::wire::decode::<StateRequest>(payload, "orsa.StateRequest/1");
+        Box::pin(async move {
+            let done = match request {
+                Err(e) => Err(PatternError::Decode(format!("to {}: {e}", self.addr))),
+                Ok(StateRequest::Set { main, timeout_ms }) => {
+                    tokio::time::timeout(Duration::from_millis(timeout_ms), self.set(&main))
+                        .await
+                        .unwrap_or(Err(PatternError::Timeout))
+                }
+                Ok(StateRequest::TrySet { main }) => self.try_set(&main),
+                Ok(StateRequest::Deactivate { timeout_ms }) => {
+                    tokio::time::timeout(Duration::from_millis(timeout_ms), self.deactivate())
+                        .await
+                        .unwrap_or(Err(PatternError::Timeout))
+                }
+                Ok(StateRequest::Status) => Ok(()),
+            };
+            crate::wire::encode(&crate::wire::Reply::from_result(done.map(|()| self.status())))
+        })
+    }
+}
+
+#[derive(Clone)]
+enum Via {
+    Local(Arc<StateSlave>),
+    Remote(Remote),
+}
+
+/// The master side of the State pattern, for one slave component, in this process or another.
 #[derive(Clone)]
 pub struct StateMaster {
-    slave: Arc<StateSlave>,
+    component: String,
+    via: Via,
+}
+
+fn millis(d: Duration) -> u64 {
+    u64::try_from(d.as_millis()).unwrap_or(u64::MAX)
 }
 
 impl StateMaster {
     /// Connects to the state service of `component`.
     pub fn connect(registry: &Registry, component: &str) -> PatternResult<Self> {
         let addr = ServiceAddr::new(component, "state");
-        let slave =
-            registry.resolve_local::<StateSlave>(&addr, &info())?.ok_or_else(|| registry.not_found(&addr))?;
-        Ok(StateMaster { slave })
+        let via = match registry.resolve::<StateSlave>(&addr, &info())? {
+            Resolved::Local(s) => Via::Local(s),
+            Resolved::Remote(r) => Via::Remote(r),
+        };
+        Ok(StateMaster { component: component.to_string(), via })
     }
 
-    /// Asks for main state `main` and waits until it takes effect.
+    async fn remote(r: &Remote, request: StateRequest, timeout: Duration) -> PatternResult<StateStatus> {
+        // The slave bounds its own wait; the link gets a second more to bring the answer back.
+        let bytes = r
+            .transport
+            .request(&r.addr, crate::wire::encode(&request), timeout + Duration::from_secs(1))
+            .await?;
+        crate::wire::decode_reply::<StateStatus>(&bytes, &r.addr, "orsa.StateStatus/1")
+    }
+
+    /// Asks for main state `main` and waits until it takes effect (for a slave in another
+    /// process, at most [`DEFAULT_REQUEST_TIMEOUT`]).
     pub async fn set_state(&self, main: &str) -> PatternResult<()> {
-        self.slave.set(main).await
+        match &self.via {
+            Via::Local(s) => s.set(main).await,
+            Via::Remote(_) => self.set_state_timeout(main, DEFAULT_REQUEST_TIMEOUT).await,
+        }
     }
 
     /// Asks for main state `main` and waits at most `timeout` for it to take effect; on
     /// [`PatternError::Timeout`] the request is withdrawn and the state is unchanged.
-    pub async fn set_state_timeout(&self, main: &str, timeout: std::time::Duration) -> PatternResult<()> {
-        tokio::time::timeout(timeout, self.slave.set(main)).await.map_err(|_| PatternError::Timeout)?
+    pub async fn set_state_timeout(&self, main: &str, timeout: Duration) -> PatternResult<()> {
+        match &self.via {
+            Via::Local(s) => {
+                tokio::time::timeout(timeout, s.set(main)).await.map_err(|_| PatternError::Timeout)?
+            }
+            Via::Remote(r) => {
+                let req = StateRequest::Set { main: main.to_string(), timeout_ms: millis(timeout) };
+                Self::remote(r, req, timeout).await.map(|_| ())
+            }
+        }
     }
 
     /// Switches to `main` at once, or answers [`PatternError::Busy`] with the held substates it
     /// excludes (and changes nothing).
-    pub fn try_set_state(&self, main: &str) -> PatternResult<()> {
-        self.slave.try_set(main)
+    pub async fn try_set_state(&self, main: &str) -> PatternResult<()> {
+        match &self.via {
+            Via::Local(s) => s.try_set(main),
+            Via::Remote(r) => {
+                let req = StateRequest::TrySet { main: main.to_string() };
+                Self::remote(r, req, DEFAULT_REQUEST_TIMEOUT).await.map(|_| ())
+            }
+        }
     }
 
     /// Aborts the component's blocking calls with `Cancelled`, then moves it to `neutral`.
     pub async fn deactivate(&self) -> PatternResult<()> {
-        self.slave.deactivate().await
+        match &self.via {
+            Via::Local(s) => s.deactivate().await,
+            Via::Remote(r) => {
+                let req = StateRequest::Deactivate { timeout_ms: millis(DEFAULT_REQUEST_TIMEOUT) };
+                Self::remote(r, req, DEFAULT_REQUEST_TIMEOUT).await.map(|_| ())
+            }
+        }
     }
 
     /// The slave's current state, pending change, held substates and declared main states.
-    pub fn status(&self) -> StateStatus {
-        self.slave.status()
+    pub async fn status(&self) -> PatternResult<StateStatus> {
+        match &self.via {
+            Via::Local(s) => Ok(s.status()),
+            Via::Remote(r) => Self::remote(r, StateRequest::Status, DEFAULT_REQUEST_TIMEOUT).await,
+        }
     }
 
     /// The component this master configures.
     pub fn component(&self) -> &str {
-        &self.slave.addr.component
+        &self.component
     }
 }

@@ -26,9 +26,9 @@
 //!
 //! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
 //! let master = WiringMaster::new(&registry);
-//! master.connect("behaviour", "vel", "robot/speed")?;
+//! master.connect("behaviour", "vel", "robot/speed").await?;
 //! port.send(0.1)?;
-//! master.disconnect("behaviour", "vel")?;
+//! master.disconnect("behaviour", "vel").await?;
 //! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
 //! # Ok(()) }
 //! ```
@@ -36,10 +36,11 @@
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::query::{PendingQuery, QueryClient};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr, ServiceInfo};
+use crate::registry::{IntoAddr, PatternKind, Registry, Resolved, ServiceAddr, ServiceInfo};
 use crate::send::SendClient;
 use crate::stamped::Stamped;
 use crate::state::Cancel;
+use crate::transport::{DEFAULT_REQUEST_TIMEOUT, Served};
 use parking_lot::RwLock;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
@@ -217,7 +218,12 @@ impl WiringSlave {
             ports: RwLock::new(BTreeMap::new()),
             cancel,
         });
-        registry.register_service(ServiceAddr::new(component, "wiring"), info(), slave.clone())?;
+        registry.register_service(
+            ServiceAddr::new(component, "wiring"),
+            info(),
+            slave.clone(),
+            slave.clone(),
+        )?;
         Ok(slave)
     }
 
@@ -293,7 +299,44 @@ impl WiringSlave {
     }
 }
 
-/// The master side of Wiring: reconnects ports of any component in the system.
+/// A master's request to a wiring slave in another process; every one is answered with the
+/// slave's ports after it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+pub enum WiringRequest {
+    /// Connect `port` to the service `target` (`component/service`).
+    Connect {
+        /// The port.
+        port: String,
+        /// The service.
+        target: String,
+    },
+    /// Disconnect `port`.
+    Disconnect {
+        /// The port.
+        port: String,
+    },
+    /// Only the ports.
+    Ports,
+}
+
+impl Served for WiringSlave {
+    fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
+        let done = match crate::wire::decode::<WiringRequest>(payload, "orsa.WiringRequest/1") {
+            Err(e) => Err(PatternError::Decode(format!("to {}: {e}", self.topic))),
+            Ok(WiringRequest::Connect { port, target }) => {
+                target.as_str().into_addr().and_then(|t| self.connect(&port, &t))
+            }
+            Ok(WiringRequest::Disconnect { port }) => self.disconnect(&port),
+            Ok(WiringRequest::Ports) => Ok(()),
+        };
+        let reply = crate::wire::encode(&crate::wire::Reply::from_result(done.map(|()| self.ports())));
+        Box::pin(async move { reply })
+    }
+}
+
+/// The master side of Wiring: reconnects ports of any component in the system, hosted in this
+/// process or another.
 #[derive(Clone, Debug)]
 pub struct WiringMaster {
     registry: Registry,
@@ -305,25 +348,49 @@ impl WiringMaster {
         WiringMaster { registry: registry.clone() }
     }
 
-    fn slave(&self, component: &str) -> PatternResult<Arc<WiringSlave>> {
+    async fn run(&self, component: &str, request: WiringRequest) -> PatternResult<Vec<PortStatus>> {
         let addr = ServiceAddr::new(component, "wiring");
-        self.registry
-            .resolve_local::<WiringSlave>(&addr, &info())?
-            .ok_or_else(|| PatternError::UnknownComponent(component.to_string()))
+        let resolved = match self.registry.resolve::<WiringSlave>(&addr, &info()) {
+            Ok(r) => r,
+            Err(PatternError::UnknownService(_)) => {
+                return Err(PatternError::UnknownComponent(component.to_string()));
+            }
+            Err(e) => return Err(e),
+        };
+        match resolved {
+            Resolved::Local(slave) => {
+                match request {
+                    WiringRequest::Connect { port, target } => {
+                        slave.connect(&port, &target.as_str().into_addr()?)?
+                    }
+                    WiringRequest::Disconnect { port } => slave.disconnect(&port)?,
+                    WiringRequest::Ports => {}
+                }
+                Ok(slave.ports())
+            }
+            Resolved::Remote(r) => {
+                let bytes = r
+                    .transport
+                    .request(&r.addr, crate::wire::encode(&request), DEFAULT_REQUEST_TIMEOUT)
+                    .await?;
+                crate::wire::decode_reply::<Vec<PortStatus>>(&bytes, &r.addr, "orsa.PortStatus/1 list")
+            }
+        }
     }
 
     /// Connects `component`'s port `port` to the service `target`.
-    pub fn connect(&self, component: &str, port: &str, target: impl IntoAddr) -> PatternResult<()> {
-        self.slave(component)?.connect(port, &target.into_addr()?)
+    pub async fn connect(&self, component: &str, port: &str, target: impl IntoAddr) -> PatternResult<()> {
+        let target = target.into_addr()?.to_string();
+        self.run(component, WiringRequest::Connect { port: port.to_string(), target }).await.map(|_| ())
     }
 
     /// Disconnects `component`'s port `port`. When this returns, nothing more goes out on it.
-    pub fn disconnect(&self, component: &str, port: &str) -> PatternResult<()> {
-        self.slave(component)?.disconnect(port)
+    pub async fn disconnect(&self, component: &str, port: &str) -> PatternResult<()> {
+        self.run(component, WiringRequest::Disconnect { port: port.to_string() }).await.map(|_| ())
     }
 
     /// The ports of `component` with their connections.
-    pub fn ports(&self, component: &str) -> PatternResult<Vec<PortStatus>> {
-        Ok(self.slave(component)?.ports())
+    pub async fn ports(&self, component: &str) -> PatternResult<Vec<PortStatus>> {
+        self.run(component, WiringRequest::Ports).await
     }
 }

@@ -172,7 +172,7 @@ impl Component for Master {
         };
         // A (re)started master knows no goal: nothing drives until one arrives.
         for b in st.states.keys() {
-            st.wiring.disconnect(b, VEL_PORT)?;
+            st.wiring.disconnect(b, VEL_PORT).await?;
         }
         stop_motors(ctx, &mut st);
         Ok(st)
@@ -187,11 +187,11 @@ impl Component for Master {
         match msg {
             MasterMsg::Ir(scan) => {
                 fill(&mut st.readings.infrared, &scan);
-                self.arbitrate(ctx, st);
+                self.arbitrate(ctx, st).await;
             }
             MasterMsg::Sonar(scan) => {
                 fill(&mut st.readings.sonar, &scan);
-                self.arbitrate(ctx, st);
+                self.arbitrate(ctx, st).await;
             }
             MasterMsg::Goal(q) => {
                 let reply = self.start_goal(ctx, st, q.request.value.clone()).await;
@@ -204,7 +204,7 @@ impl Component for Master {
                     if let Some(g) = done {
                         fire(ctx, st, g.id, &g.mode, GoalStatus::Reached, String::new());
                     }
-                    self.arbitrate(ctx, st);
+                    self.arbitrate(ctx, st).await;
                 }
             }
         }
@@ -238,18 +238,18 @@ impl Master {
         st.goal.as_ref().and_then(|g| self.params.modes.get(&g.mode))
     }
 
-    fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
+    async fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
         let want = self.mode(st).and_then(|m| m.select(&st.readings)).map(str::to_string);
         if want == st.driving {
             return;
         }
         if let Some(old) = st.driving.take()
-            && let Err(e) = st.wiring.disconnect(&old, VEL_PORT)
+            && let Err(e) = st.wiring.disconnect(&old, VEL_PORT).await
         {
             tracing::warn!("master: cannot unwire {old}: {e}");
         }
         match &want {
-            Some(new) => match st.wiring.connect(new, VEL_PORT, &st.motors_addr) {
+            Some(new) => match st.wiring.connect(new, VEL_PORT, &st.motors_addr).await {
                 Ok(()) => st.driving = want.clone(),
                 Err(e) => {
                     tracing::warn!("master: cannot wire {new} to {}: {e}", st.motors_addr);
@@ -286,14 +286,14 @@ impl Master {
         st.next_id += 1;
         // Whoever drives and is not part of the new mode stops driving before it is deactivated.
         if st.driving.as_ref().is_some_and(|d| !mode.behaviours.contains(d)) {
-            self.arbitrate(ctx, st);
+            self.arbitrate(ctx, st).await;
         }
         for (name, sm) in &st.states {
             let target = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
             if let Err(e) = sm.set_state(target).await {
                 let detail = format!("cannot set {name} to {target}: {e}");
                 fire(ctx, st, id, &goal.mode, GoalStatus::Failed, detail.clone());
-                self.arbitrate(ctx, st);
+                self.arbitrate(ctx, st).await;
                 return GoalReply::Rejected { reason: detail };
             }
         }
@@ -307,7 +307,7 @@ impl Master {
             });
         }
         fire(ctx, st, id, &goal.mode, GoalStatus::Started, String::new());
-        self.arbitrate(ctx, st);
+        self.arbitrate(ctx, st).await;
         GoalReply::Accepted { id }
     }
 }

@@ -74,7 +74,10 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
         .with_child(behaviour.child_spec());
     let sup = Supervisor::start(spec).await.expect("supervisor");
     let first = behaviour.instance().expect("running").get_id();
-    WiringMaster::new(&registry).connect("wallfollow", "vel", "nomad200/navigationvelocity").expect("wire");
+    WiringMaster::new(&registry)
+        .connect("wallfollow", "vel", "nomad200/navigationvelocity")
+        .await
+        .expect("wire");
 
     tokio::time::sleep(Duration::from_millis(105)).await;
     let mut got: Vec<f64> = std::iter::from_fn(|| motor.try_recv().ok()).map(|m| m.v_m_s).collect();
@@ -96,7 +99,7 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
     got = std::iter::from_fn(|| motor.try_recv().ok()).map(|m| m.v_m_s).collect();
     // Same every-5th rhythm, same wiring: nobody re-subscribed or re-wired it.
     assert_eq!(got, vec![15.0, 20.0]);
-    let ports = WiringMaster::new(&registry).ports("wallfollow").expect("ports");
+    let ports = WiringMaster::new(&registry).ports("wallfollow").await.expect("ports");
     assert_eq!(
         ports[0].target.as_ref().map(|t| t.to_string()).as_deref(),
         Some("nomad200/navigationvelocity")

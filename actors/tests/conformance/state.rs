@@ -13,7 +13,7 @@ async fn state_acquire_waits_until_the_main_state_contains_the_substate() {
     let registry = Registry::new();
     let slave = slave(&registry);
     let master = StateMaster::connect(&registry, "wallfollow").expect("master");
-    assert_eq!(master.status().current, "neutral");
+    assert_eq!(master.status().await.expect("status").current, "neutral");
     let handle = slave.handle();
     let waiter = tokio::spawn(async move {
         let _g = handle.acquire("drive").await?;
@@ -41,7 +41,7 @@ async fn state_change_takes_effect_once_excluded_substates_are_released() {
     let start = tokio::time::Instant::now();
     master.set_state("sensing").await.expect("set");
     assert_eq!(start.elapsed(), Duration::from_millis(150));
-    let status = master.status();
+    let status = master.status().await.expect("status");
     assert_eq!((status.current.as_str(), status.held.get("sense")), ("sensing", Some(&1)));
     drop(sense);
 }
@@ -56,11 +56,11 @@ async fn state_pending_change_blocks_new_acquires_of_excluded_substates() {
     let m = master.clone();
     let change = tokio::spawn(async move { m.set_state("neutral").await });
     tokio::task::yield_now().await;
-    assert_eq!(master.status().pending.as_deref(), Some("neutral"));
+    assert_eq!(master.status().await.expect("status").pending.as_deref(), Some("neutral"));
     assert!(slave.handle().try_acquire("drive").is_err(), "no new critical section during a pending change");
     drop(held);
     assert_eq!(change.await.expect("task"), Ok(()));
-    assert_eq!(master.status().current, "neutral");
+    assert_eq!(master.status().await.expect("status").current, "neutral");
 }
 
 #[tokio::test(start_paused = true)]
@@ -68,13 +68,13 @@ async fn state_try_set_answers_busy_with_the_held_substates() {
     let registry = Registry::new();
     let slave = slave(&registry);
     let master = StateMaster::connect(&registry, "wallfollow").expect("master");
-    master.try_set_state("active").expect("free to change");
+    master.try_set_state("active").await.expect("free to change");
     let g = slave.handle().try_acquire("drive").expect("acquire");
-    assert_eq!(master.try_set_state("neutral"), Err(PatternError::Busy(vec!["drive".into()])));
-    assert_eq!(master.status().current, "active", "a refused change changes nothing");
-    master.try_set_state("active").expect("a state that keeps drive is fine");
+    assert_eq!(master.try_set_state("neutral").await, Err(PatternError::Busy(vec!["drive".into()])));
+    assert_eq!(master.status().await.expect("status").current, "active", "a refused change changes nothing");
+    master.try_set_state("active").await.expect("a state that keeps drive is fine");
     drop(g);
-    master.try_set_state("neutral").expect("released");
+    master.try_set_state("neutral").await.expect("released");
 }
 
 #[tokio::test(start_paused = true)]
@@ -112,7 +112,7 @@ async fn state_deactivation_aborts_blocking_calls_with_cancelled() {
     master.deactivate().await.expect("deactivate");
     assert_eq!(acquiring.await.expect("task"), Err(PatternError::Cancelled));
     assert_eq!(waiting.await.expect("task"), Err(PatternError::Cancelled));
-    assert_eq!(master.status().current, "neutral");
+    assert_eq!(master.status().await.expect("status").current, "neutral");
     // Calls made after the deactivation block normally again.
     master.set_state("active").await.expect("set");
     assert!(slave.handle().acquire("drive").await.is_ok());
@@ -129,7 +129,7 @@ async fn state_a_change_the_master_stops_waiting_for_is_withdrawn() {
         master.set_state_timeout("neutral", Duration::from_millis(100)).await,
         Err(PatternError::Timeout)
     );
-    let status = master.status();
+    let status = master.status().await.expect("status");
     assert_eq!((status.current.as_str(), status.pending), ("active", None));
     drop(held);
     // Nothing is left pending: drive can be taken again.

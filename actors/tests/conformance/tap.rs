@@ -63,7 +63,7 @@ async fn tap_sees_every_pattern_message_once_with_its_topic() {
     StateSlave::register(&registry, "beh", StateSpec::new().main_state("active", &["go"])).expect("state");
     StateMaster::connect(&registry, "beh").expect("m").set_state("active").await.expect("set");
     WiringSlave::register(&registry, "beh2").expect("w").send_port::<u64>("vel").expect("port");
-    WiringMaster::new(&registry).connect("beh2", "vel", "robot/speed").expect("wire");
+    WiringMaster::new(&registry).connect("beh2", "vel", "robot/speed").await.expect("wire");
 
     registry.set_tap(None);
     push.put(6);

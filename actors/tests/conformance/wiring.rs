@@ -30,19 +30,19 @@ async fn wiring_connects_disconnects_and_reconnects_a_port() {
     let master = WiringMaster::new(&registry);
 
     assert_eq!(port.send(vel(0.1)), Err(PatternError::Disconnected("vel".into())));
-    master.connect("wallfollow", "vel", "robot_a/navigationvelocity").expect("connect");
+    master.connect("wallfollow", "vel", "robot_a/navigationvelocity").await.expect("connect");
     port.send(vel(0.1)).expect("send");
-    master.connect("wallfollow", "vel", "robot_b/navigationvelocity").expect("rewire");
+    master.connect("wallfollow", "vel", "robot_b/navigationvelocity").await.expect("rewire");
     port.send(vel(0.2)).expect("send");
     assert_eq!(drain(&mut ra).iter().map(|m| m.v_m_s).collect::<Vec<_>>(), vec![0.1]);
     assert_eq!(drain(&mut rb).iter().map(|m| m.v_m_s).collect::<Vec<_>>(), vec![0.2]);
     assert_eq!(
-        master.ports("wallfollow").expect("ports")[0].target,
+        master.ports("wallfollow").await.expect("ports")[0].target,
         Some(ServiceAddr::new("robot_b", "navigationvelocity"))
     );
-    master.disconnect("wallfollow", "vel").expect("disconnect");
+    master.disconnect("wallfollow", "vel").await.expect("disconnect");
     assert_eq!(port.send(vel(0.3)), Err(PatternError::Disconnected("vel".into())));
-    assert_eq!(master.ports("wallfollow").expect("ports")[0].target, None);
+    assert_eq!(master.ports("wallfollow").await.expect("ports")[0].target, None);
 }
 
 #[tokio::test(start_paused = true)]
@@ -54,22 +54,22 @@ async fn wiring_errors_name_the_port_or_service_and_keep_the_old_connection() {
     let slave = WiringSlave::register(&registry, "wallfollow").expect("register");
     let port = slave.send_port::<Velocity>("vel").expect("port");
     let master = WiringMaster::new(&registry);
-    master.connect("wallfollow", "vel", "robot/navigationvelocity").expect("connect");
+    master.connect("wallfollow", "vel", "robot/navigationvelocity").await.expect("connect");
 
     assert_eq!(
-        master.connect("wallfollow", "speed", "robot/navigationvelocity"),
+        master.connect("wallfollow", "speed", "robot/navigationvelocity").await,
         Err(PatternError::UnknownPort { component: "wallfollow".into(), port: "speed".into() })
     );
     assert!(matches!(
-        master.connect("wallfollow", "vel", "robot/speed"),
+        master.connect("wallfollow", "vel", "robot/speed").await,
         Err(PatternError::IncompatibleService { .. })
     ));
     assert_eq!(
-        master.connect("wallfollow", "vel", "robot/nothing"),
+        master.connect("wallfollow", "vel", "robot/nothing").await,
         Err(PatternError::UnknownService(ServiceAddr::new("robot", "nothing")))
     );
     assert_eq!(
-        master.connect("ghost", "vel", "robot/speed"),
+        master.connect("ghost", "vel", "robot/speed").await,
         Err(PatternError::UnknownComponent("ghost".into()))
     );
     port.send(vel(0.25)).expect("still wired to the old service");
@@ -104,13 +104,13 @@ async fn wiring_rewiring_under_traffic_never_delivers_after_disconnect() {
     let servers = [("robot_a/navigationvelocity", &a), ("robot_b/navigationvelocity", &b)];
     for round in 0..400 {
         let (target, server) = servers[round % 2];
-        master.connect("behaviour", "vel", target).expect("connect");
+        master.connect("behaviour", "vel", target).await.expect("connect");
         // Let traffic reach the port's new target.
         let before = server.received();
         while server.received() < before + 5 {
             std::thread::yield_now();
         }
-        master.disconnect("behaviour", "vel").expect("disconnect");
+        master.disconnect("behaviour", "vel").await.expect("disconnect");
         let after_disconnect = (a.received(), b.received());
         // Senders keep going; none of it may reach either motor.
         for _ in 0..200 {

@@ -1,0 +1,257 @@
+//! Every pattern between two zenoh sessions over loopback TCP, with the in-process client API.
+//! (Tests with separate processes live in the root package's tests/net_processes.rs.)
+
+use orsa_actors::event::{EventClient, EventMode, EventServer};
+use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::push_timed::{PushTimedClient, PushTimedServer, Tick};
+use orsa_actors::query::{QueryClient, QueryRequest, QueryServer};
+use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::state::{StateMaster, StateSlave, StateSpec};
+use orsa_actors::wiring::{WiringMaster, WiringSlave};
+use orsa_actors::{PatternError, Registry, ServiceAddr, Sink, Stamped};
+use orsa_net::{NetOptions, ZenohTransport};
+use std::time::Duration;
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
+}
+
+async fn pair(prefix: &str) -> (Registry, ZenohTransport, Registry, ZenohTransport) {
+    let port = free_port();
+    let a = Registry::new();
+    let b = Registry::new();
+    let server = NetOptions {
+        listen: vec![format!("tcp/127.0.0.1:{port}")],
+        prefix: prefix.into(),
+        ..NetOptions::default()
+    };
+    let client = NetOptions {
+        connect: vec![format!("tcp/127.0.0.1:{port}")],
+        prefix: prefix.into(),
+        ..NetOptions::default()
+    };
+    let ta = ZenohTransport::open(&a, &server, "robot").await.expect("open a");
+    let tb = ZenohTransport::open(&b, &client, "executive").await.expect("open b");
+    (a, ta, b, tb)
+}
+
+const WAIT: Duration = Duration::from_secs(10);
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn send_query_and_push_cross_sessions_with_the_local_api() {
+    let (a, _ta, b, tb) = pair("t_sqp").await;
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
+    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    let (qtx, mut qrx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
+    QueryServer::<u64, u64>::register(&a, "calc/square", Sink::channel(qtx)).expect("query server");
+    tokio::spawn(async move {
+        while let Some(q) = qrx.recv().await {
+            let n = q.request.value;
+            let _ = q.answer(n * n);
+        }
+    });
+    let push = PushNewestServer::<u64>::register(&a, "odo/ticks").expect("push server");
+    let addrs: Vec<ServiceAddr> =
+        ["robot/speed", "calc/square", "odo/ticks"].iter().map(|s| s.parse().expect("addr")).collect();
+    tb.wait_for(&addrs, WAIT).await.expect("discovered");
+
+    // Send: delivered in order with the sender's sequence numbers.
+    let send = SendClient::<f64>::connect(&b, "robot/speed").expect("remote send client");
+    assert!(send.is_remote());
+    for v in [0.1, 0.2, 0.3] {
+        send.send(v).expect("send");
+    }
+    for (i, v) in [0.1, 0.2, 0.3].into_iter().enumerate() {
+        let got = tokio::time::timeout(WAIT, rx.recv()).await.expect("in time").expect("delivered");
+        assert_eq!((got.seq, got.value), (i as u64 + 1, v));
+    }
+
+    // Query: answered across the link.
+    let query = QueryClient::<u64, u64>::connect(&b, "calc/square").expect("remote query client");
+    assert_eq!(query.query(12, Some(WAIT)).await, Ok(144));
+
+    // Wrong types are refused before a byte is sent, as in process.
+    assert!(matches!(
+        SendClient::<u64>::connect(&b, "robot/speed"),
+        Err(PatternError::IncompatibleService { .. })
+    ));
+    assert!(matches!(SendClient::<f64>::connect(&b, "robot/nothing"), Err(PatternError::UnknownService(_))));
+
+    // Push newest with every-n-th counted at the source: n = 3 gets the 3rd, 6th, 9th.
+    let client = PushNewestClient::<u64>::connect(&b, "odo/ticks").expect("remote push client");
+    let (utx, mut urx) = tokio::sync::mpsc::unbounded_channel();
+    let every3 = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&b, "odo/ticks");
+    assert!(every3.is_err(), "a push newest service is not a push timed one");
+    let forwarded = PushNewestClient::<u64>::connect_to(&b, "odo/ticks", Sink::channel(utx)).expect("client");
+    client.subscribe().expect("subscribe");
+    forwarded.subscribe().expect("subscribe");
+    // The subscription reaches the source asynchronously.
+    let mut waited = 0;
+    while push.stats().subscribers < 1 {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        waited += 1;
+        assert!(waited < 2000, "the remote subscription never arrived");
+    }
+    let start = push.stats().published;
+    for v in 1..=9 {
+        push.put(start + v);
+    }
+    let mut got = Vec::new();
+    while got.len() < 9 {
+        let u = tokio::time::timeout(WAIT, urx.recv()).await.expect("in time").expect("update");
+        got.push(u.value);
+    }
+    assert_eq!(got, (start + 1..=start + 9).collect::<Vec<_>>());
+    // The other client holds the newest value, as get_update promises.
+    let newest = tokio::time::timeout(WAIT, async {
+        while client.get_update().map(|u| u.value) != Ok(start + 9) {
+            tokio::time::sleep(Duration::from_millis(1)).await;
+        }
+    })
+    .await;
+    assert!(newest.is_ok(), "get_update gave {:?}", client.get_update().map(|u| u.value));
+    // Two remote clients at n = 1 share one stream at the source.
+    assert_eq!(push.stats().subscribers, 1);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn push_timed_every_nth_is_counted_at_the_source() {
+    let (a, _ta, b, tb) = pair("t_every").await;
+    let (tick_tx, mut ticks) = tokio::sync::mpsc::unbounded_channel::<Tick>();
+    let server = PushTimedServer::<u64>::register(
+        &a,
+        "nomad200/counter",
+        Duration::from_millis(2),
+        Sink::channel(tick_tx),
+    )
+    .expect("server");
+    let producer = server.clone();
+    tokio::spawn(async move {
+        while let Some(t) = ticks.recv().await {
+            producer.put(t.seq);
+        }
+    });
+    tb.wait_for(&["nomad200/counter".parse().expect("addr")], WAIT).await.expect("discovered");
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let client =
+        PushTimedClient::<u64>::connect_to(&b, "nomad200/counter", Sink::channel(tx)).expect("client");
+    client.subscribe(10).expect("subscribe");
+    let mut waited = 0;
+    while server.stats().subscribers < 1 {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        waited += 1;
+        assert!(waited < 2000, "the remote subscription never arrived");
+    }
+    server.start();
+    let mut got = Vec::new();
+    while got.len() < 5 {
+        let u = tokio::time::timeout(WAIT, rx.recv()).await.expect("in time").expect("update");
+        got.push(u.value);
+    }
+    // Consecutive values are 10 apart: only every 10th crossed the link.
+    for w in got.windows(2) {
+        assert_eq!(w[1] - w[0], 10, "{got:?}");
+    }
+    let stats = server.stats();
+    assert!(stats.delivered * 10 <= stats.published + 10, "{stats:?}");
+    drop(client);
+    // Dropping the client ends the stream at the source.
+    let mut waited = 0;
+    while server.stats().subscribers > 0 {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        waited += 1;
+        assert!(waited < 2000, "the stream outlived its only subscriber");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn events_state_and_wiring_cross_sessions() {
+    let (a, _ta, b, tb) = pair("t_esw").await;
+    let events = EventServer::<f64, f64, f64>::register(&a, "nomad200/near", |limit: &mut f64, d: &f64| {
+        (*d < *limit).then_some(*d)
+    })
+    .expect("event server");
+    let slave = StateSlave::register(&a, "wallfollow", StateSpec::new().main_state("active", &["drive"]))
+        .expect("state slave");
+    let wiring = WiringSlave::register(&a, "wallfollow").expect("wiring slave");
+    let port = wiring.send_port::<f64>("vel").expect("port");
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
+    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    let addrs: Vec<ServiceAddr> = ["nomad200/near", "wallfollow/state", "wallfollow/wiring"]
+        .iter()
+        .map(|s| s.parse().expect("addr"))
+        .collect();
+    tb.wait_for(&addrs, WAIT).await.expect("discovered");
+
+    // Event, single shot: fires once, with the client's activation id, then ends.
+    let client = EventClient::<f64, f64>::connect(&b, "nomad200/near").expect("event client");
+    let mut near = client.activate(EventMode::Single, 0.5).expect("activate");
+    let mut waited = 0;
+    while events.activations() < 1 {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        waited += 1;
+        assert!(waited < 2000, "the activation never arrived");
+    }
+    events.put(&0.8);
+    events.put(&0.4);
+    events.put(&0.3);
+    let fired = tokio::time::timeout(WAIT, near.next()).await.expect("in time").expect("fired");
+    assert_eq!((fired.activation, fired.event.value), (near.id(), 0.4));
+    assert!(matches!(
+        tokio::time::timeout(WAIT, near.next()).await.expect("in time"),
+        Err(PatternError::NotActive(_))
+    ));
+
+    // State: a remote master sets the slave's state and sees Busy while a substate is held.
+    let master = StateMaster::connect(&b, "wallfollow").expect("state master");
+    master.set_state("active").await.expect("set");
+    assert_eq!(master.status().await.expect("status").current, "active");
+    let guard = slave.handle().acquire("drive").await.expect("acquire");
+    assert_eq!(master.try_set_state("neutral").await, Err(PatternError::Busy(vec!["drive".into()])));
+    drop(guard);
+    master.try_set_state("neutral").await.expect("released");
+    assert!(matches!(
+        master.set_state("flying").await,
+        Err(PatternError::Unknown { .. }) | Err(PatternError::Remote(_))
+    ));
+
+    // Wiring: a remote master wires the slave's port to a service local to the slave.
+    let wm = WiringMaster::new(&b);
+    assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
+    wm.connect("wallfollow", "vel", "robot/speed").await.expect("wire");
+    port.send(0.25).expect("wired");
+    assert_eq!(rx.recv().await.expect("delivered").value, 0.25);
+    assert_eq!(
+        wm.ports("wallfollow").await.expect("ports")[0].target,
+        Some("robot/speed".parse().expect("addr"))
+    );
+    assert_eq!(
+        wm.connect("wallfollow", "speed", "robot/speed").await,
+        Err(PatternError::UnknownPort { component: "wallfollow".into(), port: "speed".into() })
+    );
+    wm.disconnect("wallfollow", "vel").await.expect("unwire");
+    assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
+    assert_eq!(
+        wm.connect("ghost", "vel", "robot/speed").await,
+        Err(PatternError::UnknownComponent("ghost".into()))
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn undecodable_messages_are_counted_and_dropped() {
+    let (a, ta, _b, tb) = pair("t_bad").await;
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
+    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    tb.wait_for(&["robot/speed".parse().expect("addr")], WAIT).await.expect("discovered");
+    let key = ta.keys().send(&"robot/speed".parse().expect("addr"));
+    use zenoh::Wait as _;
+    for garbage in [&b"\xff\x00garbage"[..], b"", b"\xa1\x63seq\x01"] {
+        tb.session().put(&key, garbage.to_vec()).wait().expect("put");
+    }
+    // A good message after the garbage still arrives: nothing crashed, nothing was lost.
+    let good = SendClient::<f64>::connect(&_b, "robot/speed").expect("client");
+    good.send(0.5).expect("send");
+    let got = tokio::time::timeout(WAIT, rx.recv()).await.expect("in time").expect("delivered");
+    assert_eq!(got.value, 0.5);
+    assert_eq!(ta.stats().decode_errors, 3);
+}
