@@ -28,6 +28,20 @@ pub enum Command {
     /// Run the corridor mission on the built-in simulator and report it against the original
     /// experiment (the main job).
     Run(RunArgs),
+    /// The simulated robot in real time (server and behaviours), reachable over zenoh.
+    Robot(crate::remote::RobotArgs),
+    /// The master and the planner in their own process, driving a robot over zenoh.
+    Executive(crate::remote::ExecutiveArgs),
+    /// Drive the robot by hand (keyboard), or scripted with --send V,OMEGA --for SECS.
+    Teleop(crate::remote::TeleopArgs),
+    /// Components, services, wiring, states and liveness of the processes on the network.
+    List(crate::remote::ListArgs),
+    /// Print the updates of a push service.
+    Echo(crate::remote::EchoArgs),
+    /// Connect or disconnect a component's port (a master command).
+    Wire(crate::remote::WireArgs),
+    /// Show or set a component's main state (a master command).
+    State(crate::remote::StateArgs),
 }
 
 /// Arguments of `orsa run`.
@@ -74,6 +88,13 @@ fn positive_secs(s: &str) -> Result<f64, String> {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run(args) => run_mission(args),
+        Command::Robot(args) => crate::remote::robot(args),
+        Command::Executive(args) => crate::remote::executive(args),
+        Command::Teleop(args) => crate::remote::teleop(args),
+        Command::List(args) => crate::remote::list(args),
+        Command::Echo(args) => crate::remote::echo(args),
+        Command::Wire(args) => crate::remote::wire(args),
+        Command::State(args) => crate::remote::state(args),
     }
 }
 
@@ -166,7 +187,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
 }
 
 /// Prints a line to stdout; a reader that went away (`orsa run | head`) is not an error.
-fn say(text: &str) {
+pub(crate) fn say(text: &str) {
     use std::io::Write as _;
     let _ = writeln!(std::io::stdout().lock(), "{text}");
 }

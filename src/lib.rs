@@ -12,7 +12,8 @@
 //! - [`planner`]: the deliberative layer that issues goals.
 //!
 //! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
-//! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`cli`] holds the `orsa`
+//! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
+//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`cli`] holds the `orsa`
 //! command line; the binary only parses arguments and calls it.
 
 pub use orsa_actors as actors;
@@ -23,6 +24,8 @@ pub use orsa_reactive as reactive;
 
 pub mod cli;
 pub mod config;
+mod keyboard;
 pub mod mission;
 pub mod plot;
 pub mod record;
+pub mod remote;

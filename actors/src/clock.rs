@@ -15,9 +15,46 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 /// A point in robot time: nanoseconds since the epoch of the [`Clock`] that stamped it.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(transparent)]
+///
+/// It serialises as a plain integer of nanoseconds since the epoch, except inside the wire
+/// encoding ([`crate::wire`]), where every timestamp, wherever it sits in a message, travels as
+/// UNIX time in nanoseconds and is mapped back onto the receiver's clock.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Timestamp(pub u64);
+
+thread_local! {
+    /// The UNIX time of the epoch of the clock whose messages are being encoded or decoded for
+    /// the wire on this thread, if any.
+    static WIRE_EPOCH: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` (an encoding or decoding for the wire) with timestamps mapped to and from UNIX time
+/// through `clock`.
+pub(crate) fn on_wire<R>(clock: &Clock, f: impl FnOnce() -> R) -> R {
+    let previous = WIRE_EPOCH.with(|e| e.replace(Some(clock.unix_epoch_ns)));
+    let result = f();
+    WIRE_EPOCH.with(|e| e.set(previous));
+    result
+}
+
+impl Serialize for Timestamp {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match WIRE_EPOCH.with(std::cell::Cell::get) {
+            Some(epoch) => s.serialize_u64(self.0.saturating_add(epoch)),
+            None => s.serialize_u64(self.0),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Timestamp {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let raw = u64::deserialize(d)?;
+        Ok(match WIRE_EPOCH.with(std::cell::Cell::get) {
+            Some(epoch) => Timestamp(raw.saturating_sub(epoch)),
+            None => Timestamp(raw),
+        })
+    }
+}
 
 impl Timestamp {
     /// The epoch itself.

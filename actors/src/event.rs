@@ -101,7 +101,7 @@ impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
 struct WireFired<E> {
     activation: u64,
     seq: u64,
-    stamp_ns: u64,
+    stamp_ns: crate::Timestamp,
     value: E,
 }
 
@@ -112,17 +112,17 @@ impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
         params: &[u8],
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
-        let params: P = crate::wire::decode(params, P::ID)
+        let params: P = crate::wire::decode_on(&self.clock, params, P::ID)
             .map_err(|e| PatternError::Decode(format!("activation of {}: {e}", self.addr)))?;
         let clock = self.clock;
         let wire_sink = Sink::from_fn(move |f: Fired<E>| {
             let wire = WireFired {
                 activation: f.activation.0,
                 seq: f.event.seq,
-                stamp_ns: clock.unix_ns(f.event.stamp),
+                stamp_ns: f.event.stamp,
                 value: f.event.value,
             };
-            if sink(&crate::wire::encode(&wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
+            if sink(&crate::wire::encode_on(&clock, &wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
         });
         let id = EventEndpoint::activate(&self, mode, params, wire_sink);
         struct Deactivate<P: CommObject, E: CommObject>(std::sync::Weak<EventEndpoint<P, E>>, ActivationId);
@@ -399,7 +399,7 @@ fn remote_activate<P: CommObject, E: CommObject>(
     let slot = Mutex::new(Some(sink));
     let r = remote.clone();
     let bytes: ByteSink = Arc::new(move |b: &[u8]| {
-        let wire = match crate::wire::decode::<WireFired<E>>(b, E::ID) {
+        let wire = match crate::wire::decode_on::<WireFired<E>>(&clock, b, E::ID) {
             Ok(w) => w,
             Err(e) => {
                 r.bad_message(&e);
@@ -410,7 +410,7 @@ fn remote_activate<P: CommObject, E: CommObject>(
         let Some(sink) = slot.as_ref() else { return false };
         let fired = Fired {
             activation: id,
-            event: Stamped { seq: wire.seq, stamp: clock.from_unix_ns(wire.stamp_ns), value: wire.value },
+            event: Stamped { seq: wire.seq, stamp: wire.stamp_ns, value: wire.value },
         };
         let open = sink.deliver(fired) != Err(Undeliverable::Closed);
         if !open || mode == EventMode::Single {
@@ -419,5 +419,5 @@ fn remote_activate<P: CommObject, E: CommObject>(
         }
         true
     });
-    remote.transport.activate(&remote.addr, mode, crate::wire::encode(params), bytes)
+    remote.transport.activate(&remote.addr, mode, crate::wire::encode_on(&clock, params), bytes)
 }

@@ -126,8 +126,8 @@ impl<Req: CommObject, Ans: CommObject> crate::transport::Served for QueryEndpoin
                 Ok(rx) => rx.await.unwrap_or_else(|_| Err(PatternError::NoAnswer(addr))),
                 Err(e) => Err(e),
             };
-            let wire = answer.map(|a| crate::wire::WireStamped::from_stamped(a, &clock));
-            crate::wire::encode(&crate::wire::Reply::from_result(wire))
+            let wire = answer.map(crate::wire::WireStamped::from);
+            crate::wire::encode_on(&clock, &crate::wire::Reply::from_result(wire))
         })
     }
 }
@@ -290,9 +290,14 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
                 let addr = r.addr.clone();
                 runtime.spawn(async move {
                     let answer = reply.await.and_then(|bytes| {
-                        crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(&bytes, &addr, Ans::ID)
+                        crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(
+                            &clock,
+                            &bytes,
+                            &addr,
+                            Ans::ID,
+                        )
                     });
-                    let _ = tx.send(answer.map(|w| w.into_stamped(&clock)));
+                    let _ = tx.send(answer.map(Stamped::from));
                 });
                 rx
             }

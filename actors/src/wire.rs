@@ -33,7 +33,7 @@ pub struct WireError {
     pub reason: String,
 }
 
-/// Encodes a value as CBOR.
+/// Encodes a value as CBOR (for control messages, which carry no timestamps).
 pub fn encode<T: Serialize + ?Sized>(value: &T) -> Vec<u8> {
     let mut out = Vec::with_capacity(64);
     // Writing into a Vec cannot fail, and every orsa type serialises (no maps with non-text
@@ -50,26 +50,38 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, WireEr
     ciborium::from_reader(bytes).map_err(|e| WireError { what: what.to_string(), reason: e.to_string() })
 }
 
-/// A stamped communication object on the wire.
+/// Encodes a value of `clock`'s process: every [`Timestamp`](crate::Timestamp) in it becomes
+/// UNIX time.
+pub fn encode_on<T: Serialize + ?Sized>(clock: &Clock, value: &T) -> Vec<u8> {
+    crate::clock::on_wire(clock, || encode(value))
+}
+
+/// Decodes a value for `clock`'s process: every [`Timestamp`](crate::Timestamp) in it is
+/// mapped from UNIX time onto `clock`.
+pub fn decode_on<T: DeserializeOwned>(clock: &Clock, bytes: &[u8], what: &str) -> Result<T, WireError> {
+    crate::clock::on_wire(clock, || decode(bytes, what))
+}
+
+/// A stamped communication object on the wire: `{"seq", "stamp_ns", "value"}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WireStamped<T> {
     /// The sender's sequence number (from 1).
     pub seq: u64,
-    /// When it was sent, UNIX time in nanoseconds.
-    pub stamp_ns: u64,
+    /// When it was sent (UNIX time in nanoseconds on the wire).
+    pub stamp_ns: crate::Timestamp,
     /// The communication object.
     pub value: T,
 }
 
-impl<T> WireStamped<T> {
-    /// The wire form of a stamped value of `clock`.
-    pub fn from_stamped(msg: Stamped<T>, clock: &Clock) -> Self {
-        WireStamped { seq: msg.seq, stamp_ns: clock.unix_ns(msg.stamp), value: msg.value }
+impl<T> From<Stamped<T>> for WireStamped<T> {
+    fn from(m: Stamped<T>) -> Self {
+        WireStamped { seq: m.seq, stamp_ns: m.stamp, value: m.value }
     }
+}
 
-    /// The stamped value on `clock`.
-    pub fn into_stamped(self, clock: &Clock) -> Stamped<T> {
-        Stamped { seq: self.seq, stamp: clock.from_unix_ns(self.stamp_ns), value: self.value }
+impl<T> From<WireStamped<T>> for Stamped<T> {
+    fn from(w: WireStamped<T>) -> Self {
+        Stamped { seq: w.seq, stamp: w.stamp_ns, value: w.value }
     }
 }
 
@@ -78,10 +90,10 @@ pub fn encode_stamped<T: Serialize>(msg: &Stamped<T>, clock: &Clock) -> Vec<u8> 
     #[derive(Serialize)]
     struct Ref<'a, T> {
         seq: u64,
-        stamp_ns: u64,
+        stamp_ns: crate::Timestamp,
         value: &'a T,
     }
-    encode(&Ref { seq: msg.seq, stamp_ns: clock.unix_ns(msg.stamp), value: &msg.value })
+    encode_on(clock, &Ref { seq: msg.seq, stamp_ns: msg.stamp, value: &msg.value })
 }
 
 /// Decodes a stamped value onto `clock`.
@@ -90,7 +102,7 @@ pub fn decode_stamped<T: DeserializeOwned>(
     what: &str,
     clock: &Clock,
 ) -> Result<Stamped<T>, WireError> {
-    decode::<WireStamped<T>>(bytes, what).map(|w| w.into_stamped(clock))
+    decode_on::<WireStamped<T>>(clock, bytes, what).map(Stamped::from)
 }
 
 /// A pattern error as it crosses the wire: a stable code, a message, and the details some codes
@@ -193,9 +205,15 @@ impl<T> Reply<T> {
     }
 }
 
-/// Decodes a reply to a request to `addr`; an undecodable reply is a [`PatternError::Decode`].
-pub fn decode_reply<T: DeserializeOwned>(bytes: &[u8], addr: &ServiceAddr, what: &str) -> PatternResult<T> {
-    decode::<Reply<T>>(bytes, what)
+/// Decodes a reply to a request to `addr` onto `clock`; an undecodable reply is a
+/// [`PatternError::Decode`].
+pub fn decode_reply<T: DeserializeOwned>(
+    clock: &Clock,
+    bytes: &[u8],
+    addr: &ServiceAddr,
+    what: &str,
+) -> PatternResult<T> {
+    decode_on::<Reply<T>>(clock, bytes, what)
         .map_err(|e| PatternError::Decode(format!("reply from {addr}: {e}")))?
         .into_result()
 }
@@ -213,6 +231,12 @@ mod tests {
         let back: Stamped<f64> = decode_stamped(&bytes, "orsa.F64/1", &b).expect("decodes");
         // b's epoch is 500 us later in UNIX time: the same instant is 500 us earlier on b.
         assert_eq!(back, Stamped { seq: 3, stamp: Timestamp(1_500_000), value: 0.25 });
+        // Timestamps inside the value move the same way, and JSON outside the wire is untouched.
+        let nested = Stamped { seq: 1, stamp: Timestamp(2_000_000), value: Timestamp(3_000_000) };
+        let back: Stamped<Timestamp> =
+            decode_stamped(&encode_stamped(&nested, &a), "orsa.Timestamp", &b).expect("decodes");
+        assert_eq!(back.value, Timestamp(2_500_000));
+        assert_eq!(serde_json::to_string(&Timestamp(7)).expect("json"), "7");
     }
 
     fn tokio_free_instant() -> tokio::time::Instant {
@@ -246,7 +270,11 @@ mod tests {
     #[test]
     fn garbage_is_an_error_not_a_panic() {
         for bytes in [&b""[..], b"\xff\xff", b"\xa1\x63seq", b"not cbor at all"] {
-            let r = decode::<WireStamped<f64>>(bytes, "orsa.F64/1");
+            let r = decode_stamped::<f64>(
+                bytes,
+                "orsa.F64/1",
+                &Clock::with_unix_epoch_ns(tokio_free_instant(), 0),
+            );
             let e = r.expect_err("garbage must not decode");
             assert!(e.to_string().contains("orsa.F64/1"), "{e}");
         }

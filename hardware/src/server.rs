@@ -10,6 +10,7 @@
 //! | `bumpers` | push timed, 30 ms | [`ContactScan`] | bumper ring |
 //! | `basestate` | push timed, 100 ms | [`BaseState`] | odometry pose, velocities, compass |
 //! | `navigationvelocity` | send | [`NavigationVelocity`] | drive (v, omega), clamped to the limits |
+//! | `teleop` | send | [`NavigationVelocity`] | drive by hand: takes priority over `navigationvelocity` |
 //! | `robotparams` | query | [`Empty`] -> [`RobotParams`] | geometry, limits, sensor layout |
 //!
 //! `omega` is applied to steer and turret together, as the original did, so the sensor rings
@@ -24,6 +25,11 @@
 //! killed server instance, so a robot that loses its commander, or its server, stops, every
 //! time. When the component stops normally, it stops the motors and waits for the axes to come
 //! to rest, as the original's RobotConnection destructor did.
+//!
+//! Teleoperation: a command on `teleop` passes the same checks and, once applied, holds the
+//! robot for teleoperation until its deadline: meanwhile `navigationvelocity` commands are
+//! counted as `overridden` and not applied. When teleop goes silent the watchdog stops the
+//! robot at that deadline, and the next behaviour command drives again.
 
 use crate::board::{AxisVelocities, MotorBoard, SensorBoard};
 use crate::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams};
@@ -125,6 +131,9 @@ pub struct SafetyCounters {
     pub clamped: u64,
     /// Commands the motor board refused (not finite, board gone).
     pub failed: u64,
+    /// `navigationvelocity` commands ignored because teleoperation held the robot.
+    #[serde(default)]
+    pub overridden: u64,
 }
 comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 
@@ -158,6 +167,8 @@ pub enum Nomad200Msg {
     Base(Tick),
     /// A velocity command.
     Velocity(Stamped<NavigationVelocity>),
+    /// A teleoperation command.
+    Teleop(Stamped<NavigationVelocity>),
     /// A request for the robot's parameters.
     Params(QueryRequest<Empty, RobotParams>),
     /// A request for the safety counters.
@@ -172,6 +183,8 @@ pub struct Nomad200State {
     base: PushTimedServer<BaseState>,
     deadline: watch::Sender<Option<Timestamp>>,
     last_applied: Option<Timestamp>,
+    /// Until when teleoperation holds the robot.
+    teleop_until: Option<Timestamp>,
     counters: SafetyCounters,
     timeouts: Arc<AtomicU64>,
 }
@@ -196,9 +209,19 @@ where
         }
     }
 
-    async fn on_velocity(&self, ctx: &Ctx<Nomad200Msg>, st: &mut Nomad200State, cmd: NavigationVelocity) {
+    async fn on_velocity(
+        &self,
+        ctx: &Ctx<Nomad200Msg>,
+        st: &mut Nomad200State,
+        cmd: NavigationVelocity,
+        teleop: bool,
+    ) {
         let now = ctx.now();
         let timeout = secs(self.params.cmd_timeout_s);
+        if !teleop && st.teleop_until.is_some_and(|t| now < t) {
+            st.counters.overridden += 1;
+            return;
+        }
         if cmd.stamp > now.after(secs(self.params.max_clock_skew_s)) {
             st.counters.future_refused += 1;
             tracing::warn!("nomad200: refused a command stamped {} in the future at {now}", cmd.stamp);
@@ -224,7 +247,11 @@ where
             st.last_applied = Some(cmd.stamp);
             // The robot may go on with this command until it is cmd_timeout old (counted from
             // now at the latest, whatever a skewed clock says).
-            st.deadline.send_replace(Some(cmd.stamp.min(now).after(timeout)));
+            let deadline = cmd.stamp.min(now).after(timeout);
+            st.deadline.send_replace(Some(deadline));
+            if teleop {
+                st.teleop_until = Some(deadline);
+            }
         }
     }
 }
@@ -245,6 +272,7 @@ where
         let bumpers = ctx.push_timed_server("bumpers", secs(p.bumpers_period_s), Nomad200Msg::Bumpers)?;
         let base = ctx.push_timed_server("basestate", secs(p.basestate_period_s), Nomad200Msg::Base)?;
         ctx.send_server::<NavigationVelocity>("navigationvelocity", Nomad200Msg::Velocity)?;
+        ctx.send_server::<NavigationVelocity>("teleop", Nomad200Msg::Teleop)?;
         ctx.query_server::<Empty, RobotParams>("robotparams", Nomad200Msg::Params)?;
         ctx.query_server::<Empty, SafetyCounters>("safety", Nomad200Msg::Safety)?;
         // A (re)started server does not trust whatever the motors were doing.
@@ -268,6 +296,7 @@ where
             base,
             deadline,
             last_applied: None,
+            teleop_until: None,
             counters: SafetyCounters::default(),
             timeouts,
         })
@@ -294,7 +323,8 @@ where
                 let c = self.sensors.read_compass().await?;
                 st.base.put(BaseState::from_readings(&m, &c));
             }
-            Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value).await,
+            Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value, false).await,
+            Nomad200Msg::Teleop(cmd) => self.on_velocity(ctx, st, cmd.value, true).await,
             Nomad200Msg::Params(q) => {
                 let _ = q.answer(self.robot.clone());
             }

@@ -195,3 +195,30 @@ async fn server_whose_instance_dies_still_stops_the_robot_at_the_deadline() {
     let t = r.sim.truth().truth();
     assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "the watchdog stopped the robot on its own");
 }
+
+/// Teleop takes priority while it talks, and gives control back once it has been silent for
+/// one command timeout (the watchdog stops the robot in between).
+#[tokio::test(start_paused = true)]
+async fn server_teleop_overrides_behaviours_until_it_goes_silent() {
+    let r = rig(ServerParams::default()).await;
+    let behaviour =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    let teleop = SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/teleop").expect("c");
+    let (reg, b) = (r.registry.clone(), behaviour.clone());
+    // The behaviour asks for 0.2 m/s every 100 ms throughout.
+    let pushing = tokio::spawn(async move { drive(&b, &reg, 0.2, 0.0, 5.0).await });
+    tokio::time::sleep(Duration::from_millis(1050)).await;
+    assert!((r.sim.truth().truth().v_m_s - 0.2).abs() < 1e-9, "the behaviour drives");
+    // Teleop reverses for one second, then goes silent.
+    drive(&teleop, &r.registry, -0.1, 0.0, 1.0).await;
+    let held = r.sim.truth().truth();
+    assert!((held.v_m_s + 0.1).abs() < 1e-9, "teleop holds the robot: {}", held.v_m_s);
+    let s = safety(&r.registry).await;
+    assert!(s.overridden >= 9, "behaviour commands were ignored meanwhile: {s:?}");
+    // One timeout after teleop's last command the watchdog stops; then the behaviour drives.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let back = r.sim.truth().truth();
+    assert!((back.v_m_s - 0.2).abs() < 1e-9, "control is back with the behaviour: {}", back.v_m_s);
+    assert!(safety(&r.registry).await.timeouts >= 1);
+    pushing.await.expect("behaviour task");
+}

@@ -131,6 +131,16 @@ impl Keys {
         })
     }
 
+    /// Where a process answers with its traffic figures.
+    pub fn stats(&self, zid: &str) -> String {
+        format!("{}/stats/{zid}", self.root)
+    }
+
+    /// The traffic figures of every process.
+    pub fn all_stats(&self) -> String {
+        format!("{}/stats/*", self.root)
+    }
+
     /// The liveliness token of a process.
     pub fn process_token(&self, zid: &str, role: &str) -> String {
         format!("{}/alive/proc/{zid}/{role}", self.root)

@@ -127,7 +127,7 @@ mod serde_bytes_compat {
 }
 
 /// Traffic figures of one transport.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct NetStats {
     /// Messages published (send, push streams, firings).
     pub published: u64,
@@ -266,6 +266,23 @@ impl ZenohTransport {
             .await
             .map_err(|e| NetError::Open(e.to_string()))?;
         entities.push(Box::new(procs));
+        let weak = Arc::downgrade(&inner);
+        let stats = inner
+            .session
+            .declare_queryable(inner.keys.stats(&inner.zid))
+            .callback(move |query| {
+                let Some(inner) = weak.upgrade() else { return };
+                let figures = NetStats {
+                    published: inner.published.load(Ordering::Relaxed),
+                    received: inner.received.load(Ordering::Relaxed),
+                    decode_errors: inner.decode_errors.load(Ordering::Relaxed)
+                        + inner.registry.decode_errors(),
+                };
+                reply_now(&inner, query, Ok(figures));
+            })
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        entities.push(Box::new(stats));
         let transport = ZenohTransport { inner, _entities: Arc::new(entities) };
         registry.set_transport(Arc::new(transport.clone()));
         tracing::info!(zid = %transport.inner.zid, role, "zenoh transport open");
@@ -310,6 +327,26 @@ impl ZenohTransport {
             decode_errors: self.inner.decode_errors.load(Ordering::Relaxed)
                 + self.inner.registry.decode_errors(),
         }
+    }
+
+    /// The traffic figures of every live process (this one included), by zenoh id.
+    pub async fn all_stats(&self, timeout: Duration) -> BTreeMap<String, NetStats> {
+        let mut out = BTreeMap::new();
+        let Ok(replies) = self.inner.session.get(self.inner.keys.all_stats()).timeout(timeout).await else {
+            return out;
+        };
+        while let Ok(reply) = replies.recv_async().await {
+            let Ok(sample) = reply.result() else { continue };
+            let zid = sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_string();
+            match decode::<Reply<NetStats>>(&sample.payload().to_bytes(), "orsa.NetStats/1") {
+                Ok(Reply::Ok(s)) => {
+                    out.insert(zid, s);
+                }
+                Ok(Reply::Err(f)) => tracing::warn!("stats of {zid}: {}", f.message),
+                Err(e) => self.inner.bad(&zid, &e),
+            }
+        }
+        out
     }
 
     /// Calls `f` whenever a peer process disappears (its liveliness token is gone).
@@ -450,6 +487,7 @@ impl Inner {
             match inner.get(&key, payload, Duration::from_secs(5)).await {
                 Ok(bytes) => {
                     if let Err(e) = orsa_actors::wire::decode_reply::<()>(
+                        &inner.registry.clock(),
                         &bytes,
                         &ServiceAddr::new("peer", "control"),
                         "control reply",
@@ -696,7 +734,7 @@ impl Inner {
 type Entity = Box<dyn std::any::Any + Send + Sync>;
 type ProcessLost = Box<dyn Fn(&Process) + Send + Sync>;
 
-fn reply_now(inner: &Arc<Inner>, query: zenoh::query::Query, result: PatternResult<()>) {
+fn reply_now<T: Serialize>(inner: &Arc<Inner>, query: zenoh::query::Query, result: PatternResult<T>) {
     let bytes = encode(&Reply::from_result(result));
     inner.runtime.spawn(async move {
         if let Err(e) = query.reply(query.key_expr().clone(), bytes).await {

@@ -64,6 +64,11 @@ impl NetOptions {
         };
         if self.config_file.is_none() {
             set(&mut config, "mode", "\"peer\"".into())?;
+            // A peer that goes silent (cable cut, host frozen) is declared lost after 1 s, so
+            // the robot stops within 1 s of losing its executive. A killed process is seen at
+            // once (its TCP link closes).
+            set(&mut config, "transport/link/tx/lease", "1000".into())?;
+            set(&mut config, "transport/link/tx/keep_alive", "4".into())?;
         }
         if !self.listen.is_empty() {
             set(&mut config, "listen/endpoints", serde_json::to_string(&self.listen).unwrap_or_default())?;

@@ -1,0 +1,703 @@
+//! The processes of a distributed orsa system and the tools to look inside it, over zenoh:
+//! `orsa robot`, `orsa executive`, `orsa teleop`, `orsa list`, `orsa echo`, `orsa wire`,
+//! `orsa state`.
+//!
+//! ```text
+//!   orsa robot                        orsa executive             orsa teleop
+//!   ├── nomad200 (sim, real time)     ├── master  ── wiring, state, distanceir/10 ──▶ robot
+//!   ├── wallfollow                    └── planner                ── nomad200/teleop ──▶ robot
+//!   └── centerfollow
+//! ```
+//! The robot watches the executive's liveliness: when it disappears, the robot unwires every
+//! behaviour and stops its motors at once (within zenoh's lease, 1 s by default), keeps its
+//! behaviours computing, and, if `--fallback MODE` is given, drives that mode with a local
+//! master until an executive is back.
+
+use crate::config::Config;
+use anyhow::{Context as _, bail};
+use orsa_actors::component::ComponentHandle;
+use orsa_actors::send::SendClient;
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorRef, SupervisorSpec};
+use orsa_actors::transport::Transport as _;
+use orsa_actors::wiring::WiringMaster;
+use orsa_actors::{Clock, PatternKind, Registry, ServiceAddr};
+use orsa_executive::Master;
+use orsa_executive::goal::{Goal, GoalReply};
+use orsa_executive::master::VEL_PORT;
+use orsa_hardware::comm::NavigationVelocity;
+use orsa_hardware::server::Nomad200;
+use orsa_hardware::sim::{SimNomad200, SimRobot};
+use orsa_hardware::world::World;
+use orsa_net::{NetOptions, ZenohTransport};
+use orsa_planner::Planner;
+use orsa_reactive::{CenterFollow, WallFollow};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How a process joins the network (shared by every networked subcommand).
+#[derive(Debug, Clone, clap::Args)]
+pub struct NetArgs {
+    /// zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh endpoint of a peer to connect to, e.g. `tcp/robot.local:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// zenoh configuration file (JSON5): TLS, user/password, everything else (see docs/security.md).
+    #[arg(long, value_name = "PATH")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Key prefix: systems with different prefixes do not see each other.
+    #[arg(long, value_name = "PREFIX", default_value = "orsa")]
+    pub prefix: String,
+}
+
+impl NetArgs {
+    fn options(&self) -> NetOptions {
+        NetOptions {
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            config_file: self.zenoh_config.clone(),
+            prefix: self.prefix.clone(),
+        }
+    }
+}
+
+/// Arguments of `orsa robot`.
+#[derive(Debug, clap::Args)]
+pub struct RobotArgs {
+    /// World file (TOML); default: the reference corridor, built in.
+    #[arg(long, value_name = "PATH")]
+    pub world: Option<PathBuf>,
+    /// Seed of the simulator's noise.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+    /// Configuration file (see config/orsa.toml).
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// Drive this mode (from the config's executive.modes) with a local master while no
+    /// executive is connected; default: stand still.
+    #[arg(long, value_name = "MODE")]
+    pub fallback: Option<String>,
+    /// Stop after this many seconds (default: run until interrupted).
+    #[arg(long, value_name = "SECS")]
+    pub duration: Option<f64>,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa executive`.
+#[derive(Debug, clap::Args)]
+pub struct ExecutiveArgs {
+    /// Configuration file (see config/orsa.toml): modes, rules, the planner's mission.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// Seconds of the default mission (patrol) and of the process (default: 3600).
+    #[arg(long, value_name = "SECS", default_value_t = 3600.0)]
+    pub duration: f64,
+    /// How long to wait for the robot's services to appear.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa teleop`.
+#[derive(Debug, clap::Args)]
+pub struct TeleopArgs {
+    /// The robot component.
+    #[arg(long, default_value = "nomad200")]
+    pub robot: String,
+    /// Scripted: send this velocity (m/s, rad/s) instead of reading the keyboard.
+    #[arg(long, value_name = "V,OMEGA", value_parser = parse_velocity, allow_hyphen_values = true)]
+    pub send: Option<(f64, f64)>,
+    /// Scripted: for this many seconds, then stop and quit.
+    #[arg(long = "for", value_name = "SECS", default_value_t = 1.0)]
+    pub for_s: f64,
+    /// Commands per second.
+    #[arg(long, value_name = "HZ", default_value_t = 10.0)]
+    pub rate: f64,
+    /// How long to wait for the robot.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa list`.
+#[derive(Debug, clap::Args)]
+pub struct ListArgs {
+    /// Seconds to listen for peers before listing.
+    #[arg(long, value_name = "SECS", default_value_t = 1.0)]
+    pub wait: f64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa echo`.
+#[derive(Debug, clap::Args)]
+pub struct EchoArgs {
+    /// The push service, `component/service`.
+    pub service: ServiceAddr,
+    /// Every n-th update (counted at the source).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub every: u32,
+    /// Stop after this many updates.
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+    /// One JSON object per line.
+    #[arg(long)]
+    pub json: bool,
+    /// How long to wait for the service.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa wire`.
+#[derive(Debug, clap::Args)]
+pub struct WireArgs {
+    /// The component whose port to rewire.
+    pub component: String,
+    /// The port.
+    pub port: String,
+    /// The service to connect it to (`component/service`); omit with --disconnect.
+    pub target: Option<ServiceAddr>,
+    /// Disconnect the port instead.
+    #[arg(long, conflicts_with = "target")]
+    pub disconnect: bool,
+    /// How long to wait for the component.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa state`.
+#[derive(Debug, clap::Args)]
+pub struct StateArgs {
+    /// The component.
+    pub component: String,
+    /// The main state to set; omit to show the state.
+    pub main: Option<String>,
+    /// How long to wait for the component.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+fn parse_velocity(s: &str) -> Result<(f64, f64), String> {
+    let (v, w) = s.split_once(',').ok_or_else(|| format!("'{s}' is not V,OMEGA (e.g. 0.1,0.0)"))?;
+    let num = |t: &str, what: &str| -> Result<f64, String> {
+        t.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{what} '{t}' is not a number"))
+    };
+    Ok((num(v, "V")?, num(w, "OMEGA")?))
+}
+
+fn secs(s: f64, flag: &str) -> anyhow::Result<Duration> {
+    if s.is_finite() && (0.0..=1e7).contains(&s) {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        bail!("{flag} {s}: must be a number of seconds from 0 to 1e7")
+    }
+}
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    // zenoh needs tokio's multi-thread scheduler.
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the tokio runtime")
+}
+
+fn load_config(path: &Option<PathBuf>) -> anyhow::Result<Config> {
+    Ok(match path {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    })
+}
+
+async fn open(registry: &Registry, net: &NetArgs, role: &str) -> anyhow::Result<ZenohTransport> {
+    Ok(ZenohTransport::open(registry, &net.options(), role).await?)
+}
+
+async fn wait_for(t: &ZenohTransport, addrs: &[ServiceAddr], wait: Duration) -> anyhow::Result<()> {
+    if let Err(missing) = t.wait_for(addrs, wait).await {
+        let names: Vec<String> = missing.iter().map(ToString::to_string).collect();
+        bail!(
+            "no peer offers {} after {:.1} s (is the robot running, with the same --prefix?)",
+            names.join(", "),
+            wait.as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// Resolves when the process is asked to stop (Ctrl-C) or after `duration`.
+async fn until_stopped(duration: Option<Duration>) {
+    let limit = async {
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        () = limit => {}
+    }
+}
+
+/// `orsa robot`.
+pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
+    let world = match &args.world {
+        Some(p) => World::from_path(p)?,
+        None => World::palazzina()?,
+    };
+    let config = load_config(&args.config)?;
+    if let Some(mode) = &args.fallback
+        && !config.executive.modes.contains_key(mode)
+    {
+        let known: Vec<&String> = config.executive.modes.keys().collect();
+        bail!("--fallback {mode}: no such mode in executive.modes (known: {known:?})");
+    }
+    let duration = args.duration.map(|d| secs(d, "--duration")).transpose()?;
+    runtime()?.block_on(async move {
+        let clock = Clock::start();
+        let registry = Registry::with_clock(clock);
+        let sim =
+            SimNomad200::new(world, config.sim.clone(), args.seed).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let sim = SimRobot::spawn(sim, clock);
+        let robot = config.robot.name.clone();
+        let params = config.sim.robot_params(config.robot.push_periods());
+        let server = Nomad200::new(config.robot.clone(), params, sim.sensor_board(), sim.motor_board());
+        let nomad = ComponentHandle::new(&registry, &robot, server)?;
+        let wall = ComponentHandle::new(
+            &registry,
+            "wallfollow",
+            WallFollow { params: config.wallfollow, robot: robot.clone() },
+        )?;
+        let center = ComponentHandle::new(
+            &registry,
+            "centerfollow",
+            CenterFollow { params: config.centerfollow, robot: robot.clone() },
+        )?;
+        let spec = SupervisorSpec::new("robot", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_clock(clock)
+            .with_child(nomad.child_spec())
+            .with_child(wall.child_spec())
+            .with_child(center.child_spec());
+        let supervisor =
+            Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the robot: {e}"))?;
+        let transport = open(&registry, &args.net, "robot").await?;
+        eprintln!("robot: up as {} (zenoh id {})", robot, transport.zid());
+
+        let (lost_tx, mut lost_rx) = tokio::sync::mpsc::unbounded_channel::<String>();
+        transport.on_process_lost(move |p| {
+            if p.role == "executive" {
+                let _ = lost_tx.send(p.zid.clone());
+            }
+        });
+        let behaviours = ["wallfollow", "centerfollow"];
+        let motors =
+            SendClient::<NavigationVelocity>::connect(&registry, (robot.as_str(), "navigationvelocity"))?;
+        let mut fallback: Option<(SupervisorRef, String)> = None;
+        let stop = until_stopped(duration);
+        tokio::pin!(stop);
+        loop {
+            tokio::select! {
+                () = &mut stop => break,
+                Some(zid) = lost_rx.recv() => {
+                    eprintln!("robot: executive {zid} lost: unwiring the behaviours and stopping");
+                    let wiring = WiringMaster::new(&registry);
+                    for b in behaviours {
+                        if let Err(e) = wiring.disconnect(b, VEL_PORT).await {
+                            tracing::warn!("robot: cannot unwire {b}: {e}");
+                        }
+                    }
+                    let zero = NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
+                    if let Err(e) = motors.send(zero) {
+                        tracing::warn!("robot: cannot stop the motors: {e}");
+                    }
+                    if let (Some(mode), None) = (&args.fallback, &fallback) {
+                        match start_fallback(&registry, &config, mode, clock).await {
+                            Ok(f) => {
+                                eprintln!("robot: driving fallback mode '{mode}'");
+                                fallback = Some((f, mode.clone()));
+                            }
+                            Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
+                        }
+                    }
+                }
+            }
+        }
+        if let Some((f, _)) = fallback {
+            f.shutdown().await;
+        }
+        supervisor.shutdown().await;
+        let _ = sim.shutdown().await;
+        transport.close().await;
+        Ok(())
+    })
+}
+
+async fn start_fallback(
+    registry: &Registry,
+    config: &Config,
+    mode: &str,
+    clock: Clock,
+) -> anyhow::Result<SupervisorRef> {
+    let mut exec = config.executive.clone();
+    exec.robot = config.robot.name.clone();
+    let master = ComponentHandle::new(registry, "fallback", Master { params: exec })?;
+    let spec = SupervisorSpec::new("fallback", Strategy::OneForOne)
+        .with_clock(clock)
+        .with_child(master.child_spec());
+    let sup = Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(registry, "fallback/goal")?;
+    match goals.query(Goal { mode: mode.to_string(), for_s: None }, Some(Duration::from_secs(5))).await? {
+        GoalReply::Accepted { .. } => Ok(sup),
+        GoalReply::Rejected { reason } => bail!("fallback goal rejected: {reason}"),
+    }
+}
+
+/// `orsa executive`.
+pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
+    let config = load_config(&args.config)?;
+    let duration = secs(args.duration, "--duration")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let clock = Clock::start();
+        let registry = Registry::with_clock(clock);
+        let transport = open(&registry, &args.net, "executive").await?;
+        let mut exec = config.executive.clone();
+        exec.robot = config.robot.name.clone();
+        let mut needed = vec![
+            ServiceAddr::new(&exec.robot, "distanceir"),
+            ServiceAddr::new(&exec.robot, "navigationvelocity"),
+        ];
+        for b in exec.behaviours() {
+            needed.push(ServiceAddr::new(&b, "state"));
+            needed.push(ServiceAddr::new(&b, "wiring"));
+        }
+        wait_for(&transport, &needed, wait).await?;
+        let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
+        let planner =
+            Planner { mission: config.planner.mission_for(args.duration), executive: "master".into() };
+        let planner = ComponentHandle::new(&registry, "planner", planner)?;
+        let spec = SupervisorSpec::new("executive", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_clock(clock)
+            .with_child(master.child_spec())
+            .with_child(planner.child_spec());
+        let supervisor =
+            Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the executive: {e}"))?;
+        eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
+        until_stopped(Some(duration)).await;
+        supervisor.shutdown().await;
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// `orsa teleop`.
+pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
+    if !(args.rate.is_finite() && (0.5..=100.0).contains(&args.rate)) {
+        bail!("--rate {}: must be from 0.5 to 100 commands per second", args.rate);
+    }
+    let run_for = secs(args.for_s, "--for")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "teleop").await?;
+        let addr = ServiceAddr::new(&args.robot, "teleop");
+        wait_for(&transport, std::slice::from_ref(&addr), wait).await?;
+        let client = SendClient::<NavigationVelocity>::connect(&registry, &addr)?;
+        let period = Duration::from_secs_f64(1.0 / args.rate);
+        let send = |v: f64, w: f64| {
+            client.send(NavigationVelocity { stamp: registry.now(), v_m_s: v, omega_rad_s: w })
+        };
+        match args.send {
+            Some((v, w)) => {
+                let mut tick = tokio::time::interval(period);
+                let end = tokio::time::Instant::now() + run_for;
+                while tokio::time::Instant::now() < end {
+                    tick.tick().await;
+                    send(v, w)?;
+                }
+                send(0.0, 0.0)?;
+            }
+            None => crate::keyboard::drive(period, |v, w| send(v, w).map_err(anyhow::Error::from)).await?,
+        }
+        // Let the last command leave before the session closes.
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// What `orsa list` prints as JSON.
+#[derive(Debug, serde::Serialize)]
+struct Listing {
+    processes: Vec<ListedProcess>,
+    services: Vec<ListedService>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct ListedProcess {
+    zid: String,
+    role: String,
+    stats: Option<orsa_net::NetStats>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct ListedService {
+    service: String,
+    pattern: PatternKind,
+    types: Vec<String>,
+    host: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    detail: Option<serde_json::Value>,
+}
+
+/// `orsa list`.
+pub fn list(args: ListArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool").await?;
+        // Discovery is asynchronous: listen for a moment, as `ros2 node list` spins.
+        tokio::time::sleep(wait).await;
+        let roles: std::collections::BTreeMap<String, String> =
+            transport.processes().into_iter().map(|p| (p.zid, p.role)).collect();
+        let mut services = Vec::new();
+        for a in transport.remote_services() {
+            let detail = match a.info.pattern {
+                PatternKind::Wiring => WiringMaster::new(&registry)
+                    .ports(&a.addr.component)
+                    .await
+                    .ok()
+                    .and_then(|p| serde_json::to_value(p).ok()),
+                PatternKind::State => {
+                    match orsa_actors::state::StateMaster::connect(&registry, &a.addr.component) {
+                        Ok(m) => m.status().await.ok().and_then(|s| serde_json::to_value(s).ok()),
+                        Err(_) => None,
+                    }
+                }
+                _ => None,
+            };
+            let host = format!("{} ({})", a.host, roles.get(&a.host).map_or("?", String::as_str));
+            services.push(ListedService {
+                service: a.addr.to_string(),
+                pattern: a.info.pattern,
+                types: a.info.types,
+                host,
+                detail,
+            });
+        }
+        let stats = transport.all_stats(Duration::from_secs(2)).await;
+        let processes = roles
+            .into_iter()
+            .filter(|(z, _)| z != transport.zid())
+            .map(|(zid, role)| ListedProcess { stats: stats.get(&zid).copied(), zid, role })
+            .collect();
+        let listing = Listing { processes, services };
+        if args.json {
+            crate::cli::say(&serde_json::to_string_pretty(&listing)?);
+        } else {
+            crate::cli::say(&render_listing(&listing));
+        }
+        transport.close().await;
+        Ok(())
+    })
+}
+
+fn render_listing(l: &Listing) -> String {
+    let mut out = String::from("processes:\n");
+    for p in &l.processes {
+        let figures = p.stats.map_or(String::new(), |s| {
+            format!("  published {} received {} undecodable {}", s.published, s.received, s.decode_errors)
+        });
+        out.push_str(&format!("  {:<10} {}  live{figures}\n", p.role, p.zid));
+    }
+    out.push_str("services:\n");
+    for s in &l.services {
+        out.push_str(&format!(
+            "  {:<32} {:<12} {}\n",
+            s.service,
+            orsa_net::pattern_name(s.pattern),
+            s.types.join(" -> ")
+        ));
+        if let Some(d) = &s.detail {
+            match s.pattern {
+                PatternKind::Wiring => {
+                    for p in d.as_array().into_iter().flatten() {
+                        let target = p.get("target").and_then(|t| t.as_object()).map_or(
+                            "(disconnected)".to_string(),
+                            |t| {
+                                format!(
+                                    "-> {}/{}",
+                                    t.get("component").and_then(|c| c.as_str()).unwrap_or("?"),
+                                    t.get("service").and_then(|c| c.as_str()).unwrap_or("?")
+                                )
+                            },
+                        );
+                        out.push_str(&format!(
+                            "      port {} {target}\n",
+                            p.get("port").and_then(|x| x.as_str()).unwrap_or("?")
+                        ));
+                    }
+                }
+                _ => {
+                    let current = d.get("current").and_then(|c| c.as_str()).unwrap_or("?");
+                    out.push_str(&format!("      state {current}\n"));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `orsa echo`.
+pub fn echo(args: EchoArgs) -> anyhow::Result<()> {
+    let every = std::num::NonZeroU32::new(args.every).context("--every must be at least 1")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool").await?;
+        wait_for(&transport, std::slice::from_ref(&args.service), wait).await?;
+        let info = transport.lookup(&args.service).context("the service vanished")?;
+        if !matches!(info.pattern, PatternKind::PushNewest | PatternKind::PushTimed) {
+            bail!("{} is {}: echo shows push services", args.service, info.pattern);
+        }
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
+        let _sub = transport.subscribe(
+            &args.service,
+            every,
+            Arc::new(move |b: &[u8]| tx.send(b.to_vec()).is_ok()),
+        )?;
+        let mut seen = 0u64;
+        let stop = until_stopped(None);
+        tokio::pin!(stop);
+        loop {
+            tokio::select! {
+                () = &mut stop => break,
+                Some(bytes) = rx.recv() => {
+                    match orsa_actors::wire::decode::<ciborium::Value>(&bytes, &info.types.join(",")) {
+                        Ok(v) => {
+                            let json = cbor_to_json(v);
+                            if args.json {
+                                crate::cli::say(&serde_json::to_string(&json)?);
+                            } else {
+                                crate::cli::say(&format!("{}\n---", serde_json::to_string_pretty(&json)?));
+                            }
+                        }
+                        Err(e) => eprintln!("echo: {e}"),
+                    }
+                    seen += 1;
+                    if args.count.is_some_and(|c| seen >= c) {
+                        break;
+                    }
+                }
+            }
+        }
+        drop(_sub);
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// A CBOR value as JSON (byte strings as arrays of numbers, non-text keys as text).
+fn cbor_to_json(v: ciborium::Value) -> serde_json::Value {
+    use ciborium::Value as C;
+    use serde_json::Value as J;
+    match v {
+        C::Integer(i) => {
+            let i: i128 = i.into();
+            u64::try_from(i).map(J::from).or_else(|_| i64::try_from(i).map(J::from)).unwrap_or(J::Null)
+        }
+        C::Float(f) => serde_json::Number::from_f64(f).map_or(J::Null, J::Number),
+        C::Bool(b) => J::Bool(b),
+        C::Null => J::Null,
+        C::Text(t) => J::String(t),
+        C::Bytes(b) => J::Array(b.into_iter().map(J::from).collect()),
+        C::Array(a) => J::Array(a.into_iter().map(cbor_to_json).collect()),
+        C::Map(m) => J::Object(
+            m.into_iter()
+                .map(|(k, v)| {
+                    let key = match k {
+                        C::Text(t) => t,
+                        other => cbor_to_json(other).to_string(),
+                    };
+                    (key, cbor_to_json(v))
+                })
+                .collect(),
+        ),
+        C::Tag(_, inner) => cbor_to_json(*inner),
+        _ => J::Null,
+    }
+}
+
+/// `orsa wire`.
+pub fn wire(args: WireArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    if args.target.is_none() && !args.disconnect {
+        bail!("give a TARGET service (component/service) or --disconnect");
+    }
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool").await?;
+        wait_for(&transport, &[ServiceAddr::new(&args.component, "wiring")], wait).await?;
+        let master = WiringMaster::new(&registry);
+        match &args.target {
+            Some(t) => master.connect(&args.component, &args.port, t).await?,
+            None => master.disconnect(&args.component, &args.port).await?,
+        }
+        for p in master.ports(&args.component).await? {
+            let target = p.target.map_or("(disconnected)".to_string(), |t| t.to_string());
+            crate::cli::say(&format!("{}.{} -> {target}", args.component, p.port));
+        }
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// `orsa state`.
+pub fn state(args: StateArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool").await?;
+        wait_for(&transport, &[ServiceAddr::new(&args.component, "state")], wait).await?;
+        let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
+        if let Some(main) = &args.main {
+            master.set_state(main).await?;
+        }
+        let s = master.status().await?;
+        crate::cli::say(&format!(
+            "{}: {}{}",
+            args.component,
+            s.current,
+            s.pending.map(|p| format!(" (changing to {p})")).unwrap_or_default()
+        ));
+        transport.close().await;
+        Ok(())
+    })
+}

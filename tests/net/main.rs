@@ -1,0 +1,145 @@
+//! The distributed system as users run it: the built `orsa` binary started as separate
+//! processes (robot, executive, teleop, echo) on loopback ports picked at run time, watched
+//! from this test through its own zenoh session with orsa's ordinary clients.
+//!
+//! These run in real time (zenoh and processes cannot run on a paused clock). Every wait is
+//! for a condition with a deadline; no test sleeps to let something happen.
+
+mod processes;
+mod security;
+
+use orsa::hardware::comm::BaseState;
+use orsa_actors::push_timed::PushTimedClient;
+use orsa_actors::{Registry, Sink, Update};
+use orsa_net::{NetOptions, ZenohTransport};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// A child process killed when dropped, its stderr kept in a file.
+pub(crate) struct Proc {
+    pub(crate) child: Child,
+    pub(crate) log: PathBuf,
+}
+
+impl Proc {
+    pub(crate) fn log_text(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+pub(crate) fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
+}
+
+/// Starts `orsa ARGS...`, stderr into a temporary file named after `name`.
+pub(crate) fn orsa(name: &str, args: &[&str]) -> Proc {
+    let log = std::env::temp_dir().join(format!("orsa-test-{}-{name}.log", std::process::id()));
+    let file = std::fs::File::create(&log).expect("log file");
+    let child = Command::new(env!("CARGO_BIN_EXE_orsa"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(file)
+        .spawn()
+        .expect("start orsa");
+    Proc { child, log }
+}
+
+/// A system on a fresh port and prefix: the robot listens, everyone else connects.
+pub(crate) struct System {
+    pub(crate) port: u16,
+    pub(crate) prefix: String,
+}
+
+impl System {
+    pub(crate) fn new(name: &str) -> Self {
+        System { port: free_port(), prefix: format!("t{}{name}", std::process::id()) }
+    }
+
+    pub(crate) fn listen_args(&self) -> Vec<String> {
+        vec![
+            "--listen".into(),
+            format!("tcp/127.0.0.1:{}", self.port),
+            "--prefix".into(),
+            self.prefix.clone(),
+        ]
+    }
+
+    pub(crate) fn connect_args(&self) -> Vec<String> {
+        vec![
+            "--connect".into(),
+            format!("tcp/127.0.0.1:{}", self.port),
+            "--prefix".into(),
+            self.prefix.clone(),
+        ]
+    }
+
+    pub(crate) fn robot(&self, extra: &[&str]) -> Proc {
+        let mut args: Vec<String> = vec!["robot".into()];
+        args.extend(self.listen_args());
+        args.extend(extra.iter().map(|s| s.to_string()));
+        orsa(&format!("{}-robot", self.prefix), &args.iter().map(String::as_str).collect::<Vec<_>>())
+    }
+
+    pub(crate) fn run(&self, name: &str, sub: &str, extra: &[&str]) -> Proc {
+        let mut args: Vec<String> = vec![sub.into()];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        args.extend(self.connect_args());
+        orsa(&format!("{}-{name}", self.prefix), &args.iter().map(String::as_str).collect::<Vec<_>>())
+    }
+
+    /// This test's own session into the system.
+    pub(crate) async fn observe(&self) -> (Registry, ZenohTransport) {
+        let registry = Registry::new();
+        let options = NetOptions {
+            connect: vec![format!("tcp/127.0.0.1:{}", self.port)],
+            prefix: self.prefix.clone(),
+            ..NetOptions::default()
+        };
+        let t = ZenohTransport::open(&registry, &options, "test").await.expect("observer session");
+        (registry, t)
+    }
+}
+
+pub(crate) const STARTUP: Duration = Duration::from_secs(30);
+
+/// The robot's base state, every update.
+pub(crate) async fn base_stream(
+    registry: &Registry,
+    t: &ZenohTransport,
+) -> (PushTimedClient<BaseState>, mpsc::UnboundedReceiver<Update<BaseState>>) {
+    t.wait_for(&["nomad200/basestate".parse().expect("addr")], STARTUP).await.expect("the robot is up");
+    let (tx, rx) = mpsc::unbounded_channel();
+    let c = PushTimedClient::<BaseState>::connect_to(registry, "nomad200/basestate", Sink::channel(tx))
+        .expect("base state client");
+    c.subscribe(1).expect("subscribe");
+    (c, rx)
+}
+
+/// Reads base states until `pred` holds, at most `within`; the state that satisfied it.
+pub(crate) async fn until_base(
+    rx: &mut mpsc::UnboundedReceiver<Update<BaseState>>,
+    within: Duration,
+    what: &str,
+    pred: impl Fn(&BaseState) -> bool,
+) -> Update<BaseState> {
+    let found = tokio::time::timeout(within, async {
+        loop {
+            let u = rx.recv().await.expect("base state stream ended");
+            if pred(&u.value) {
+                return u;
+            }
+        }
+    })
+    .await;
+    found.unwrap_or_else(|_| panic!("{what}: not within {within:?}"))
+}

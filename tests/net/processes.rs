@@ -1,0 +1,187 @@
+//! Robot, executive, teleop and echo as separate processes.
+
+use super::*;
+use orsa::hardware::server::SafetyCounters;
+use orsa_actors::query::QueryClient;
+use orsa_actors::wiring::WiringMaster;
+use orsa_actors::{Empty, ServiceAddr};
+
+const MOTORS: &str = "nomad200/navigationvelocity";
+
+async fn wired(registry: &Registry) -> Vec<String> {
+    let master = WiringMaster::new(registry);
+    let mut out = Vec::new();
+    for b in ["wallfollow", "centerfollow"] {
+        let ports = master.ports(b).await.expect("ports");
+        if ports.iter().any(|p| p.target == Some(MOTORS.parse::<ServiceAddr>().expect("addr"))) {
+            out.push(b.to_string());
+        }
+    }
+    out
+}
+
+async fn safety(registry: &Registry) -> SafetyCounters {
+    QueryClient::<Empty, SafetyCounters>::connect(registry, "nomad200/safety")
+        .expect("safety client")
+        .query(Empty {}, Some(Duration::from_secs(5)))
+        .await
+        .expect("safety counters")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_executive_process_wires_the_robots_behaviours_and_the_robot_patrols() {
+    let sys = System::new("patrol");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let start = base.recv().await.expect("base state").value.clone();
+    assert_eq!(start.v_m_s, 0.0, "nothing drives the robot before an executive is there");
+    let _exec = sys.run("exec", "executive", &["--duration", "120"]);
+    let moved = until_base(&mut base, STARTUP, "the robot patrols", |b| {
+        (b.x_m - start.x_m).hypot(b.y_m - start.y_m) > 0.5
+    })
+    .await;
+    assert!(moved.v_m_s > 0.0);
+    assert_eq!(wired(&registry).await.len(), 1, "exactly one behaviour drives");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn teleop_takes_the_robot_and_gives_control_back_to_the_behaviours() {
+    let sys = System::new("teleop");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let _exec = sys.run("exec", "executive", &["--duration", "120"]);
+    until_base(&mut base, STARTUP, "a behaviour drives forward", |b| b.v_m_s > 0.15).await;
+
+    let mut teleop = sys.run("teleop", "teleop", &["--send", "-0.1,0", "--for", "3"]);
+    until_base(&mut base, STARTUP, "teleop drives backwards", |b| b.v_m_s < -0.05).await;
+    let status = tokio::task::spawn_blocking(move || {
+        let s = teleop.child.wait().expect("teleop ends");
+        (s, teleop)
+    })
+    .await
+    .expect("join");
+    assert!(status.0.success(), "teleop failed: {}", status.1.log_text());
+    assert!(safety(&registry).await.overridden > 0, "behaviour commands were overridden while teleop held");
+    until_base(&mut base, Duration::from_secs(10), "the behaviour drives again", |b| b.v_m_s > 0.15).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn killing_the_executive_stops_the_robot() {
+    let sys = System::new("kill");
+    let robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let mut exec = sys.run("exec", "executive", &["--duration", "120"]);
+    until_base(&mut base, STARTUP, "a behaviour drives", |b| b.v_m_s > 0.15).await;
+    exec.child.kill().expect("kill -9 the executive");
+    let killed = registry.now();
+    // Unwired and commanded to zero within 1 s; the axes then decelerate at 0.5 m/s^2.
+    let stopped = until_base(&mut base, Duration::from_secs(10), "the robot stops", |b| b.v_m_s == 0.0).await;
+    let took = stopped.stamp.saturating_since(killed);
+    assert!(took < Duration::from_millis(1600), "stopped {took:?} after the kill (1 s + braking)");
+    assert!(wired(&registry).await.is_empty(), "no behaviour stays wired");
+    assert!(robot.log_text().contains("lost"), "{}", robot.log_text());
+    // And it stays stopped: the behaviours compute but drive nothing.
+    let later = until_base(&mut base, Duration::from_secs(5), "a later state", |b| {
+        b.stamp > stopped.stamp.after(Duration::from_secs(1))
+    })
+    .await;
+    assert_eq!(later.v_m_s, 0.0);
+}
+
+fn echo_lines(sys: &System, service: &str, every: &str, count: usize) -> Vec<serde_json::Value> {
+    let mut p = sys.run(
+        &format!("echo-{}", service.replace('/', "-")),
+        "echo",
+        &[service, "--every", every, "--count", &count.to_string(), "--json", "--wait", "30"],
+    );
+    let out = p.child.wait_with_output_keep().expect("echo output");
+    assert!(out.0.success(), "echo {service} failed: {}", p.log_text());
+    out.1.lines().map(|l| serde_json::from_str(l).expect("a JSON line")).collect()
+}
+
+trait WaitKeep {
+    fn wait_with_output_keep(&mut self) -> std::io::Result<(std::process::ExitStatus, String)>;
+}
+
+impl WaitKeep for std::process::Child {
+    fn wait_with_output_keep(&mut self) -> std::io::Result<(std::process::ExitStatus, String)> {
+        use std::io::Read as _;
+        let mut text = String::new();
+        if let Some(out) = self.stdout.as_mut() {
+            out.read_to_string(&mut text)?;
+        }
+        Ok((self.wait()?, text))
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn echo_sees_each_stream_at_its_rate() {
+    let sys = System::new("echo");
+    let _robot = sys.robot(&[]);
+    for (service, every, period_ms) in [
+        ("nomad200/distanceir", 1u64, 40.0),
+        ("nomad200/distanceir", 10, 400.0),
+        ("nomad200/distanceson", 1, 64.0),
+        ("nomad200/bumpers", 1, 30.0),
+        ("nomad200/basestate", 2, 200.0),
+    ] {
+        let lines = tokio::task::block_in_place(|| echo_lines(&sys, service, &every.to_string(), 6));
+        assert_eq!(lines.len(), 6, "{service}");
+        let seq: Vec<u64> = lines.iter().map(|l| l["seq"].as_u64().expect("seq")).collect();
+        let stamps: Vec<u64> = lines.iter().map(|l| l["stamp_ns"].as_u64().expect("stamp")).collect();
+        for w in seq.windows(2) {
+            assert_eq!(w[1] - w[0], every, "{service} every {every}: {seq:?}");
+        }
+        // The server stamps each value when its tick is handled: the mean period is exact
+        // to within scheduling jitter.
+        let mean_ms = (stamps[5] - stamps[0]) as f64 / 5.0 / 1e6;
+        assert!((mean_ms - period_ms).abs() < period_ms * 0.2, "{service} every {every}: {mean_ms} ms");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_corrupted_message_is_rejected_and_counted_and_nothing_else_changes() {
+    let sys = System::new("corrupt");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let motors: ServiceAddr = MOTORS.parse().expect("addr");
+    let before = safety(&registry).await;
+    t.session().put(t.keys().send(&motors), b"\xff\x00 not a command".to_vec()).await.expect("put");
+    let teleop: ServiceAddr = "nomad200/teleop".parse().expect("addr");
+    let replies = t
+        .session()
+        .get(t.keys().subscribe(&"nomad200/basestate".parse().expect("addr")))
+        .payload(b"\xa1".to_vec())
+        .await
+        .expect("get");
+    let reply = replies.recv_async().await.expect("a reply to the bad request");
+    let bytes = reply.result().expect("answered").payload().to_bytes().into_owned();
+    let answer = orsa_actors::wire::decode::<orsa_actors::wire::Reply<()>>(&bytes, "reply").expect("a reply");
+    assert!(
+        matches!(answer.into_result(), Err(orsa_actors::PatternError::Decode(_))),
+        "a bad request is answered with a decode error"
+    );
+    // A good command after the garbage is applied.
+    let client = orsa_actors::send::SendClient::<orsa::hardware::comm::NavigationVelocity>::connect(
+        &registry, &teleop,
+    )
+    .expect("teleop client");
+    client
+        .send(orsa::hardware::comm::NavigationVelocity {
+            stamp: registry.now(),
+            v_m_s: 0.05,
+            omega_rad_s: 0.0,
+        })
+        .expect("send");
+    until_base(&mut base, Duration::from_secs(10), "the good command drives", |b| b.v_m_s > 0.0).await;
+    let after = safety(&registry).await;
+    assert_eq!(after.applied, before.applied + 1, "exactly the good command was applied");
+    let stats = t.all_stats(Duration::from_secs(5)).await;
+    let robot_errors: u64 =
+        stats.iter().filter(|(z, _)| z.as_str() != t.zid()).map(|(_, s)| s.decode_errors).sum();
+    assert_eq!(robot_errors, 2, "the robot counted the undecodable command and the bad request: {stats:?}");
+}
