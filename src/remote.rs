@@ -17,7 +17,7 @@ use crate::config::Config;
 use anyhow::{Context as _, bail};
 use orsa_actors::component::ComponentHandle;
 use orsa_actors::send::SendClient;
-use orsa_actors::supervision::{Strategy, Supervisor, SupervisorRef, SupervisorSpec};
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
 use orsa_actors::transport::Transport as _;
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{Clock, PatternKind, Registry, ServiceAddr};
@@ -309,22 +309,38 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         let transport = open(&registry, &args.net, "robot").await?;
         eprintln!("robot: up as {} (zenoh id {})", robot, transport.zid());
 
-        let (lost_tx, mut lost_rx) = tokio::sync::mpsc::unbounded_channel::<String>();
+        // Executives coming (true) and going (false).
+        let (exec_tx, mut exec_rx) = tokio::sync::mpsc::unbounded_channel::<(String, bool)>();
+        let tx = exec_tx.clone();
         transport.on_process_lost(move |p| {
             if p.role == "executive" {
-                let _ = lost_tx.send(p.zid.clone());
+                let _ = tx.send((p.zid.clone(), false));
+            }
+        });
+        transport.on_process_found(move |p| {
+            if p.role == "executive" {
+                let _ = exec_tx.send((p.zid.clone(), true));
             }
         });
         let behaviours = ["wallfollow", "centerfollow"];
         let motors =
             SendClient::<NavigationVelocity>::connect(&registry, (robot.as_str(), "navigationvelocity"))?;
-        let mut fallback: Option<(SupervisorRef, String)> = None;
+        let mut fallback: Option<ComponentHandle<Master>> = None;
         let stop = until_stopped(duration);
         tokio::pin!(stop);
         loop {
             tokio::select! {
                 () = &mut stop => break,
-                Some(zid) = lost_rx.recv() => {
+                Some((zid, back)) = exec_rx.recv() => {
+                    if back {
+                        // A new executive takes over: the fallback master goes first (the
+                        // executive waits for its services to disappear before it starts).
+                        if let Some(f) = fallback.take() {
+                            eprintln!("robot: executive {zid} is back: stopping the fallback");
+                            f.stop().await;
+                        }
+                        continue;
+                    }
                     eprintln!("robot: executive {zid} lost: unwiring the behaviours and stopping");
                     let wiring = WiringMaster::new(&registry);
                     for b in behaviours {
@@ -337,10 +353,10 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                         tracing::warn!("robot: cannot stop the motors: {e}");
                     }
                     if let (Some(mode), None) = (&args.fallback, &fallback) {
-                        match start_fallback(&registry, &config, mode, clock).await {
+                        match start_fallback(&registry, &config, mode).await {
                             Ok(f) => {
                                 eprintln!("robot: driving fallback mode '{mode}'");
-                                fallback = Some((f, mode.clone()));
+                                fallback = Some(f);
                             }
                             Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
                         }
@@ -348,8 +364,8 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                 }
             }
         }
-        if let Some((f, _)) = fallback {
-            f.shutdown().await;
+        if let Some(f) = fallback {
+            f.stop().await;
         }
         supervisor.shutdown().await;
         let _ = sim.shutdown().await;
@@ -358,23 +374,29 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
     })
 }
 
+/// The component name of the robot's fallback master.
+pub const FALLBACK: &str = "fallback";
+
 async fn start_fallback(
     registry: &Registry,
     config: &Config,
     mode: &str,
-    clock: Clock,
-) -> anyhow::Result<SupervisorRef> {
+) -> anyhow::Result<ComponentHandle<Master>> {
     let mut exec = config.executive.clone();
     exec.robot = config.robot.name.clone();
-    let master = ComponentHandle::new(registry, "fallback", Master { params: exec })?;
-    let spec = SupervisorSpec::new("fallback", Strategy::OneForOne)
-        .with_clock(clock)
-        .with_child(master.child_spec());
-    let sup = Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(registry, "fallback/goal")?;
-    match goals.query(Goal { mode: mode.to_string(), for_s: None }, Some(Duration::from_secs(5))).await? {
-        GoalReply::Accepted { .. } => Ok(sup),
-        GoalReply::Rejected { reason } => bail!("fallback goal rejected: {reason}"),
+    let master = orsa_actors::component::spawn(registry, FALLBACK, Master { params: exec }).await?;
+    let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(registry, (FALLBACK, "goal"))?;
+    let reply = goals.query(Goal { mode: mode.to_string(), for_s: None }, Some(Duration::from_secs(5))).await;
+    match reply {
+        Ok(GoalReply::Accepted { .. }) => Ok(master),
+        Ok(GoalReply::Rejected { reason }) => {
+            master.stop().await;
+            bail!("fallback goal rejected: {reason}")
+        }
+        Err(e) => {
+            master.stop().await;
+            Err(e.into())
+        }
     }
 }
 
@@ -398,6 +420,11 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
             needed.push(ServiceAddr::new(&b, "wiring"));
         }
         wait_for(&transport, &needed, wait).await?;
+        // A robot driving its fallback mode stops it when it sees this process; two masters
+        // never wire at once.
+        if !transport.wait_gone(&ServiceAddr::new(FALLBACK, "goal"), wait).await {
+            bail!("the robot's fallback master is still running after {:.1} s", wait.as_secs_f64());
+        }
         let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
         let planner =
             Planner { mission: config.planner.mission_for(args.duration), executive: "master".into() };

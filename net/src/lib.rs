@@ -181,6 +181,7 @@ struct Inner {
     decode_errors: AtomicU64,
     discovery: tokio::sync::watch::Sender<u64>,
     on_process_lost: Mutex<Vec<ProcessLost>>,
+    on_process_found: Mutex<Vec<ProcessLost>>,
 }
 
 /// orsa's zenoh transport. Cheap to clone.
@@ -227,6 +228,7 @@ impl ZenohTransport {
             decode_errors: AtomicU64::new(0),
             discovery: tokio::sync::watch::Sender::new(0),
             on_process_lost: Mutex::new(Vec::new()),
+            on_process_found: Mutex::new(Vec::new()),
         });
         let mut entities: Vec<Box<dyn std::any::Any + Send + Sync>> = Vec::new();
         let proc_key = inner.keys.process_token(&inner.zid, role);
@@ -354,6 +356,25 @@ impl ZenohTransport {
         self.inner.on_process_lost.lock().push(Box::new(f));
     }
 
+    /// Calls `f` whenever a peer process appears.
+    pub fn on_process_found(&self, f: impl Fn(&Process) + Send + Sync + 'static) {
+        self.inner.on_process_found.lock().push(Box::new(f));
+    }
+
+    /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
+    pub async fn wait_gone(&self, addr: &ServiceAddr, timeout: Duration) -> bool {
+        let mut changes = self.inner.discovery.subscribe();
+        let present = || self.inner.remote.read().contains_key(addr);
+        let wait = async {
+            while present() {
+                if changes.changed().await.is_err() {
+                    return;
+                }
+            }
+        };
+        tokio::time::timeout(timeout, wait).await.is_ok() && !present()
+    }
+
     /// Waits until every address in `addrs` is announced by a peer (or hosted here), at most
     /// `timeout`; answers the ones still missing on timeout.
     pub async fn wait_for(&self, addrs: &[ServiceAddr], timeout: Duration) -> Result<(), Vec<ServiceAddr>> {
@@ -442,7 +463,12 @@ impl Inner {
         };
         match kind {
             SampleKind::Put => {
-                self.processes.write().insert(p.zid.clone(), p.role.clone());
+                let new = self.processes.write().insert(p.zid.clone(), p.role.clone()).is_none();
+                if new && p.zid != self.zid {
+                    for f in self.on_process_found.lock().iter() {
+                        f(&p);
+                    }
+                }
             }
             SampleKind::Delete => {
                 self.processes.write().remove(&p.zid);

@@ -117,7 +117,19 @@ pub(crate) async fn base_stream(
     registry: &Registry,
     t: &ZenohTransport,
 ) -> (PushTimedClient<BaseState>, mpsc::UnboundedReceiver<Update<BaseState>>) {
-    t.wait_for(&["nomad200/basestate".parse().expect("addr")], STARTUP).await.expect("the robot is up");
+    // Every robot service the tests use, announced independently of each other.
+    let services: Vec<orsa_actors::ServiceAddr> = [
+        "nomad200/basestate",
+        "nomad200/safety",
+        "nomad200/teleop",
+        "nomad200/navigationvelocity",
+        "wallfollow/wiring",
+        "centerfollow/wiring",
+    ]
+    .iter()
+    .map(|s| s.parse().expect("addr"))
+    .collect();
+    t.wait_for(&services, STARTUP).await.expect("the robot is up");
     let (tx, rx) = mpsc::unbounded_channel();
     let c = PushTimedClient::<BaseState>::connect_to(registry, "nomad200/basestate", Sink::channel(tx))
         .expect("base state client");

@@ -185,3 +185,52 @@ async fn a_corrupted_message_is_rejected_and_counted_and_nothing_else_changes() 
         stats.iter().filter(|(z, _)| z.as_str() != t.zid()).map(|(_, s)| s.decode_errors).sum();
     assert_eq!(robot_errors, 2, "the robot counted the undecodable command and the bad request: {stats:?}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_drives_its_fallback_mode_without_an_executive_and_hands_back_to_a_new_one() {
+    let sys = System::new("fallback");
+    let robot = sys.robot(&["--fallback", "patrol"]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let mut exec = sys.run("exec1", "executive", &["--duration", "120"]);
+    until_base(&mut base, STARTUP, "the executive drives", |b| b.v_m_s > 0.15).await;
+    exec.child.kill().expect("kill the executive");
+    t.wait_for(&["fallback/goal".parse().expect("addr")], STARTUP).await.expect("the fallback master starts");
+    until_base(&mut base, STARTUP, "the fallback drives", |b| b.v_m_s > 0.15).await;
+    assert_eq!(wired(&registry).await.len(), 1, "the fallback wires exactly one behaviour");
+
+    let _exec2 = sys.run("exec2", "executive", &["--duration", "120"]);
+    t.wait_for(&["master/goal".parse().expect("addr")], STARTUP).await.expect("a new executive starts");
+    assert!(
+        t.wait_gone(&"fallback/goal".parse().expect("addr"), Duration::ZERO).await,
+        "the fallback stopped before the new master started"
+    );
+    until_base(&mut base, STARTUP, "the new executive drives", |b| b.v_m_s > 0.15).await;
+    assert_eq!(wired(&registry).await.len(), 1);
+    assert!(robot.log_text().contains("stopping the fallback"), "{}", robot.log_text());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_command_older_than_the_timeout_is_not_acted_on_across_processes() {
+    use orsa::hardware::comm::NavigationVelocity;
+    use orsa_actors::Timestamp;
+    let sys = System::new("stale");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    // Wait until this process's clock is well past 1.5 s (robot stamps arrive on our clock).
+    until_base(&mut base, STARTUP, "time passes", |b| b.stamp > Timestamp::from_secs_f64(1.5)).await;
+    let before = safety(&registry).await;
+    let teleop = orsa_actors::send::SendClient::<NavigationVelocity>::connect(&registry, "nomad200/teleop")
+        .expect("teleop client");
+    // Computed from data 1 s old (older than the 0.5 s timeout): as after a reconnect.
+    let old = registry.now().saturating_since(Timestamp::ZERO).as_secs_f64() - 1.0;
+    teleop
+        .send(NavigationVelocity { stamp: Timestamp::from_secs_f64(old), v_m_s: 0.2, omega_rad_s: 0.0 })
+        .expect("send");
+    teleop.send(NavigationVelocity { stamp: registry.now(), v_m_s: 0.05, omega_rad_s: 0.0 }).expect("send");
+    until_base(&mut base, Duration::from_secs(10), "the fresh command drives", |b| b.v_m_s > 0.0).await;
+    let after = safety(&registry).await;
+    assert_eq!(after.stale_refused, before.stale_refused + 1, "the old command was refused");
+    assert_eq!(after.applied, before.applied + 1, "only the fresh one was applied");
+}
