@@ -34,7 +34,7 @@ async fn an_executive_process_wires_the_robots_behaviours_and_the_robot_patrols(
     let _robot = sys.robot(&[]);
     let (registry, t) = sys.observe().await;
     let (_c, mut base) = base_stream(&registry, &t).await;
-    let start = base.recv().await.expect("base state").value.clone();
+    let start = base.recv().await.expect("base state").value;
     assert_eq!(start.v_m_s, 0.0, "nothing drives the robot before an executive is there");
     let _exec = sys.run("exec", "executive", &["--duration", "120"]);
     let moved = until_base(&mut base, STARTUP, "the robot patrols", |b| {
