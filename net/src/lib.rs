@@ -614,52 +614,62 @@ impl Inner {
                 entities.push(Box::new(q));
             }
             PatternKind::PushNewest | PatternKind::PushTimed => {
-                let addr2 = addr.clone();
-                let q = self
-                    .session
-                    .declare_queryable(self.keys.subscribe(addr))
-                    .callback(move |query| {
-                        let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
-                        inner.received.fetch_add(1, Ordering::Relaxed);
-                        let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
-                        let result = match decode::<SubscribeRequest>(&payload, "orsa.SubscribeRequest/1") {
-                            Ok(req) => inner.handle_subscribe(&addr2, &export, req),
-                            Err(e) => {
-                                inner.bad(&addr2.to_string(), &e);
-                                Err(PatternError::Decode(e.to_string()))
-                            }
-                        };
-                        reply_now(&inner, query, result);
-                    })
-                    .wait()?;
-                entities.push(Box::new(q));
+                let key = self.keys.subscribe(addr);
+                entities.push(self.control_queryable(
+                    key,
+                    addr,
+                    export,
+                    "orsa.SubscribeRequest/1",
+                    Inner::handle_subscribe,
+                )?);
             }
             PatternKind::Event => {
-                let addr2 = addr.clone();
-                let q = self
-                    .session
-                    .declare_queryable(self.keys.activate(addr))
-                    .callback(move |query| {
-                        let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
-                        inner.received.fetch_add(1, Ordering::Relaxed);
-                        let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
-                        let result = match decode::<ActivateRequest>(&payload, "orsa.ActivateRequest/1") {
-                            Ok(req) => inner.handle_activate(&addr2, &export, req),
-                            Err(e) => {
-                                inner.bad(&addr2.to_string(), &e);
-                                Err(PatternError::Decode(e.to_string()))
-                            }
-                        };
-                        reply_now(&inner, query, result);
-                    })
-                    .wait()?;
-                entities.push(Box::new(q));
+                let key = self.keys.activate(addr);
+                entities.push(self.control_queryable(
+                    key,
+                    addr,
+                    export,
+                    "orsa.ActivateRequest/1",
+                    Inner::handle_activate,
+                )?);
             }
         }
         let token =
             self.session.liveliness().declare_token(self.keys.service_token(&self.zid, addr, info)).wait()?;
         entities.push(Box::new(token));
         Ok(entities)
+    }
+
+    /// A queryable for a control message `R` of a service hosted here, answered at once with
+    /// `{ok: null}` or the error.
+    fn control_queryable<R: serde::de::DeserializeOwned + 'static>(
+        self: &Arc<Self>,
+        key: String,
+        addr: &ServiceAddr,
+        export: &Arc<Export>,
+        what: &'static str,
+        handle: fn(&Arc<Inner>, &ServiceAddr, &Arc<Export>, R) -> PatternResult<()>,
+    ) -> Result<Entity, zenoh::Error> {
+        let (wi, we) = (Arc::downgrade(self), Arc::downgrade(export));
+        let addr = addr.clone();
+        let q = self
+            .session
+            .declare_queryable(key)
+            .callback(move |query| {
+                let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
+                inner.received.fetch_add(1, Ordering::Relaxed);
+                let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
+                let result = match decode::<R>(&payload, what) {
+                    Ok(req) => handle(&inner, &addr, &export, req),
+                    Err(e) => {
+                        inner.bad(&addr.to_string(), &e);
+                        Err(PatternError::Decode(e.to_string()))
+                    }
+                };
+                reply_now(&inner, query, result);
+            })
+            .wait()?;
+        Ok(Box::new(q))
     }
 
     fn publisher(&self, key: String) -> PatternResult<Arc<zenoh::pubsub::Publisher<'static>>> {
