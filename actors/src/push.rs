@@ -253,7 +253,10 @@ impl<T: CommObject> PushClientCore<T> {
                 if newer {
                     *cur = Some(Arc::clone(&u));
                 }
-                newer
+                // Waking receivers costs eight mutexes (tokio's watch); only `get_update_wait`
+                // makes receivers, so with none alive the value changes silently. A waiter
+                // that subscribes meanwhile judges by sequence number (see there).
+                newer && newest.receiver_count() > 0
             });
             match &forward {
                 Some(f) => f.deliver(u),
@@ -326,6 +329,9 @@ impl<T: CommObject> PushClientCore<T> {
         }
         let addr = self.addr.clone();
         let mut newest = self.newest.subscribe();
+        // What "now" is: values are also stored silently while nobody waits, so compare
+        // sequence numbers rather than trusting the version alone.
+        let seen = newest.borrow_and_update().as_ref().map_or(0, |u| u.seq);
         let mut active = self.active.clone();
         let mut generation = self.generation.subscribe();
         generation.borrow_and_update();
@@ -343,7 +349,9 @@ impl<T: CommObject> PushClientCore<T> {
                         if changed.is_err() {
                             return Err(PatternError::NotActive(format!("the subscription to {addr} ended")));
                         }
-                        if let Some(u) = newest.borrow_and_update().clone() {
+                        if let Some(u) = newest.borrow_and_update().clone()
+                            && u.seq > seen
+                        {
                             return Ok(u);
                         }
                     }

@@ -88,13 +88,17 @@ impl SimNomad200 {
     pub fn truth_side_nearest(&self, side: Side) -> Option<f64> {
         let sign = if side == Side::Left { 1.0 } else { -1.0 };
         let movers: Vec<_> = self.movers.iter().map(MoverState::circle).collect();
-        (1..180)
-            .filter_map(|deg| {
-                let angle = self.steer + sign * f64::from(deg).to_radians();
-                self.scene.ray_cast(&movers, &Ray::at_angle(self.position, angle), f64::INFINITY)
-            })
-            .min_by(f64::total_cmp)
-            .map(|d| d - self.radius)
+        // Each ray only looks as far as the nearest hit so far: shapes beyond it cannot lower
+        // the minimum, and the scene skips them by their bounds.
+        let mut nearest: Option<f64> = None;
+        for deg in 1..180 {
+            let angle = self.steer + sign * f64::from(deg).to_radians();
+            let reach = nearest.unwrap_or(f64::INFINITY);
+            if let Some(d) = self.scene.ray_cast(&movers, &Ray::at_angle(self.position, angle), reach) {
+                nearest = Some(nearest.map_or(d, |n| n.min(d)));
+            }
+        }
+        nearest.map(|d| d - self.radius)
     }
 
     /// The gap between the body's edge and the nearest obstacle (movers included), in any
