@@ -42,6 +42,22 @@ pub enum Command {
     Wire(crate::remote::WireArgs),
     /// Show or set a component's main state (a master command).
     State(crate::remote::StateArgs),
+    /// Measure orsa against the raw parts it is built on, and how it scales (BENCHMARKS.md).
+    Bench(BenchArgs),
+}
+
+/// Arguments of `orsa bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// A smaller run, under two minutes.
+    #[arg(long)]
+    pub quick: bool,
+    /// Write every figure as JSON here.
+    #[arg(long, value_name = "PATH.json")]
+    pub json: Option<PathBuf>,
+    /// Write the tables as Markdown here (as in BENCHMARKS.md); they are printed either way.
+    #[arg(long, value_name = "PATH.md")]
+    pub markdown: Option<PathBuf>,
 }
 
 /// Arguments of `orsa run`.
@@ -95,6 +111,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Echo(args) => crate::remote::echo(args),
         Command::Wire(args) => crate::remote::wire(args),
         Command::State(args) => crate::remote::state(args),
+        Command::Bench(args) => run_bench(args),
     }
 }
 
@@ -182,6 +199,23 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
             anyhow::bail!("the run finished and its report was written, but its recording failed: {e}")
         }
         None => {}
+    }
+    Ok(())
+}
+
+fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
+    for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
+        ensure_parent(p)?;
+    }
+    let report = crate::bench::run(&crate::bench::BenchOptions { quick: args.quick })?;
+    let markdown = crate::bench::render_markdown(&report);
+    say(&markdown);
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("{}: cannot write the figures", p.display()))?;
+    }
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &markdown).with_context(|| format!("{}: cannot write the tables", p.display()))?;
     }
     Ok(())
 }

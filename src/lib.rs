@@ -13,7 +13,8 @@
 //!
 //! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
 //! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
-//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`cli`] holds the `orsa`
+//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`]
+//! measures orsa against the raw parts it is built on. [`cli`] holds the `orsa`
 //! command line; the binary only parses arguments and calls it.
 
 pub use orsa_actors as actors;
@@ -22,6 +23,7 @@ pub use orsa_hardware as hardware;
 pub use orsa_planner as planner;
 pub use orsa_reactive as reactive;
 
+pub mod bench;
 pub mod cli;
 pub mod config;
 mod keyboard;

@@ -1,0 +1,207 @@
+//! The report as Markdown tables.
+
+use super::{BenchReport, Latency};
+use std::fmt::Write as _;
+
+/// A duration in nanoseconds, in the unit that reads best.
+fn dur(ns: f64) -> String {
+    if !ns.is_finite() {
+        "-".into()
+    } else if ns < 1e3 {
+        format!("{ns:.0} ns")
+    } else if ns < 1e6 {
+        format!("{:.2} µs", ns / 1e3)
+    } else if ns < 1e9 {
+        format!("{:.2} ms", ns / 1e6)
+    } else {
+        format!("{:.2} s", ns / 1e9)
+    }
+}
+
+fn ratio(r: Option<f64>) -> String {
+    r.map_or_else(|| "-".into(), |x| format!("{x:.2}x"))
+}
+
+fn rate(per_s: f64) -> String {
+    if per_s >= 1e6 { format!("{:.2} M/s", per_s / 1e6) } else { format!("{:.0} k/s", per_s / 1e3) }
+}
+
+fn lat_cells(l: &Latency) -> String {
+    format!("{} | {} | {} | {}", l.n, dur(l.p50_ns), dur(l.p99_ns), dur(l.max_ns))
+}
+
+fn met(m: Option<bool>) -> &'static str {
+    match m {
+        Some(true) => "met",
+        Some(false) => "**missed**",
+        None => "not measured",
+    }
+}
+
+/// The report's figures as Markdown: the machine and command, the targets, then one table per
+/// part with each figure beside its baseline.
+pub fn render_markdown(r: &BenchReport) -> String {
+    let mut s = String::new();
+    let m = &r.machine;
+    let _ = writeln!(
+        s,
+        "Run: `{}` ({} run, {:.0} s wall, orsa {}).\n",
+        r.command,
+        if r.quick { "quick" } else { "full" },
+        r.wall_s,
+        r.orsa_version
+    );
+    let _ = writeln!(
+        s,
+        "Machine: {}, {} logical CPUs, {} memory, Linux {}{}.\n",
+        m.cpu,
+        m.logical_cpus,
+        m.memory_gib.map_or_else(|| "unknown".into(), |g| format!("{g:.0} GiB")),
+        m.kernel,
+        if m.optimized { "" } else { ", **debug build: figures are not representative**" }
+    );
+
+    let _ = writeln!(s, "## Targets\n\n| target | measured | |\n|---|---|---|");
+    for t in &r.targets {
+        let _ = writeln!(s, "| {} | {} | {} |", t.target, t.measured, met(t.met));
+    }
+
+    let _ = writeln!(
+        s,
+        "\n## In process: latency\n\nFrom just before the send to the first line of the receiving handler (push), \
+         or around the awaited call (query). Ratios are against the baseline named, same runtime, same mode.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| runtime | mode | path | n | p50 | p99 | max | baseline | p50 ratio | p99 ratio |\n|---|---|---|---:|---:|---:|---:|---|---:|---:|"
+    );
+    for row in &r.latency {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            row.runtime,
+            row.mode,
+            row.path,
+            lat_cells(&row.latency),
+            row.baseline.as_deref().unwrap_or("-"),
+            ratio(row.p50_ratio),
+            ratio(row.p99_ratio)
+        );
+    }
+
+    let _ = writeln!(s, "\n## In process: throughput\n");
+    let _ = writeln!(
+        s,
+        "| runtime | path | how | messages | rate | baseline | ratio |\n|---|---|---|---:|---:|---|---:|"
+    );
+    for row in &r.throughput {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            row.runtime,
+            row.path,
+            row.how,
+            row.messages,
+            rate(row.per_s),
+            row.baseline.as_deref().unwrap_or("-"),
+            ratio(row.ratio)
+        );
+    }
+
+    let _ = writeln!(
+        s,
+        "\n## Fan-out: one push server, N subscriber components\n\nCurrent-thread runtime. *publish*: how long \
+         `put` (raw: the loop of casts) takes; *last handler*: from before the publish to the last subscriber's \
+         handler. Raw: N plain ractor actors, one cast each.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| subscribers | rounds | orsa publish p50 | orsa last handler p50 | p99 | raw publish p50 | raw last handler p50 | p99 | orsa / raw (p50) | orsa per subscriber | raw per subscriber | delivered |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+    );
+    for f in &r.fanout {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} of {} |",
+            f.subscribers,
+            f.rounds,
+            dur(f.orsa_publish.p50_ns),
+            dur(f.orsa_last_handler.p50_ns),
+            dur(f.orsa_last_handler.p99_ns),
+            dur(f.raw_publish.p50_ns),
+            dur(f.raw_last_handler.p50_ns),
+            dur(f.raw_last_handler.p99_ns),
+            ratio(f.last_p50_ratio),
+            dur(f.orsa_ns_per_subscriber),
+            dur(f.raw_ns_per_subscriber),
+            f.delivered,
+            f.expected
+        );
+    }
+
+    let st = &r.sense_to_act;
+    let _ = writeln!(
+        s,
+        "\n## Sense to act, in process\n\nThe whole stack in real time for {:.0} s (current-thread runtime, default \
+         configuration, patrol). {} velocity commands reached the motor board; {} were attributed to the wired \
+         behaviour's step that computed them ({}), {} were not (the master's zero commands while nothing is wired). \
+         Stale commands refused: {}; restarts: {}.\n",
+        st.duration_s,
+        st.commands_received,
+        st.attributed,
+        st.by_behaviour.iter().map(|(b, n)| format!("{b} {n}")).collect::<Vec<_>>().join(", "),
+        st.unattributed,
+        st.stale_refused,
+        st.restarts
+    );
+    let _ = writeln!(s, "| from | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+    let _ = writeln!(s, "| sensor update published (the target's figure) | {} |", lat_cells(&st.from_update));
+    let _ = writeln!(
+        s,
+        "| newest sensor firing (adds the simulator's sampling) | {} |",
+        lat_cells(&st.from_sensor_firing)
+    );
+
+    let mi = &r.mission;
+    let _ = writeln!(
+        s,
+        "\n## Simulation speed and scale\n\n`orsa run` (the corridor mission, one robot, paused clock, start-up and \
+         shutdown included): {:.0} simulated s in {:.2} wall s, **{:.0}x real time** ({:.1} m driven, {} restarts).\n",
+        mi.simulated_s, mi.wall_s, mi.rtf, mi.distance_m, mi.restarts
+    );
+    let _ = writeln!(
+        s,
+        "N robots, each with its whole stack (simulator, server, two behaviours, master, planner, supervisor, \
+         registry), on one current-thread runtime with a paused clock; measured after a 2 s simulated warm-up. \
+         *Cost per robot*: wall µs per robot per simulated second.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| robots | start-up | simulated | wall | x real time | robot-s per wall s | cost per robot | vs 1 robot | steps per robot | memory per robot | restarts |\n|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"
+    );
+    let one = r.scale.iter().find(|x| x.robots == 1).map(|x| x.wall_us_per_robot_sim_s);
+    for row in &r.scale {
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} s | {:.0} s | {:.2} s | {:.1}x | {:.0} | {:.0} µs | {} | {} of {} | {} | {} |",
+            row.robots,
+            row.startup_wall_s,
+            row.simulated_s,
+            row.wall_s,
+            row.rtf,
+            row.robot_seconds_per_wall_s,
+            row.wall_us_per_robot_sim_s,
+            ratio(one.and_then(|o| super::stats::ratio(row.wall_us_per_robot_sim_s, o))),
+            row.min_steps_per_robot,
+            row.expected_steps_per_robot,
+            row.rss_mib_per_robot.map_or_else(|| "-".into(), |m| format!("{m:.2} MiB")),
+            row.restarts
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nzenoh: push p50 {}, raw zenoh p50 {}.",
+        r.zenoh_push_p50_ns.map_or_else(|| "not measured".into(), dur),
+        r.raw_zenoh_p50_ns.map_or_else(|| "not measured".into(), dur)
+    );
+    s
+}

@@ -1,0 +1,352 @@
+//! Sense to act, in process, on tokio's running clock: from the stamp of the sensor update a
+//! velocity command was computed from to the motor board receiving that command.
+//!
+//! The stack is the one `orsa run` starts (simulator, robot server, both behaviours, master,
+//! planner, one supervisor, default configuration, patrol), with two instruments:
+//!
+//! - the motor board is wrapped in [`TimedMotors`], which notes the robot clock and the
+//!   velocities when `move_velocity` is called, before passing it on;
+//! - each behaviour is wrapped in [`Traced`], which notes the stamp of the update that woke its
+//!   handler (the newest sensor data the step consumed: the mailbox is FIFO and stamps grow)
+//!   and, after the behaviour's own handler returned, the command the step computed and
+//!   whether it left through a wired port (the behaviour's `status` says both).
+//!
+//! After the run each command the board received is matched to the wired behaviour's step that
+//! computed it: the same velocities (after the server's clamping to the robot's limits) and the
+//! latest such step whose update is not later than the command. The matching happens after the
+//! run, so the only cost on the measured path is the wrapper's bookkeeping after the behaviour
+//! has sent (a read lock and a push, well under a microsecond).
+//!
+//! The update's stamp is when the robot server published it, right after reading the board;
+//! the figure from the sensor's own firing (the scan's newest reading, which the simulator
+//! stamps at its 10 ms step) is reported beside it and includes that sampling delay.
+
+use super::{SenseToAct, say, stats};
+use crate::config::Config;
+use anyhow::{Context as _, anyhow};
+use orsa_actors::component::ComponentHandle;
+use orsa_actors::push_newest::PushNewestServer;
+use orsa_actors::query::QueryClient;
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
+use orsa_actors::{Clock, Component, ComponentError, Ctx, Empty, Registry, Timestamp};
+use orsa_executive::Master;
+use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
+use orsa_hardware::server::{Nomad200, SafetyCounters};
+use orsa_hardware::sim::{SimNomad200, SimRobot};
+use orsa_hardware::world::World;
+use orsa_planner::Planner;
+use orsa_reactive::components::{CenterFollowMsg, WallFollowMsg};
+use orsa_reactive::{BehaviourStatus, CenterFollow, WallFollow};
+use parking_lot::Mutex;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// A command as the motor board received it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Act {
+    pub(crate) at: Timestamp,
+    pub(crate) v: f64,
+    pub(crate) w: f64,
+}
+
+/// One step of a behaviour whose command left through a wired port.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Step {
+    pub(crate) behaviour: &'static str,
+    /// Publication stamp of the update that woke the step.
+    pub(crate) update: Timestamp,
+    /// The newest sensor firing in that update.
+    pub(crate) fired: Timestamp,
+    pub(crate) v: f64,
+    pub(crate) w: f64,
+}
+
+/// A motor board that notes when each velocity command arrives.
+#[derive(Clone)]
+pub(crate) struct TimedMotors<M> {
+    inner: M,
+    clock: Clock,
+    acts: Arc<Mutex<Vec<Act>>>,
+}
+
+impl<M: MotorBoard> MotorBoard for TimedMotors<M> {
+    async fn move_velocity(&self, v: AxisVelocities) -> Result<(), BoardError> {
+        self.acts.lock().push(Act { at: self.clock.now(), v: v.translate_m_s, w: v.steer_rad_s });
+        self.inner.move_velocity(v).await
+    }
+    async fn stop(&self) -> Result<(), BoardError> {
+        self.inner.stop().await
+    }
+    async fn wait_stop(&self, timeout: Duration) -> Result<(), BoardError> {
+        self.inner.wait_stop(timeout).await
+    }
+    async fn zero_axes(&self) -> Result<(), BoardError> {
+        self.inner.zero_axes().await
+    }
+    async fn set_velocity_limits(&self, limits: AxisVelocities) -> Result<(), BoardError> {
+        self.inner.set_velocity_limits(limits).await
+    }
+    async fn set_accelerations(&self, accel: AxisAccelerations) -> Result<(), BoardError> {
+        self.inner.set_accelerations(accel).await
+    }
+    async fn read_state(&self) -> Result<MotorState, BoardError> {
+        self.inner.read_state().await
+    }
+}
+
+/// A behaviour whose handler can say which update woke it.
+pub(crate) trait Triggered: Component {
+    /// The component's name in the stack.
+    const NAME: &'static str;
+    /// Publication stamp of the update in `msg`, and its newest sensor firing.
+    fn trigger(msg: &Self::Msg) -> (Timestamp, Timestamp);
+}
+
+impl Triggered for WallFollow {
+    const NAME: &'static str = "wallfollow";
+    fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
+        let WallFollowMsg::Ir(u) = msg;
+        (u.stamp, u.value.stamp)
+    }
+}
+
+impl Triggered for CenterFollow {
+    const NAME: &'static str = "centerfollow";
+    fn trigger(msg: &CenterFollowMsg) -> (Timestamp, Timestamp) {
+        match msg {
+            CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.stamp, u.value.stamp),
+        }
+    }
+}
+
+/// A behaviour with its steps noted.
+pub(crate) struct Traced<C> {
+    inner: C,
+    steps: Arc<Mutex<Vec<Step>>>,
+}
+
+/// The state of a [`Traced`] behaviour.
+pub(crate) struct TracedState<S> {
+    inner: S,
+    status: PushNewestServer<BehaviourStatus>,
+    last_seq: u64,
+}
+
+impl<C: Triggered> Component for Traced<C> {
+    type Msg = C::Msg;
+    type State = TracedState<C::State>;
+
+    async fn setup(&self, ctx: &Ctx<C::Msg>) -> Result<Self::State, ComponentError> {
+        let inner = self.inner.setup(ctx).await?;
+        // The behaviour declared it; declaring it again gives back the same server.
+        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
+        let last_seq = status.latest().map_or(0, |u| u.seq);
+        Ok(TracedState { inner, status, last_seq })
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<C::Msg>,
+        st: &mut Self::State,
+        msg: C::Msg,
+    ) -> Result<(), ComponentError> {
+        let (update, fired) = C::trigger(&msg);
+        self.inner.handle(ctx, &mut st.inner, msg).await?;
+        if let Some(s) = st.status.latest()
+            && s.seq != st.last_seq
+        {
+            st.last_seq = s.seq;
+            if s.delivered {
+                self.steps.lock().push(Step {
+                    behaviour: C::NAME,
+                    update,
+                    fired,
+                    v: s.cmd.v_m_s,
+                    w: s.cmd.omega_rad_s,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    async fn teardown(&self, ctx: &Ctx<C::Msg>, st: &mut Self::State) {
+        self.inner.teardown(ctx, &mut st.inner).await;
+    }
+}
+
+/// What matching commands to steps found.
+#[derive(Debug, Default)]
+pub(crate) struct Matched {
+    /// Nanoseconds from the update's publication to the board, per attributed command.
+    pub(crate) from_update: Vec<u64>,
+    /// Nanoseconds from the newest sensor firing to the board.
+    pub(crate) from_firing: Vec<u64>,
+    /// Attributed commands per behaviour.
+    pub(crate) by_behaviour: BTreeMap<String, u64>,
+    /// Commands that matched no step (the master's zero commands when nothing is wired).
+    pub(crate) unattributed: u64,
+}
+
+/// Matches each command to the latest step with the same (clamped) velocities whose update is
+/// not later than the command and at most `max_age` older.
+pub(crate) fn attribute(acts: &[Act], steps: &[Step], max_v: f64, max_w: f64, max_age: Duration) -> Matched {
+    let key = |v: f64, w: f64| (v.to_bits(), w.to_bits());
+    let mut by_value: HashMap<(u64, u64), Vec<&Step>> = HashMap::new();
+    for s in steps {
+        let (v, w) = (s.v.clamp(-max_v, max_v), s.w.clamp(-max_w, max_w));
+        by_value.entry(key(v, w)).or_default().push(s);
+    }
+    for list in by_value.values_mut() {
+        list.sort_by_key(|s| s.update);
+    }
+    let mut m = Matched::default();
+    for a in acts {
+        let found = by_value.get(&key(a.v, a.w)).and_then(|list| {
+            let i = list.partition_point(|s| s.update <= a.at);
+            i.checked_sub(1).map(|i| list[i])
+        });
+        match found {
+            Some(s) if a.at.saturating_since(s.update) <= max_age => {
+                m.from_update.push(a.at.saturating_since(s.update).as_nanos() as u64);
+                m.from_firing.push(a.at.saturating_since(s.fired).as_nanos() as u64);
+                *m.by_behaviour.entry(s.behaviour.to_string()).or_default() += 1;
+            }
+            _ => m.unattributed += 1,
+        }
+    }
+    m
+}
+
+/// Runs the instrumented stack in real time for `duration_s` and reports sense to act.
+pub(crate) fn run(duration_s: f64) -> anyhow::Result<SenseToAct> {
+    if !(duration_s.is_finite() && duration_s > 0.0) {
+        anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
+    }
+    let rt = super::inproc::RuntimeKind::CurrentThread.build()?;
+    let out = rt.block_on(async {
+        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s))
+            .await
+            .map_err(|_| anyhow!("sense to act did not finish in time"))?
+    });
+    rt.shutdown_timeout(Duration::from_secs(1));
+    out
+}
+
+async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
+    let config = Config::default();
+    let world = World::palazzina()?;
+    let clock = Clock::start();
+    let registry = Registry::with_clock(clock);
+    let sim = SimNomad200::new(world, config.sim.clone(), 1).map_err(|e| anyhow!("simulator: {e}"))?;
+    let sim = SimRobot::spawn(sim, clock);
+    let acts = Arc::new(Mutex::new(Vec::new()));
+    let steps = Arc::new(Mutex::new(Vec::new()));
+    let motors = TimedMotors { inner: sim.motor_board(), clock, acts: Arc::clone(&acts) };
+    let robot_params = config.sim.robot_params(config.robot.push_periods());
+    let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
+    let robot = config.robot.name.clone();
+
+    let server = Nomad200::new(config.robot.clone(), robot_params, sim.sensor_board(), motors);
+    let nomad = ComponentHandle::new(&registry, &robot, server)?;
+    let wall = Traced {
+        inner: WallFollow { params: config.wallfollow, robot: robot.clone() },
+        steps: Arc::clone(&steps),
+    };
+    let wall = ComponentHandle::new(&registry, WallFollow::NAME, wall)?;
+    let center = Traced {
+        inner: CenterFollow { params: config.centerfollow, robot: robot.clone() },
+        steps: Arc::clone(&steps),
+    };
+    let center = ComponentHandle::new(&registry, CenterFollow::NAME, center)?;
+    let mut exec = config.executive.clone();
+    exec.robot = robot.clone();
+    let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
+    let planner = Planner { mission: config.planner.mission_for(duration_s), executive: "master".into() };
+    let planner = ComponentHandle::new(&registry, "planner", planner)?;
+    let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let r = Arc::clone(&restarts);
+    let spec = SupervisorSpec::new("orsa", Strategy::OneForOne)
+        .with_intensity(10, Duration::from_secs(60))
+        .with_clock(clock)
+        .with_event_sink(move |e| {
+            if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
+                r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+        })
+        .with_child(nomad.child_spec())
+        .with_child(wall.child_spec())
+        .with_child(center.child_spec())
+        .with_child(master.child_spec())
+        .with_child(planner.child_spec());
+    let supervisor = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the stack: {e}"))?;
+
+    // The first second brings everything up and gets the robot moving; it is not measured.
+    let settle = Duration::from_secs(1);
+    tokio::time::sleep(settle).await;
+    let from = registry.now();
+    acts.lock().clear();
+    say(format!("  sense to act: the stack in real time for {duration_s:.0} s"));
+    tokio::time::sleep(Duration::from_secs_f64(duration_s)).await;
+    let safety = QueryClient::<Empty, SafetyCounters>::connect(&registry, (robot.as_str(), "safety"))?
+        .query(Empty {}, Some(Duration::from_secs(1)))
+        .await
+        .context("the robot server's safety counters")?;
+    let acts: Vec<Act> = std::mem::take(&mut *acts.lock());
+    let steps: Vec<Step> = std::mem::take(&mut *steps.lock());
+    supervisor.shutdown().await;
+    if let Err(e) = sim.shutdown().await {
+        tracing::warn!("simulator task ended badly: {e}");
+    }
+    let acts: Vec<Act> = acts.into_iter().filter(|a| a.at >= from).collect();
+    let m = attribute(&acts, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+    Ok(SenseToAct {
+        duration_s,
+        commands_received: acts.len() as u64,
+        attributed: m.from_update.len() as u64,
+        unattributed: m.unattributed,
+        by_behaviour: m.by_behaviour,
+        from_update: stats::summarize(m.from_update),
+        from_sensor_firing: stats::summarize(m.from_firing),
+        stale_refused: safety.stale_refused,
+        restarts: restarts.load(std::sync::atomic::Ordering::Relaxed),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn step(update: u64, v: f64, w: f64) -> Step {
+        Step { behaviour: "wallfollow", update: Timestamp(update), fired: Timestamp(update - 5), v, w }
+    }
+
+    #[test]
+    fn commands_match_the_latest_step_with_their_values() {
+        let steps = [step(100, 0.2, 0.1), step(200, 0.2, 0.1), step(300, 0.25, -0.3)];
+        let acts = [
+            Act { at: Timestamp(150), v: 0.2, w: 0.1 },
+            Act { at: Timestamp(260), v: 0.2, w: 0.1 },
+            Act { at: Timestamp(310), v: 0.25, w: -0.3 },
+            Act { at: Timestamp(320), v: 0.0, w: 0.0 },
+        ];
+        let m = attribute(&acts, &steps, 1.0, 1.0, Duration::from_secs(1));
+        assert_eq!(m.from_update, vec![50, 60, 10]);
+        assert_eq!(m.from_firing, vec![55, 65, 15]);
+        assert_eq!(m.unattributed, 1);
+        assert_eq!(m.by_behaviour.get("wallfollow"), Some(&3));
+    }
+
+    #[test]
+    fn clamped_commands_still_match_and_stale_ones_do_not() {
+        let steps = [step(100, 0.9, -2.0)];
+        let clamped = Act { at: Timestamp(120), v: 0.5, w: -0.75 };
+        let m = attribute(&[clamped], &steps, 0.5, 0.75, Duration::from_secs(1));
+        assert_eq!(m.from_update, vec![20]);
+        let late = Act { at: Timestamp(100 + 2_000_000_000), v: 0.5, w: -0.75 };
+        let m = attribute(&[late], &steps, 0.5, 0.75, Duration::from_secs(1));
+        assert_eq!((m.from_update.len(), m.unattributed), (0, 1));
+        let early = Act { at: Timestamp(99), v: 0.5, w: -0.75 };
+        assert_eq!(attribute(&[early], &steps, 0.5, 0.75, Duration::from_secs(1)).unattributed, 1);
+    }
+}
