@@ -51,6 +51,7 @@ use crate::clock::{Clock, Timestamp};
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::event::{EventClient, EventServer};
+use crate::fault::HandlerFault;
 use crate::push_newest::{PushNewestClient, PushNewestServer};
 use crate::push_timed::{PushTimedClient, PushTimedServer, Tick};
 use crate::query::{QueryClient, QueryRequest, QueryServer};
@@ -110,6 +111,8 @@ struct Shell<M> {
     /// Tasks of the running instance, ended when it ends.
     activities: Mutex<Vec<tokio::task::AbortHandle>>,
     removed: std::sync::atomic::AtomicBool,
+    /// How long one handler may run before the instance is deemed hung and failed.
+    handler_timeout: Mutex<Option<Duration>>,
 }
 
 /// A component's access to the system: everything it declares or connects goes through here.
@@ -149,7 +152,21 @@ impl<M: ractor::Message> Ctx<M> {
                 stoppers: Mutex::new(Vec::new()),
                 activities: Mutex::new(Vec::new()),
                 removed: std::sync::atomic::AtomicBool::new(false),
+                handler_timeout: Mutex::new(None),
             }),
+        })
+        .inspect(|ctx: &Ctx<M>| {
+            let mailbox = ctx.shell.mailbox.clone();
+            registry.faults().register_killer(
+                name,
+                Arc::new(move || match mailbox.current() {
+                    Some(actor) => {
+                        actor.kill();
+                        true
+                    }
+                    None => false,
+                }),
+            );
         })
     }
 
@@ -424,7 +441,37 @@ impl<C: Component> Actor for Instance<C> {
         msg: C::Msg,
         state: &mut C::State,
     ) -> Result<(), ActorProcessingErr> {
-        self.component.handle(&self.ctx, state, msg).await
+        let faults = self.ctx.shell.registry.faults();
+        let name = self.ctx.name();
+        let work = async {
+            match faults.take_armed(name) {
+                Some(HandlerFault::Panic) => {
+                    faults.detected(name, "panicked");
+                    panic!("injected fault: a handler of '{name}' panics");
+                }
+                Some(HandlerFault::Hang) => std::future::pending::<()>().await,
+                None => {}
+            }
+            faults.handled(name);
+            self.component.handle(&self.ctx, state, msg).await
+        };
+        let timeout = *self.ctx.shell.handler_timeout.lock();
+        let result = match timeout {
+            Some(t) => match tokio::time::timeout(t, work).await {
+                Ok(r) => r,
+                Err(_) => {
+                    faults.detected(name, "hung");
+                    return Err(
+                        format!("a handler of '{name}' ran longer than {t:?}: failing the instance").into()
+                    );
+                }
+            },
+            None => work.await,
+        };
+        if result.is_err() {
+            faults.detected(name, "failed");
+        }
+        result
     }
 
     async fn post_stop(
@@ -456,6 +503,13 @@ impl<C: Component> ComponentHandle<C> {
     /// services exist from now on.
     pub fn new(registry: &Registry, name: &str, component: C) -> PatternResult<Self> {
         Ok(ComponentHandle { component: Arc::new(component), ctx: Ctx::new(registry, name)? })
+    }
+
+    /// Fails the running instance (so its supervisor restarts it) when one handler runs longer
+    /// than `timeout`: the watchdog for hung handlers. Off unless set.
+    pub fn with_handler_timeout(self, timeout: Duration) -> Self {
+        *self.ctx.shell.handler_timeout.lock() = Some(timeout);
+        self
     }
 
     /// Starts an instance, linked to `supervisor` if given. A supervisor calls this again to
@@ -517,6 +571,7 @@ impl<C: Component> ComponentHandle<C> {
             stop();
         }
         shell.declared.lock().clear();
+        shell.registry.faults().unregister(self.ctx.name());
         shell.registry.unregister_component(self.ctx.name());
         shell.mailbox.close();
     }

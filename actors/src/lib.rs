@@ -26,6 +26,8 @@
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
 //! - [`tap`]: an observer of every message and control event (what recordings are made of).
+//! - [`fault`]: fault injection (panics, hangs, kills, lost, late and duplicated messages) and
+//!   the log of what failed and when it was back.
 //! - [`sink`]: where patterns deliver (a component's mailbox, a channel); [`error`]: the status
 //!   values of every operation.
 
@@ -34,6 +36,7 @@ pub mod comm;
 pub mod component;
 pub mod error;
 pub mod event;
+pub mod fault;
 mod push;
 pub mod push_newest;
 pub mod push_timed;

@@ -10,6 +10,7 @@
 use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
+use crate::fault::Verdict;
 use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
@@ -47,6 +48,8 @@ pub struct PushStats {
 
 pub(crate) struct PushEndpoint<T> {
     pub(crate) addr: ServiceAddr,
+    me: std::sync::Weak<PushEndpoint<T>>,
+    faults: crate::fault::Faults,
     topic: String,
     tap: crate::tap::TapSlot,
     clock: Clock,
@@ -69,10 +72,12 @@ impl<T: CommObject> PushEndpoint<T> {
         kind: PatternKind,
         active: bool,
     ) -> PatternResult<Arc<Self>> {
-        let endpoint = Arc::new(PushEndpoint {
+        let endpoint = Arc::new_cyclic(|me| PushEndpoint {
+            me: me.clone(),
             topic: addr.to_string(),
             tap: registry.tap_slot(),
             addr: addr.clone(),
+            faults: registry.faults(),
             clock: registry.clock(),
             subs: RwLock::new(Arc::new(Vec::new())),
             latest: RwLock::new(None),
@@ -101,6 +106,26 @@ impl<T: CommObject> PushEndpoint<T> {
                 *latest = Some(Arc::clone(&update));
             }
         }
+        let copies = match self.faults.verdict(&self.addr) {
+            Verdict::Deliver => 1,
+            Verdict::Drop => return 0,
+            Verdict::Duplicate => 2,
+            Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
+                (Ok(rt), Some(me)) => {
+                    rt.spawn(async move {
+                        tokio::time::sleep(d).await;
+                        me.deliver(&update, 1);
+                    });
+                    return 0;
+                }
+                _ => 1,
+            },
+        };
+        self.deliver(&update, copies)
+    }
+
+    /// Hands `update` (`copies` times) to every subscriber whose turn it is.
+    fn deliver(&self, update: &Update<T>, copies: usize) -> usize {
         let subs = Arc::clone(&self.subs.read());
         let mut delivered = 0;
         let mut closed = Vec::new();
@@ -109,7 +134,11 @@ impl<T: CommObject> PushEndpoint<T> {
             if n % s.every != 0 {
                 continue;
             }
-            match s.sink.deliver(Arc::clone(&update)) {
+            let mut result = Ok(());
+            for _ in 0..copies {
+                result = result.and(s.sink.deliver(Arc::clone(update)));
+            }
+            match result {
                 Ok(()) => delivered += 1,
                 Err(Undeliverable::Unavailable) => {
                     self.failed.fetch_add(1, Ordering::Relaxed);

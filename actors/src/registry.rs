@@ -210,6 +210,7 @@ struct Inner {
     components: RwLock<BTreeMap<String, ()>>,
     transport: RwLock<Option<Arc<dyn Transport>>>,
     decode_errors: std::sync::atomic::AtomicU64,
+    faults: crate::fault::Faults,
 }
 
 /// The directory of one orsa system; cheap to clone, shared by all its components.
@@ -242,6 +243,7 @@ impl Registry {
                 components: RwLock::new(BTreeMap::new()),
                 transport: RwLock::new(None),
                 decode_errors: std::sync::atomic::AtomicU64::new(0),
+                faults: crate::fault::Faults::new(clock),
             }),
         }
     }
@@ -254,6 +256,11 @@ impl Registry {
     /// The current robot time.
     pub fn now(&self) -> Timestamp {
         self.inner.clock.now()
+    }
+
+    /// The fault switchboard of this system (see [`crate::fault`]).
+    pub fn faults(&self) -> crate::fault::Faults {
+        self.inner.faults.clone()
     }
 
     /// Installs (or, with `None`, removes) the tap that sees every message (see

@@ -22,6 +22,7 @@
 
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
+use crate::fault::Verdict;
 use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
@@ -35,6 +36,7 @@ pub(crate) fn info<T: CommObject>() -> ServiceInfo {
 
 pub(crate) struct SendEndpoint<T> {
     addr: ServiceAddr,
+    faults: crate::fault::Faults,
     clock: crate::clock::Clock,
     topic: String,
     tap: crate::tap::TapSlot,
@@ -45,6 +47,23 @@ pub(crate) struct SendEndpoint<T> {
 impl<T: CommObject> SendEndpoint<T> {
     pub(crate) fn accept(&self, msg: Stamped<T>) -> PatternResult<()> {
         self.tap.record(&self.topic, T::ID, msg.stamp, &msg);
+        match self.faults.verdict(&self.addr) {
+            Verdict::Deliver => {}
+            Verdict::Drop => return Ok(()),
+            Verdict::Duplicate => {
+                let _ = self.sink.deliver(msg.clone());
+            }
+            Verdict::Delay(d) => {
+                if let Ok(rt) = tokio::runtime::Handle::try_current() {
+                    let sink = self.sink.clone();
+                    rt.spawn(async move {
+                        tokio::time::sleep(d).await;
+                        let _ = sink.deliver(msg);
+                    });
+                    return Ok(());
+                }
+            }
+        }
         match self.sink.deliver(msg) {
             Ok(()) => {
                 self.received.fetch_add(1, Ordering::Relaxed);
@@ -85,6 +104,7 @@ impl<T: CommObject> SendServer<T> {
             topic: addr.to_string(),
             tap: registry.tap_slot(),
             addr: addr.clone(),
+            faults: registry.faults(),
             clock: registry.clock(),
             sink,
             received: AtomicU64::new(0),

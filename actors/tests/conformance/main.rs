@@ -2,6 +2,7 @@
 //! tokio's paused clock unless it needs real threads (rewiring under traffic).
 
 mod event;
+mod fault;
 mod push_newest;
 mod push_timed;
 mod query;

@@ -1,0 +1,168 @@
+//! Fault injection: panics, hangs and kills restart the component under its supervisor and are
+//! logged with the moment they were seen and the moment the component was back; message faults
+//! lose, delay or duplicate exactly the messages they should.
+
+use orsa_actors::component::ComponentHandle;
+use orsa_actors::fault::{FaultEventKind, HandlerFault, MessageFault};
+use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::supervision::{
+    Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorRef, SupervisorSpec,
+};
+use orsa_actors::{Component, ComponentError, Ctx, Registry, ServiceAddr, Sink, Stamped};
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// Echoes every number it is sent to a channel.
+struct Echo(mpsc::UnboundedSender<u64>);
+impl Component for Echo {
+    type Msg = Stamped<u64>;
+    type State = ();
+    async fn setup(&self, ctx: &Ctx<Stamped<u64>>) -> Result<(), ComponentError> {
+        ctx.send_server::<u64>("input", |m| m)?;
+        Ok(())
+    }
+    async fn handle(&self, _: &Ctx<Stamped<u64>>, _: &mut (), m: Stamped<u64>) -> Result<(), ComponentError> {
+        let _ = self.0.send(m.value);
+        Ok(())
+    }
+}
+
+/// The component, its echo channel, its supervisor's events, and the supervisor.
+type Rig = (
+    Registry,
+    ComponentHandle<Echo>,
+    mpsc::UnboundedReceiver<u64>,
+    mpsc::UnboundedReceiver<SupervisorEvent>,
+    SupervisorRef,
+);
+
+async fn supervised_echo() -> Rig {
+    let registry = Registry::new();
+    let (tx, rx) = mpsc::unbounded_channel();
+    let echo = ComponentHandle::new(&registry, "echo", Echo(tx))
+        .expect("add")
+        .with_handler_timeout(Duration::from_millis(100));
+    let (etx, events) = mpsc::unbounded_channel();
+    let spec = SupervisorSpec::new("sup", Strategy::OneForOne)
+        .with_intensity(10, Duration::from_secs(10))
+        .with_clock(registry.clock())
+        .with_event_sink(move |e| {
+            let _ = etx.send(e);
+        })
+        .with_child(echo.child_spec());
+    let sup = Supervisor::start(spec).await.expect("supervisor");
+    (registry, echo, rx, events, sup)
+}
+
+async fn restarted(events: &mut mpsc::UnboundedReceiver<SupervisorEvent>) {
+    loop {
+        let e = events.recv().await.expect("supervisor events");
+        if e.kind == SupervisorEventKind::Restarted {
+            return;
+        }
+    }
+}
+
+fn kinds(registry: &Registry) -> Vec<(String, FaultEventKind)> {
+    registry.faults().events().into_iter().map(|e| (e.target, e.what)).collect()
+}
+
+#[tokio::test(start_paused = true)]
+async fn fault_a_hung_handler_is_detected_by_its_watchdog_and_restarted() {
+    let (registry, echo, mut out, mut events, _sup) = supervised_echo().await;
+    let client = SendClient::<u64>::connect(&registry, "echo/input").expect("client");
+    let first = echo.instance().expect("running").get_id();
+    registry.faults().arm("echo", HandlerFault::Hang);
+    let armed_at = registry.now();
+    client.send(1).expect("send"); // this one hangs
+    restarted(&mut events).await;
+    assert_ne!(echo.instance().expect("running again").get_id(), first);
+    let hung =
+        registry.faults().events().into_iter().find(|e| e.what == FaultEventKind::Detected("hung".into()));
+    let hung = hung.expect("the watchdog saw the hang");
+    assert_eq!(
+        hung.at.saturating_since(armed_at),
+        Duration::from_millis(100),
+        "exactly at the handler timeout"
+    );
+    client.send(2).expect("send");
+    assert_eq!(out.recv().await, Some(2), "the new instance handles the next message");
+    assert_eq!(
+        kinds(&registry),
+        vec![
+            ("echo".into(), FaultEventKind::Injected("hang".into())),
+            ("echo".into(), FaultEventKind::Detected("hung".into())),
+            ("echo".into(), FaultEventKind::Recovered),
+        ]
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn fault_a_panicking_handler_and_a_killed_instance_are_restarted() {
+    let (registry, echo, mut out, mut events, _sup) = supervised_echo().await;
+    let client = SendClient::<u64>::connect(&registry, "echo/input").expect("client");
+    registry.faults().arm("echo", HandlerFault::Panic);
+    client.send(1).expect("send"); // lost with the panicking instance
+    restarted(&mut events).await;
+    client.send(2).expect("send");
+    assert_eq!(out.recv().await, Some(2));
+    let before = echo.instance().expect("running").get_id();
+    assert!(registry.faults().kill("echo"), "a running instance was killed");
+    restarted(&mut events).await;
+    assert_ne!(echo.instance().expect("running").get_id(), before);
+    client.send(3).expect("send");
+    assert_eq!(out.recv().await, Some(3));
+    let log = kinds(&registry);
+    assert_eq!(log.iter().filter(|(_, k)| *k == FaultEventKind::Recovered).count(), 2, "{log:?}");
+    assert!(log.contains(&("echo".into(), FaultEventKind::Detected("panicked".into()))));
+    assert!(log.contains(&("echo".into(), FaultEventKind::Detected("killed".into()))));
+    assert!(!registry.faults().kill("nobody"), "an unknown component has nothing to kill");
+}
+
+#[tokio::test(start_paused = true)]
+async fn fault_messages_are_dropped_delayed_and_duplicated_exactly_while_set() {
+    let registry = Registry::new();
+    let (tx, mut rx) = mpsc::unbounded_channel::<Stamped<u64>>();
+    SendServer::<u64>::register(&registry, "robot/speed", Sink::channel(tx)).expect("server");
+    let client = SendClient::<u64>::connect(&registry, "robot/speed").expect("client");
+    let addr: ServiceAddr = "robot/speed".parse().expect("addr");
+    let faults = registry.faults();
+    let drain = |rx: &mut mpsc::UnboundedReceiver<Stamped<u64>>| {
+        std::iter::from_fn(|| rx.try_recv().ok()).map(|m| m.value).collect::<Vec<_>>()
+    };
+
+    faults.set_message_fault(&addr, Some(MessageFault::Drop));
+    client.send(1).expect("a dropped message still looks sent");
+    faults.set_message_fault(&addr, Some(MessageFault::Duplicate));
+    client.send(2).expect("send");
+    faults.set_message_fault(&addr, Some(MessageFault::Delay(Duration::from_millis(50))));
+    client.send(3).expect("send");
+    faults.set_message_fault(&addr, None);
+    client.send(4).expect("send");
+    assert_eq!(drain(&mut rx), vec![2, 2, 4]);
+    tokio::time::sleep(Duration::from_millis(49)).await;
+    assert_eq!(drain(&mut rx), Vec::<u64>::new(), "not before 50 ms");
+    tokio::time::sleep(Duration::from_millis(2)).await;
+    assert_eq!(drain(&mut rx), vec![3], "the delayed one arrives 50 ms late");
+    let counts = faults.message_counts();
+    assert_eq!(counts.len(), 1);
+    assert_eq!((counts[0].1.dropped, counts[0].1.duplicated, counts[0].1.delayed), (1, 1, 1));
+
+    // Push updates: a dropped update reaches no subscriber and "newest" still moves on.
+    let push = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("push");
+    let (utx, mut urx) = mpsc::unbounded_channel();
+    let sub =
+        PushNewestClient::<u64>::connect_to(&registry, "odo/ticks", Sink::channel(utx)).expect("client");
+    sub.subscribe().expect("subscribe");
+    let ticks: ServiceAddr = "odo/ticks".parse().expect("addr");
+    faults.set_message_fault(&ticks, Some(MessageFault::Drop));
+    push.put(1);
+    faults.set_message_fault(&ticks, Some(MessageFault::Duplicate));
+    push.put(2);
+    faults.set_message_fault(&ticks, None);
+    push.put(3);
+    let got: Vec<u64> = std::iter::from_fn(|| urx.try_recv().ok()).map(|u| u.value).collect();
+    assert_eq!(got, vec![2, 2, 3]);
+    assert_eq!(push.latest().map(|u| u.value), Some(3));
+}
