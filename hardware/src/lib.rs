@@ -17,6 +17,7 @@
 
 pub mod board;
 pub mod comm;
+pub mod faulty;
 pub mod geometry;
 pub mod sim;
 pub mod world;
