@@ -90,6 +90,10 @@ pub struct RunArgs {
     /// Do not show the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Break the stack on purpose as this fault plan says (see config/faults.example.toml); the
+    /// report gains a `faults` section.
+    #[arg(long, value_name = "PLAN.toml")]
+    pub faults: Option<PathBuf>,
 }
 
 fn positive_secs(s: &str) -> Result<f64, String> {
@@ -153,7 +157,12 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         );
         bar
     };
+    let plan = match &args.faults {
+        Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_stack(&config))?),
+        None => None,
+    };
     let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
+    opts.faults = plan;
     let b = bar.clone();
     opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);

@@ -33,6 +33,48 @@ pub struct Config {
     pub executive: ExecutiveParams,
     /// The deliberative layer (`[planner]`).
     pub planner: PlannerParams,
+    /// How the stack's supervisor restarts what fails (`[supervision]`).
+    pub supervision: SupervisionParams,
+}
+
+/// How the stack's supervisor restarts what fails.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SupervisionParams {
+    /// More restarts than this within `period_s` and the supervisor gives up (escalates).
+    pub max_restarts: u32,
+    /// The window of `max_restarts`, seconds.
+    pub period_s: f64,
+    /// A handler running longer than this fails its instance (the hung-handler watchdog).
+    pub handler_timeout_s: f64,
+}
+
+impl Default for SupervisionParams {
+    fn default() -> Self {
+        SupervisionParams { max_restarts: 10, period_s: 60.0, handler_timeout_s: 1.0 }
+    }
+}
+
+impl SupervisionParams {
+    /// Checks the values; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.period_s.is_finite() && self.period_s > 0.0 && self.period_s <= 86_400.0) {
+            return Err(format!(
+                "supervision.period_s: must be from 0 to 86400 seconds, not {}",
+                self.period_s
+            ));
+        }
+        if !(self.handler_timeout_s.is_finite()
+            && self.handler_timeout_s > 0.0
+            && self.handler_timeout_s <= 3600.0)
+        {
+            return Err(format!(
+                "supervision.handler_timeout_s: must be from 0 to 3600 seconds, not {}",
+                self.handler_timeout_s
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// A configuration that cannot be used.
@@ -105,6 +147,7 @@ impl Config {
         self.wallfollow.validate()?;
         self.centerfollow.validate()?;
         self.executive.validate()?;
+        self.supervision.validate()?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
         self.planner.validate(&modes)?;
         let behaviours = self.executive.behaviours();

@@ -14,7 +14,8 @@
 //! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
 //! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
 //! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`]
-//! measures orsa against the raw parts it is built on. [`cli`] holds the `orsa`
+//! measures orsa against the raw parts it is built on. [`faults`] reads fault plans and breaks a
+//! running stack on purpose. [`cli`] holds the `orsa`
 //! command line; the binary only parses arguments and calls it.
 
 pub use orsa_actors as actors;
@@ -26,6 +27,7 @@ pub use orsa_reactive as reactive;
 pub mod bench;
 pub mod cli;
 pub mod config;
+pub mod faults;
 mod keyboard;
 pub mod mission;
 pub mod plot;

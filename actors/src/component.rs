@@ -237,6 +237,17 @@ impl<M: ractor::Message> Ctx<M> {
         Ok(made)
     }
 
+    /// Something of the component's that outlives its instances: made by `make` the first time,
+    /// given back (the same value, e.g. an `Arc<Mutex<_>>`) to every later instance. This is where
+    /// a component keeps what a restart must not forget (a master's current goal).
+    pub fn keep<X: Clone + Send + Sync + 'static>(
+        &self,
+        key: &str,
+        make: impl FnOnce() -> X,
+    ) -> PatternResult<X> {
+        self.declared(format!("kept {key}"), || Ok(make()))
+    }
+
     /// Declares a Send service; each message arrives as `map(message)`.
     pub fn send_server<T: CommObject>(
         &self,

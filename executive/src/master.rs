@@ -29,6 +29,7 @@ use orsa_hardware::comm::{DistanceScan, NavigationVelocity};
 use orsa_reactive::components::ACTIVE;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// The longest goal, s (about a year): longer ones are refused rather than overflow a timer.
@@ -114,9 +115,17 @@ pub enum MasterMsg {
     Deadline(u64),
 }
 
+#[derive(Debug, Clone)]
 struct Current {
     id: u64,
     mode: String,
+}
+
+/// What the master keeps across restarts: the goal it pursues and the next goal id.
+#[derive(Debug, Default)]
+struct Kept {
+    goal: Option<Current>,
+    next_id: u64,
 }
 
 /// The master's running state.
@@ -131,6 +140,7 @@ pub struct MasterState {
     states: BTreeMap<String, StateMaster>,
     events: EventServer<GoalFilter, GoalEvent, GoalEvent>,
     wiring_push: PushNewestServer<WiringChange>,
+    kept: Arc<parking_lot::Mutex<Kept>>,
 }
 
 impl Component for Master {
@@ -158,6 +168,7 @@ impl Component for Master {
             ctx.subscribe_timed::<DistanceScan>((robot, "distanceson"), every, MasterMsg::Sonar)?;
         }
         let motors_addr = ServiceAddr::new(robot, "navigationvelocity");
+        let kept = ctx.keep("goal", || Arc::new(parking_lot::Mutex::new(Kept { goal: None, next_id: 1 })))?;
         let mut st = MasterState {
             readings: Readings::default(),
             goal: None,
@@ -169,12 +180,28 @@ impl Component for Master {
             states,
             events,
             wiring_push,
+            kept,
         };
-        // A (re)started master knows no goal: nothing drives until one arrives.
+        st.next_id = st.kept.lock().next_id;
+        // Nothing drives until the goal is known again: a first start has none; a restarted
+        // master resumes the goal it was pursuing (the planner is not asked again).
         for b in st.states.keys() {
             st.wiring.disconnect(b, VEL_PORT).await?;
         }
         stop_motors(ctx, &mut st);
+        let resumed = st.kept.lock().goal.clone();
+        if let Some(goal) = resumed
+            && let Some(mode) = self.params.modes.get(&goal.mode)
+        {
+            for (name, sm) in &st.states {
+                let target = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
+                sm.set_state(target)
+                    .await
+                    .map_err(|e| format!("master: resuming goal {}: {name}: {e}", goal.id))?;
+            }
+            tracing::info!(goal = goal.id, mode = %goal.mode, "master: resumed after a restart");
+            st.goal = Some(goal);
+        }
         Ok(st)
     }
 
@@ -208,6 +235,9 @@ impl Component for Master {
                 }
             }
         }
+        let mut kept = st.kept.lock();
+        kept.goal.clone_from(&st.goal);
+        kept.next_id = st.next_id;
         Ok(())
     }
 }

@@ -49,6 +49,8 @@ pub struct RunOptions {
     pub progress_every_s: f64,
     /// Record every message to this MCAP file.
     pub record: Option<std::path::PathBuf>,
+    /// Break the stack on purpose as this plan says.
+    pub faults: Option<crate::faults::FaultPlan>,
 }
 
 impl RunOptions {
@@ -70,6 +72,7 @@ impl RunOptions {
             progress: None,
             progress_every_s: 10.0,
             record: None,
+            faults: None,
         }
     }
 }
@@ -135,6 +138,15 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     })
     .await?;
 
+    let plan = opts.faults.clone().map(|plan| {
+        let targets = crate::faults::FaultTargets {
+            faults: stack.registry.faults(),
+            boards: stack.board_faults.clone(),
+            link: None,
+        };
+        tokio::spawn(crate::faults::run_plan(plan, targets, opts.duration_s))
+    });
+
     let (wtx, mut wrx) = mpsc::unbounded_channel::<Update<WiringChange>>();
     let wiring = PushNewestClient::connect_to(&stack.registry, "master/driving", Sink::channel(wtx))?;
     wiring.subscribe()?;
@@ -170,10 +182,15 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
             p(k as f64 * opts.sample_period_s);
         }
     }
+    if let Some(p) = plan {
+        p.abort();
+    }
     let robot = opts.config.robot.name.as_str();
     let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, (robot, "safety"))?
         .query(Empty {}, Some(Duration::from_secs(1)))
         .await?;
+    let faults_switch = stack.registry.faults();
+    let boards = stack.board_faults.clone();
     drop(wiring);
     stack.shutdown().await;
     let mut events = Vec::new();
@@ -186,7 +203,34 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         stale_commands_refused: safety.stale_refused,
         command_timeouts: safety.timeouts,
     };
-    let report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
+    let mut report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
+    if let Some(plan) = &opts.faults {
+        let mut by_child = std::collections::BTreeMap::new();
+        let mut failed_at: std::collections::BTreeMap<&str, f64> = std::collections::BTreeMap::new();
+        let mut restart_ms = Vec::new();
+        for e in &events {
+            match e.kind {
+                SupervisorEventKind::ChildFailed => {
+                    failed_at.insert(e.child.as_str(), e.at.as_secs_f64());
+                }
+                SupervisorEventKind::Restarted => {
+                    *by_child.entry(e.child.clone()).or_insert(0u64) += 1;
+                    if let Some(t) = failed_at.remove(e.child.as_str()) {
+                        restart_ms.push((e.at.as_secs_f64() - t) * 1e3);
+                    }
+                }
+                _ => {}
+            }
+        }
+        report.faults = Some(crate::faults::FaultsReport::new(
+            plan,
+            opts.duration_s,
+            &faults_switch,
+            &boards,
+            by_child,
+            restart_ms,
+        ));
+    }
     let recording = recording.and_then(|r| r.finish().transpose());
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
 }

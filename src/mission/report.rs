@@ -59,6 +59,9 @@ pub struct Report {
     pub centerfollow: CenterFollowFigures,
     /// Component restarts by the supervisor.
     pub restarts: u64,
+    /// What a fault plan broke and how the stack came back (runs with `--faults`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faults: Option<crate::faults::FaultsReport>,
     /// The robot server's command safety figures.
     pub safety: SafetyFigures,
 }
@@ -91,6 +94,7 @@ impl Report {
                 std_offset_m: m.offset.std(),
             },
             restarts,
+            faults: None,
             safety,
         }
     }

@@ -18,6 +18,7 @@ use orsa_actors::component::ComponentHandle;
 use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorRef, SupervisorSpec};
 use orsa_actors::{Clock, Registry};
 use orsa_executive::Master;
+use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
 use orsa_hardware::server::Nomad200;
 use orsa_hardware::sim::{SimNomad200, SimRobot, SimTruth};
 use orsa_hardware::world::World;
@@ -35,6 +36,8 @@ pub struct Stack {
     pub truth: SimTruth,
     /// The root supervisor.
     pub supervisor: SupervisorRef,
+    /// The switch for the robot's hardware faults (see [`orsa_hardware::faulty`]).
+    pub board_faults: BoardFaults,
 }
 
 /// What can go wrong bringing a stack up.
@@ -71,20 +74,31 @@ impl Stack {
         let robot = config.robot.name.clone();
         let err = |e: orsa_actors::PatternError| StackError::Start(e.to_string());
 
-        let server = Nomad200::new(config.robot.clone(), robot_params, sim.sensor_board(), sim.motor_board());
-        let nomad = ComponentHandle::new(&registry, &robot, server).map_err(err)?;
+        let board_faults = BoardFaults::new(seed);
+        let sensors = FaultySensorBoard::new(sim.sensor_board(), board_faults.clone());
+        let motors = FaultyMotorBoard::new(sim.motor_board(), board_faults.clone());
+        let server = Nomad200::new(config.robot.clone(), robot_params, sensors, motors);
+        let watchdog = Duration::from_secs_f64(config.supervision.handler_timeout_s);
+        let nomad =
+            ComponentHandle::new(&registry, &robot, server).map_err(err)?.with_handler_timeout(watchdog);
         let wall = WallFollow { params: config.wallfollow, robot: robot.clone() };
-        let wall = ComponentHandle::new(&registry, "wallfollow", wall).map_err(err)?;
+        let wall =
+            ComponentHandle::new(&registry, "wallfollow", wall).map_err(err)?.with_handler_timeout(watchdog);
         let center = CenterFollow { params: config.centerfollow, robot: robot.clone() };
-        let center = ComponentHandle::new(&registry, "centerfollow", center).map_err(err)?;
+        let center = ComponentHandle::new(&registry, "centerfollow", center)
+            .map_err(err)?
+            .with_handler_timeout(watchdog);
         let mut exec = config.executive.clone();
         exec.robot = robot.clone();
-        let master = ComponentHandle::new(&registry, "master", Master { params: exec }).map_err(err)?;
+        let master = ComponentHandle::new(&registry, "master", Master { params: exec })
+            .map_err(err)?
+            .with_handler_timeout(watchdog);
         let planner = Planner { mission: config.planner.mission_for(duration_s), executive: "master".into() };
         let planner = ComponentHandle::new(&registry, "planner", planner).map_err(err)?;
 
+        let s = config.supervision;
         let spec = SupervisorSpec::new("orsa", Strategy::OneForOne)
-            .with_intensity(10, Duration::from_secs(60))
+            .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))
             .with_clock(clock)
             .with_event_sink(on_event)
             .with_child(nomad.child_spec())
@@ -93,7 +107,7 @@ impl Stack {
             .with_child(master.child_spec())
             .with_child(planner.child_spec());
         let supervisor = Supervisor::start(spec).await.map_err(|e| StackError::Start(e.to_string()))?;
-        Ok(Stack { registry, sim, truth, supervisor })
+        Ok(Stack { registry, sim, truth, supervisor, board_faults })
     }
 
     /// Stops every component (the robot server stops the motors and waits for the axes) and

@@ -1,0 +1,566 @@
+//! Fault plans: what to break, when, and for how long; and the task that breaks it.
+//!
+//! A plan is a TOML file of `[[fault]]` tables (see `config/faults.example.toml`):
+//!
+//! ```toml
+//! [[fault]]
+//! at = 60.0              # simulated seconds from the start
+//! kind = "panic"         # see below
+//! target = "centerfollow"
+//! every = 0.1            # optional: repeat this often ...
+//! until = 660.0          # ... until this time (default: the end of the run)
+//! duration = 2.0         # optional: how long each occurrence lasts (lasting kinds)
+//! ```
+//!
+//! | kind | target | lasting | extra keys |
+//! |---|---|---|---|
+//! | `panic`, `hang`, `kill` | a component | no | |
+//! | `drop`, `delay`, `duplicate` | a service, `component/service` (Send or push) | yes | `delay_s` for `delay` |
+//! | `sensor_stuck`, `sensor_dropout`, `sensor_noise` | a ring: `sonar`, `infrared`, `bumpers` | yes | `sigma_m` for `sensor_noise` |
+//! | `motor_stall` | `motors` | yes | |
+//! | `link_cut` | a process role (`executive`, `teleop`) | yes | only in `orsa robot` |
+//!
+//! Every error names the fault (its number and line in the file) and what is wrong with it,
+//! and lists what would have been accepted.
+
+use orsa_actors::ServiceAddr;
+use orsa_actors::fault::{FaultEventKind, Faults, HandlerFault, MessageFault, MessageFaultCounts};
+use orsa_hardware::faulty::{BoardFaults, FaultRing, SensorFault};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// The kinds of fault, as plans name them.
+pub const KINDS: [&str; 11] = [
+    "panic",
+    "hang",
+    "kill",
+    "drop",
+    "delay",
+    "duplicate",
+    "sensor_stuck",
+    "sensor_dropout",
+    "sensor_noise",
+    "motor_stall",
+    "link_cut",
+];
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlanFile {
+    #[serde(default)]
+    fault: Vec<toml::Spanned<RawFault>>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFault {
+    at: f64,
+    kind: String,
+    target: String,
+    duration: Option<f64>,
+    every: Option<f64>,
+    until: Option<f64>,
+    delay_s: Option<f64>,
+    sigma_m: Option<f64>,
+}
+
+/// What one fault does.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Action {
+    /// The component's next handler panics.
+    Panic {
+        /// The component.
+        component: String,
+    },
+    /// The component's next handler hangs.
+    Hang {
+        /// The component.
+        component: String,
+    },
+    /// The component's instance is killed.
+    Kill {
+        /// The component.
+        component: String,
+    },
+    /// The service's messages are dropped, delayed or duplicated.
+    Message {
+        /// The service.
+        service: ServiceAddr,
+        /// How.
+        fault: MessageFault,
+    },
+    /// A sensor ring fails.
+    Sensor {
+        /// The ring.
+        ring: FaultRing,
+        /// How.
+        fault: SensorFault,
+    },
+    /// The motors stall.
+    MotorStall,
+    /// The link to processes of this role is cut.
+    LinkCut {
+        /// The role.
+        role: String,
+    },
+}
+
+/// One fault of a plan, checked.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedFault {
+    /// The kind, as the plan names it.
+    pub kind: String,
+    /// First occurrence, simulated seconds.
+    pub at_s: f64,
+    /// What it does.
+    pub action: Action,
+    /// How long each occurrence lasts (lasting kinds).
+    pub duration_s: Option<f64>,
+    /// Repeat period.
+    pub every_s: Option<f64>,
+    /// Last time an occurrence may start.
+    pub until_s: Option<f64>,
+}
+
+/// A checked fault plan.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct FaultPlan {
+    /// Its faults, in file order.
+    pub faults: Vec<PlannedFault>,
+}
+
+/// What a plan may name: the system it will run against.
+#[derive(Debug, Clone)]
+pub struct PlanTargets {
+    /// Components.
+    pub components: Vec<String>,
+    /// Services whose messages can be faulted (Send and push services).
+    pub services: Vec<ServiceAddr>,
+    /// Whether processes exist (so `link_cut` makes sense).
+    pub processes: bool,
+}
+
+impl PlanTargets {
+    /// What `orsa run`'s stack offers to a plan.
+    pub fn for_stack(config: &crate::config::Config) -> Self {
+        let robot = config.robot.name.as_str();
+        let components = vec![
+            robot.to_string(),
+            "wallfollow".into(),
+            "centerfollow".into(),
+            "master".into(),
+            "planner".into(),
+        ];
+        let mut services: Vec<ServiceAddr> =
+            ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
+                .iter()
+                .map(|s| ServiceAddr::new(robot, *s))
+                .collect();
+        services.push(ServiceAddr::new("wallfollow", "status"));
+        services.push(ServiceAddr::new("centerfollow", "status"));
+        services.push(ServiceAddr::new("master", "driving"));
+        PlanTargets { components, services, processes: false }
+    }
+}
+
+/// A plan that cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[error("{origin}: {message}")]
+pub struct PlanError {
+    /// The file.
+    pub origin: String,
+    /// What and where.
+    pub message: String,
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}
+
+fn positive(v: Option<f64>, key: &str) -> Result<Option<f64>, String> {
+    match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(format!("{key} must be a positive number, not {x}")),
+        other => Ok(other),
+    }
+}
+
+impl FaultPlan {
+    /// Parses and checks a plan against the system it will run on. `origin` names the file
+    /// in errors.
+    pub fn parse(text: &str, origin: &str, targets: &PlanTargets) -> Result<FaultPlan, PlanError> {
+        let err = |message: String| PlanError { origin: origin.to_string(), message };
+        let file: PlanFile = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| format!("line {}: ", line_of(text, s.start))).unwrap_or_default();
+            err(format!("{line}{}", e.message()))
+        })?;
+        let mut faults = Vec::new();
+        for (i, spanned) in file.fault.iter().enumerate() {
+            let line = line_of(text, spanned.span().start);
+            let raw = spanned.get_ref();
+            let checked =
+                check(raw, targets).map_err(|m| err(format!("fault #{} (line {line}): {m}", i + 1)))?;
+            faults.push(checked);
+        }
+        Ok(FaultPlan { faults })
+    }
+
+    /// Reads and checks a plan file.
+    pub fn load(path: &std::path::Path, targets: &PlanTargets) -> Result<FaultPlan, PlanError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PlanError { origin: origin.clone(), message: format!("cannot read: {e}") })?;
+        Self::parse(&text, &origin, targets)
+    }
+
+    /// Every occurrence up to `end_s`, as (start, fault) in time order.
+    pub fn occurrences(&self, end_s: f64) -> Vec<(f64, &PlannedFault)> {
+        let mut out = Vec::new();
+        for f in &self.faults {
+            let until = f.until_s.unwrap_or(end_s).min(end_s);
+            let mut k = 0u64;
+            loop {
+                let t = f.at_s + f.every_s.map_or(0.0, |e| e * k as f64);
+                if t > until || (k > 0 && f.every_s.is_none()) {
+                    break;
+                }
+                out.push((t, f));
+                k += 1;
+            }
+        }
+        out.sort_by(|a, b| a.0.total_cmp(&b.0));
+        out
+    }
+}
+
+fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> {
+    if !(raw.at.is_finite() && raw.at >= 0.0) {
+        return Err(format!("at must be a time in seconds from 0, not {}", raw.at));
+    }
+    let duration_s = positive(raw.duration, "duration")?;
+    let every_s = positive(raw.every, "every")?;
+    let until_s = match raw.until {
+        Some(u) if !(u.is_finite() && u >= raw.at) => {
+            return Err(format!("until ({u}) must be a time at or after at ({})", raw.at));
+        }
+        other => other,
+    };
+    let component = |t: &str| -> Result<String, String> {
+        if targets.components.iter().any(|c| c == t) {
+            Ok(t.to_string())
+        } else {
+            Err(format!("unknown component '{t}' (known: {})", targets.components.join(", ")))
+        }
+    };
+    let needs_duration = |kind: &str| -> Result<(), String> {
+        if duration_s.is_none() {
+            return Err(format!("a '{kind}' fault lasts: give its duration (seconds)"));
+        }
+        Ok(())
+    };
+    let action = match raw.kind.as_str() {
+        "panic" => Action::Panic { component: component(&raw.target)? },
+        "hang" => Action::Hang { component: component(&raw.target)? },
+        "kill" => Action::Kill { component: component(&raw.target)? },
+        k @ ("drop" | "delay" | "duplicate") => {
+            needs_duration(k)?;
+            let service: ServiceAddr = raw
+                .target
+                .parse()
+                .map_err(|_| format!("'{}' is not a service: expected component/service", raw.target))?;
+            if !targets.services.contains(&service) {
+                let known: Vec<String> = targets.services.iter().map(ToString::to_string).collect();
+                return Err(format!(
+                    "unknown service '{service}' for '{k}' (Send and push services: {})",
+                    known.join(", ")
+                ));
+            }
+            let fault = match k {
+                "drop" => MessageFault::Drop,
+                "duplicate" => MessageFault::Duplicate,
+                _ => {
+                    let d =
+                        positive(raw.delay_s, "delay_s")?.ok_or("a 'delay' fault needs delay_s (seconds)")?;
+                    MessageFault::Delay(Duration::from_secs_f64(d))
+                }
+            };
+            Action::Message { service, fault }
+        }
+        k @ ("sensor_stuck" | "sensor_dropout" | "sensor_noise") => {
+            needs_duration(k)?;
+            let ring = FaultRing::from_name(&raw.target).ok_or_else(|| {
+                format!("unknown sensor ring '{}' (known: sonar, infrared, bumpers)", raw.target)
+            })?;
+            let fault = match k {
+                "sensor_stuck" => SensorFault::Stuck,
+                "sensor_dropout" => SensorFault::Dropout,
+                _ => SensorFault::Noise(
+                    positive(raw.sigma_m, "sigma_m")?
+                        .ok_or("a 'sensor_noise' fault needs sigma_m (metres)")?,
+                ),
+            };
+            Action::Sensor { ring, fault }
+        }
+        "motor_stall" => {
+            needs_duration("motor_stall")?;
+            if raw.target != "motors" {
+                return Err(format!("unknown target '{}' for 'motor_stall' (known: motors)", raw.target));
+            }
+            Action::MotorStall
+        }
+        "link_cut" => {
+            needs_duration("link_cut")?;
+            if !targets.processes {
+                return Err(
+                    "'link_cut' cuts the link between processes: use it with `orsa robot --faults`, \
+                            not in a single-process run"
+                        .into(),
+                );
+            }
+            if !["executive", "teleop", "tool"].contains(&raw.target.as_str()) {
+                return Err(format!(
+                    "unknown process role '{}' (known: executive, teleop, tool)",
+                    raw.target
+                ));
+            }
+            Action::LinkCut { role: raw.target.clone() }
+        }
+        other => return Err(format!("unknown kind '{other}' (known: {})", KINDS.join(", "))),
+    };
+    if duration_s.is_some()
+        && matches!(action, Action::Panic { .. } | Action::Hang { .. } | Action::Kill { .. })
+    {
+        return Err(format!("a '{}' fault is instantaneous: remove its duration", raw.kind));
+    }
+    Ok(PlannedFault { kind: raw.kind.clone(), at_s: raw.at, action, duration_s, every_s, until_s })
+}
+
+/// Cuts (`true`) or restores (`false`) the link to the processes of a role.
+pub type LinkSwitch = std::sync::Arc<dyn Fn(&str, bool) + Send + Sync>;
+
+/// Where a running fault plan acts.
+#[derive(Clone)]
+pub struct FaultTargets {
+    /// The framework's switchboard (components and services).
+    pub faults: Faults,
+    /// The robot's boards.
+    pub boards: BoardFaults,
+    /// Cuts (true) and restores (false) the link to processes of a role, where there are any.
+    pub link: Option<LinkSwitch>,
+}
+
+fn apply(targets: &FaultTargets, action: &Action, on: bool) {
+    match action {
+        Action::Panic { component } if on => targets.faults.arm(component, HandlerFault::Panic),
+        Action::Hang { component } if on => targets.faults.arm(component, HandlerFault::Hang),
+        Action::Kill { component } if on => {
+            targets.faults.kill(component);
+        }
+        Action::Panic { .. } | Action::Hang { .. } | Action::Kill { .. } => {}
+        Action::Message { service, fault } => targets.faults.set_message_fault(service, on.then_some(*fault)),
+        Action::Sensor { ring, fault } => targets.boards.set_sensor(*ring, on.then_some(*fault)),
+        Action::MotorStall => targets.boards.set_motor_stall(on),
+        Action::LinkCut { role } => {
+            if let Some(cut) = &targets.link {
+                cut(role, on);
+            }
+        }
+    }
+}
+
+/// Runs `plan` against `targets` on tokio's clock, from now until `end_s` simulated seconds.
+/// Returns the number of occurrences injected.
+pub async fn run_plan(plan: FaultPlan, targets: FaultTargets, end_s: f64) -> usize {
+    let start = tokio::time::Instant::now();
+    // Every start and every end of an occurrence, in time order (ends first at equal times).
+    let mut timeline: Vec<(f64, bool, Action)> = Vec::new();
+    let occurrences = plan.occurrences(end_s);
+    for (t, f) in &occurrences {
+        timeline.push((*t, true, f.action.clone()));
+        if let Some(d) = f.duration_s {
+            timeline.push((t + d, false, f.action.clone()));
+        }
+    }
+    timeline.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    for (t, on, action) in timeline {
+        tokio::time::sleep_until(start + Duration::from_secs_f64(t)).await;
+        apply(&targets, &action, on);
+    }
+    occurrences.len()
+}
+
+/// The `faults` section of a run's report.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FaultsReport {
+    /// Occurrences injected, by kind.
+    pub injected: BTreeMap<String, u64>,
+    /// Failures the system saw (handler panicked, hung, killed, failed), by component.
+    pub detected: BTreeMap<String, u64>,
+    /// Restarts by the supervisor, by component.
+    pub restarts: BTreeMap<String, u64>,
+    /// Time from a component's failure to its restarted instance, ms (p50, p99, max), from
+    /// the supervisor's events.
+    pub restart_ms: Option<[f64; 3]>,
+    /// Time from a failure being seen to the component's next handled message, ms (p50, p99,
+    /// max over all recoveries): the restart plus the wait for the next message.
+    pub recovery_ms: Option<[f64; 3]>,
+    /// Recoveries measured.
+    pub recoveries: u64,
+    /// Failures after which the component never handled a message again within the run.
+    pub not_recovered: u64,
+    /// Messages dropped, delayed and duplicated, by service.
+    pub messages: BTreeMap<String, MessageFaultCounts>,
+    /// Reads altered and commands swallowed by hardware faults.
+    pub hardware_altered: u64,
+    /// Every event, in order (time in s, target, what).
+    pub log: Vec<(f64, String, String)>,
+}
+
+impl FaultsReport {
+    /// The section for a run of `end_s` seconds with `plan`, whose switchboard is `faults`, with
+    /// the supervisor's restarts by component and each restart's duration in ms.
+    pub fn new(
+        plan: &FaultPlan,
+        end_s: f64,
+        faults: &Faults,
+        boards: &BoardFaults,
+        restarts: BTreeMap<String, u64>,
+        mut restart_ms: Vec<f64>,
+    ) -> Self {
+        let events = faults.events();
+        let mut report = FaultsReport {
+            restarts,
+            hardware_altered: boards.altered(),
+            restart_ms: percentiles(&mut restart_ms),
+            ..Default::default()
+        };
+        for (t, f) in plan.occurrences(end_s) {
+            if t < end_s {
+                *report.injected.entry(f.kind.clone()).or_default() += 1;
+            }
+        }
+        let mut pending: BTreeMap<String, f64> = BTreeMap::new();
+        let mut recoveries = Vec::new();
+        for e in &events {
+            let t = e.at.as_secs_f64();
+            let what = match &e.what {
+                FaultEventKind::Injected(k) => format!("injected {k}"),
+                FaultEventKind::Detected(how) => {
+                    *report.detected.entry(e.target.clone()).or_default() += 1;
+                    pending.insert(e.target.clone(), t);
+                    format!("detected: {how}")
+                }
+                FaultEventKind::Recovered => {
+                    if let Some(since) = pending.remove(&e.target) {
+                        recoveries.push((t - since) * 1e3);
+                    }
+                    "recovered".to_string()
+                }
+            };
+            report.log.push((t, e.target.clone(), what));
+        }
+        report.not_recovered = pending.len() as u64;
+        report.recoveries = recoveries.len() as u64;
+        report.recovery_ms = percentiles(&mut recoveries);
+        for (addr, c) in faults.message_counts() {
+            report.messages.insert(addr.to_string(), c);
+        }
+        report
+    }
+}
+
+/// p50, p99 and max (nearest rank), if there are values.
+fn percentiles(v: &mut [f64]) -> Option<[f64; 3]> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+    Some([at(0.5), at(0.99), v[v.len() - 1]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn targets() -> PlanTargets {
+        PlanTargets {
+            components: vec!["nomad200".into(), "centerfollow".into()],
+            services: vec!["nomad200/navigationvelocity".parse().expect("addr")],
+            processes: false,
+        }
+    }
+
+    #[test]
+    fn a_plan_parses_and_expands_its_repeats() {
+        let text = r#"
+[[fault]]
+at = 1.0
+kind = "panic"
+target = "centerfollow"
+every = 0.5
+until = 2.0
+
+[[fault]]
+at = 1.2
+kind = "sensor_noise"
+target = "infrared"
+duration = 3.0
+sigma_m = 0.02
+"#;
+        let plan = FaultPlan::parse(text, "plan.toml", &targets()).expect("valid");
+        let times: Vec<f64> = plan.occurrences(100.0).iter().map(|(t, _)| *t).collect();
+        assert_eq!(times, vec![1.0, 1.2, 1.5, 2.0]);
+        assert_eq!(
+            plan.faults[1].action,
+            Action::Sensor { ring: FaultRing::Infrared, fault: SensorFault::Noise(0.02) }
+        );
+    }
+
+    #[test]
+    fn errors_name_the_fault_its_line_and_what_would_do() {
+        let cases = [
+            (
+                "[[fault]]\nat = 1\nkind = \"pnic\"\ntarget = \"x\"\n",
+                "fault #1 (line 1): unknown kind 'pnic' (known: panic, hang",
+            ),
+            (
+                "[[fault]]\nat = 1\nkind = \"panic\"\ntarget = \"ghost\"\n",
+                "unknown component 'ghost' (known: nomad200, centerfollow)",
+            ),
+            (
+                "[[fault]]\nat = 1\nkind = \"drop\"\ntarget = \"nomad200/safety\"\nduration = 1\n",
+                "unknown service 'nomad200/safety'",
+            ),
+            (
+                "[[fault]]\nat = 1\nkind = \"sensor_stuck\"\ntarget = \"lidar\"\nduration = 1\n",
+                "unknown sensor ring 'lidar'",
+            ),
+            (
+                "[[fault]]\nat = 1\nkind = \"drop\"\ntarget = \"nomad200/navigationvelocity\"\n",
+                "give its duration",
+            ),
+            ("[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"nomad200\"\nduration = 2\n", "instantaneous"),
+            (
+                "[[fault]]\nat = 1\nkind = \"link_cut\"\ntarget = \"executive\"\nduration = 2\n",
+                "orsa robot --faults",
+            ),
+            ("[[fault]]\nat = -1\nkind = \"kill\"\ntarget = \"nomad200\"\n", "at must be"),
+            (
+                "[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"nomad200\"\nevery = 0\n",
+                "every must be a positive",
+            ),
+            ("[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"nomad200\"\ncolour = 2\n", "line 5"),
+            (
+                "\n\n[[fault]]\nat = 1\nkind = \"panic\"\ntarget = \"nomad200\"\n\n[[fault]]\nat = 1\nkind = \"delay\"\ntarget = \"nomad200/navigationvelocity\"\nduration = 1\n",
+                "fault #2 (line 8): a 'delay' fault needs delay_s",
+            ),
+        ];
+        for (text, expected) in cases {
+            let e = FaultPlan::parse(text, "plan.toml", &targets()).expect_err(text).to_string();
+            assert!(e.starts_with("plan.toml: "), "{e}");
+            assert!(e.contains(expected), "{e}\n  should contain: {expected}");
+        }
+    }
+}
