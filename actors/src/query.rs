@@ -288,6 +288,7 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
                 let reply =
                     r.transport.request(&r.addr, crate::wire::encode_stamped(&stamped, &clock), timeout);
                 let addr = r.addr.clone();
+                let registry = r.registry.clone();
                 runtime.spawn(async move {
                     let answer = reply.await.and_then(|bytes| {
                         crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(
@@ -297,6 +298,9 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
                             Ans::ID,
                         )
                     });
+                    if let Err(PatternError::Decode(m)) = &answer {
+                        registry.note_decode_error(&addr, m);
+                    }
                     let _ = tx.send(answer.map(Stamped::from));
                 });
                 rx

@@ -195,6 +195,14 @@ impl Remote {
     pub(crate) fn bad_message(&self, e: &crate::wire::WireError) {
         self.registry.note_decode_error(&self.addr, e);
     }
+
+    /// Passes a decoded reply through, counting it if it did not decode.
+    pub(crate) fn counted<T>(&self, r: PatternResult<T>) -> PatternResult<T> {
+        if let Err(PatternError::Decode(m)) = &r {
+            self.registry.note_decode_error(&self.addr, m);
+        }
+        r
+    }
 }
 
 impl fmt::Debug for LocalService {
@@ -286,7 +294,7 @@ impl Registry {
 
     /// Counts and logs a message from another process that did not decode. Nothing else
     /// happens: the message is dropped and the receiver goes on.
-    pub fn note_decode_error(&self, from: &dyn fmt::Display, e: &crate::wire::WireError) {
+    pub fn note_decode_error(&self, from: &dyn fmt::Display, e: &dyn fmt::Display) {
         self.inner.decode_errors.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         tracing::warn!("dropped an undecodable message from {from}: {e}");
     }

@@ -373,12 +373,12 @@ impl WiringMaster {
                     .transport
                     .request(&r.addr, crate::wire::encode(&request), DEFAULT_REQUEST_TIMEOUT)
                     .await?;
-                crate::wire::decode_reply::<Vec<PortStatus>>(
+                r.counted(crate::wire::decode_reply::<Vec<PortStatus>>(
                     &r.registry.clock(),
                     &bytes,
                     &r.addr,
                     "orsa.PortStatus/1 list",
-                )
+                ))
             }
         }
     }

@@ -280,7 +280,14 @@ impl ZenohTransport {
                     decode_errors: inner.decode_errors.load(Ordering::Relaxed)
                         + inner.registry.decode_errors(),
                 };
-                reply_now(&inner, query, Ok(figures));
+                // Reply on this process's own key, so a wildcard query tells the processes apart.
+                let key = inner.keys.stats(&inner.zid);
+                let bytes = encode(&Reply::from_result(Ok::<_, PatternError>(figures)));
+                inner.runtime.spawn(async move {
+                    if let Err(e) = query.reply(key, bytes).await {
+                        tracing::debug!("cannot reply with the stats: {e}");
+                    }
+                });
             })
             .await
             .map_err(|e| NetError::Open(e.to_string()))?;
@@ -334,7 +341,14 @@ impl ZenohTransport {
     /// The traffic figures of every live process (this one included), by zenoh id.
     pub async fn all_stats(&self, timeout: Duration) -> BTreeMap<String, NetStats> {
         let mut out = BTreeMap::new();
-        let Ok(replies) = self.inner.session.get(self.inner.keys.all_stats()).timeout(timeout).await else {
+        let Ok(replies) = self
+            .inner
+            .session
+            .get(self.inner.keys.all_stats())
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(timeout)
+            .await
+        else {
             return out;
         };
         while let Ok(reply) = replies.recv_async().await {
@@ -660,7 +674,14 @@ impl Inner {
                 inner.received.fetch_add(1, Ordering::Relaxed);
                 let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
                 let result = match decode::<R>(&payload, what) {
-                    Ok(req) => handle(&inner, &addr, &export, req),
+                    Ok(req) => {
+                        let r = handle(&inner, &addr, &export, req);
+                        // The request decoded but what it carries (event parameters) did not.
+                        if let Err(PatternError::Decode(m)) = &r {
+                            inner.bad(&addr.to_string(), m);
+                        }
+                        r
+                    }
                     Err(e) => {
                         inner.bad(&addr.to_string(), &e);
                         Err(PatternError::Decode(e.to_string()))
@@ -672,12 +693,19 @@ impl Inner {
         Ok(Box::new(q))
     }
 
-    fn publisher(&self, key: String) -> PatternResult<Arc<zenoh::pubsub::Publisher<'static>>> {
+    /// A publisher: sensor streams and Send messages drop under congestion (the newest value
+    /// wins); event firings (`must_arrive`) block instead, since a lost firing is not sent again.
+    fn publisher(
+        &self,
+        key: String,
+        must_arrive: bool,
+    ) -> PatternResult<Arc<zenoh::pubsub::Publisher<'static>>> {
+        let congestion = if must_arrive { CongestionControl::Block } else { CongestionControl::Drop };
         let p = self
             .session
             .declare_publisher(key)
             .express(true)
-            .congestion_control(CongestionControl::Drop)
+            .congestion_control(congestion)
             .wait()
             .map_err(link)?;
         Ok(Arc::new(p))
@@ -715,7 +743,12 @@ impl Inner {
                     s.clients.insert((client, id));
                     return Ok(());
                 }
-                let publisher = self.publisher(self.keys.stream(addr, n))?;
+                if streams.len() >= MAX_STREAMS {
+                    return Err(PatternError::InvalidArgument(format!(
+                        "{addr} already serves {MAX_STREAMS} distinct every-n-th streams"
+                    )));
+                }
+                let publisher = self.publisher(self.keys.stream(addr, n), false)?;
                 let sub = Arc::clone(&export.served).serve_subscribe(n, self.publishing_sink(publisher))?;
                 streams.insert(every, Stream { clients: BTreeSet::from([(client, id)]), _sub: sub });
                 Ok(())
@@ -744,7 +777,7 @@ impl Inner {
                 if acts.contains_key(&key) {
                     return Ok(());
                 }
-                let publisher = self.publisher(self.keys.firings(&key.0, key.1))?;
+                let publisher = self.publisher(self.keys.firings(&key.0, key.1), true)?;
                 let sub = Arc::clone(&export.served).serve_activate(
                     mode,
                     &params,
@@ -768,6 +801,9 @@ impl Inner {
 }
 
 type Entity = Box<dyn std::any::Any + Send + Sync>;
+
+/// The most distinct every-n-th streams one push service serves to peers (each is a publisher).
+const MAX_STREAMS: usize = 64;
 type ProcessLost = Box<dyn Fn(&Process) + Send + Sync>;
 
 fn reply_now<T: Serialize>(inner: &Arc<Inner>, query: zenoh::query::Query, result: PatternResult<T>) {
@@ -814,7 +850,7 @@ impl Transport for ZenohTransport {
             match senders.get(addr) {
                 Some(p) => Arc::clone(p),
                 None => {
-                    let p = self.inner.publisher(self.inner.keys.send(addr))?;
+                    let p = self.inner.publisher(self.inner.keys.send(addr), false)?;
                     senders.insert(addr.clone(), Arc::clone(&p));
                     p
                 }
