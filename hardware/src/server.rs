@@ -186,6 +186,8 @@ pub struct Nomad200State {
     /// Until when teleoperation holds the robot.
     teleop_until: Option<Timestamp>,
     counters: SafetyCounters,
+    /// The counters as the last instance left them (restarts do not reset them).
+    kept: Arc<parking_lot::Mutex<SafetyCounters>>,
     timeouts: Arc<AtomicU64>,
 }
 
@@ -287,7 +289,10 @@ where
         // sleeps until the current command deadline and stops the robot there; if the instance
         // ends (its deadline sender is dropped) it still stops the robot at the last deadline.
         let (deadline, rx) = watch::channel::<Option<Timestamp>>(None);
-        let timeouts = Arc::new(AtomicU64::new(0));
+        // The counters cover the component's whole life, not one instance's.
+        let timeouts = ctx.keep("timeouts", || Arc::new(AtomicU64::new(0)))?;
+        let kept = ctx.keep("safety", || Arc::new(parking_lot::Mutex::new(SafetyCounters::default())))?;
+        let counters = *kept.lock();
         ctx.spawn_activity(watchdog(self.motors.clone(), ctx.clock(), rx, Arc::clone(&timeouts)));
         Ok(Nomad200State {
             ir,
@@ -297,7 +302,8 @@ where
             deadline,
             last_applied: None,
             teleop_until: None,
-            counters: SafetyCounters::default(),
+            counters,
+            kept,
             timeouts,
         })
     }
@@ -334,6 +340,7 @@ where
                 let _ = q.answer(counters);
             }
         }
+        *st.kept.lock() = st.counters;
         Ok(())
     }
 
