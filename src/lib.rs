@@ -13,7 +13,7 @@
 //!
 //! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
 //! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
-//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`]
+//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`](mod@bench)
 //! measures orsa against the raw parts it is built on. [`faults`] reads fault plans and breaks a
 //! running stack on purpose. [`cli`] holds the `orsa`
 //! command line; the binary only parses arguments and calls it.
