@@ -111,8 +111,11 @@ struct Shell<M> {
     /// Tasks of the running instance, ended when it ends.
     activities: Mutex<Vec<tokio::task::AbortHandle>>,
     removed: std::sync::atomic::AtomicBool,
-    /// How long one handler may run before the instance is deemed hung and failed.
-    handler_timeout: Mutex<Option<Duration>>,
+    /// How long one handler may run before the instance is deemed hung and failed, in
+    /// nanoseconds; 0 for no limit (read on every message, so not behind a lock).
+    handler_timeout_ns: std::sync::atomic::AtomicU64,
+    /// The registry's fault switchboard, kept to spare every message a clone.
+    faults: crate::fault::Faults,
 }
 
 /// A component's access to the system: everything it declares or connects goes through here.
@@ -152,7 +155,8 @@ impl<M: ractor::Message> Ctx<M> {
                 stoppers: Mutex::new(Vec::new()),
                 activities: Mutex::new(Vec::new()),
                 removed: std::sync::atomic::AtomicBool::new(false),
-                handler_timeout: Mutex::new(None),
+                handler_timeout_ns: std::sync::atomic::AtomicU64::new(0),
+                faults: registry.faults(),
             }),
         })
         .inspect(|ctx: &Ctx<M>| {
@@ -452,7 +456,7 @@ impl<C: Component> Actor for Instance<C> {
         msg: C::Msg,
         state: &mut C::State,
     ) -> Result<(), ActorProcessingErr> {
-        let faults = self.ctx.shell.registry.faults();
+        let faults = &self.ctx.shell.faults;
         let name = self.ctx.name();
         let work = async {
             match faults.take_armed(name) {
@@ -466,7 +470,10 @@ impl<C: Component> Actor for Instance<C> {
             faults.handled(name);
             self.component.handle(&self.ctx, state, msg).await
         };
-        let timeout = *self.ctx.shell.handler_timeout.lock();
+        let timeout = match self.ctx.shell.handler_timeout_ns.load(std::sync::atomic::Ordering::Relaxed) {
+            0 => None,
+            ns => Some(Duration::from_nanos(ns)),
+        };
         let result = match timeout {
             Some(t) => match tokio::time::timeout(t, work).await {
                 Ok(r) => r,
@@ -519,7 +526,8 @@ impl<C: Component> ComponentHandle<C> {
     /// Fails the running instance (so its supervisor restarts it) when one handler runs longer
     /// than `timeout`: the watchdog for hung handlers. Off unless set.
     pub fn with_handler_timeout(self, timeout: Duration) -> Self {
-        *self.ctx.shell.handler_timeout.lock() = Some(timeout);
+        let ns = u64::try_from(timeout.as_nanos()).unwrap_or(u64::MAX).max(1);
+        self.ctx.shell.handler_timeout_ns.store(ns, std::sync::atomic::Ordering::Relaxed);
         self
     }
 
