@@ -58,6 +58,10 @@ pub struct BenchArgs {
     /// Write the tables as Markdown here (as in BENCHMARKS.md); they are printed either way.
     #[arg(long, value_name = "PATH.md")]
     pub markdown: Option<PathBuf>,
+    /// Internal: run as the peer process of the cross-process bench, connecting to this
+    /// endpoint (`orsa bench` starts it by itself).
+    #[arg(long, hide = true, value_name = "ENDPOINT")]
+    pub peer: Option<String>,
 }
 
 /// Arguments of `orsa run`.
@@ -213,6 +217,9 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
 }
 
 fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
+    if let Some(endpoint) = &args.peer {
+        return crate::bench::serve_peer(endpoint);
+    }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
         ensure_parent(p)?;
     }

@@ -4,13 +4,16 @@
 //! moment apart, because the machine is noisy: a ratio survives a busy neighbour better than
 //! a nanosecond count. [`run`] measures, [`render_markdown`] writes the tables; the report is
 //! also JSON ([`BenchReport`], with the flat keys `inproc_push_p50_ns`,
-//! `raw_ractor_cast_p50_ns`, `sense_to_act_inproc_p99_ns`, `rtf_1_robot` and `rtf_100_robots`).
+//! `raw_ractor_cast_p50_ns`, `zenoh_push_p50_ns`, `raw_zenoh_p50_ns`,
+//! `sense_to_act_inproc_p99_ns`, `sense_to_act_xproc_p99_ns`, `rtf_1_robot` and
+//! `rtf_100_robots`).
 //!
 //! | part | what | baseline |
 //! |---|---|---|
 //! | in process | push publish to the subscriber component's handler; query round trip; back-to-back, at 25 Hz, and throughput | raw ractor cast / call, raw tokio channel, between the same two tasks on the same runtime |
 //! | fan-out | one push server to 1..1000 subscriber components | a loop of ractor casts to as many plain actors |
 //! | sense to act | sensor update to the motor board, through the wired behaviour, in real time | the 200 µs target |
+//! | across processes | push over zenoh between two processes on loopback, back-to-back and at 25 Hz; sense to act with the behaviours in the other process | raw zenoh publish/subscribe of the same payload, same sessions |
 //! | simulation | `orsa run`'s real-time factor; N whole stacks in one process | one robot |
 //!
 //! The benches on tokio's running clock go first: once any runtime in a process has paused its
@@ -19,6 +22,8 @@
 
 mod fanout;
 mod inproc;
+mod net;
+mod peer;
 mod probe;
 mod render;
 mod sense;
@@ -31,6 +36,12 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+/// Runs the peer process of the cross-process bench (`orsa bench --peer ENDPOINT`, which
+/// `orsa bench` starts by itself) until the bench process tells it to leave or goes away.
+pub fn serve_peer(endpoint: &str) -> anyhow::Result<()> {
+    peer::run(endpoint)
+}
+
 /// What to run.
 #[derive(Debug, Clone, Default)]
 pub struct BenchOptions {
@@ -39,7 +50,7 @@ pub struct BenchOptions {
 }
 
 /// A latency distribution, in nanoseconds (nearest-rank percentiles).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct Latency {
     /// Samples.
     pub n: usize,
@@ -140,10 +151,82 @@ pub struct SenseToAct {
     /// From the newest sensor firing in that update to the motor board (includes the
     /// simulator's 10 ms sampling).
     pub from_sensor_firing: Latency,
+    /// The figure from the update, in legs (each summarised on its own: the legs' p50s need
+    /// not add up to the whole's).
+    pub legs: Vec<SenseLeg>,
     /// Commands the server refused as stale.
     pub stale_refused: u64,
     /// Supervisor restarts during the run.
     pub restarts: u64,
+}
+
+/// One path's one-way latency across processes in one mode.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetLatencyRow {
+    /// `back-to-back` (one in flight) or `25 Hz`.
+    pub mode: String,
+    /// What was measured.
+    pub path: String,
+    /// The path this one is compared with, if any.
+    pub baseline: Option<String>,
+    /// The distribution (receiver's UNIX time minus the sender's, same host).
+    pub latency: Latency,
+    /// p50 over the baseline's p50.
+    pub p50_ratio: Option<f64>,
+    /// p99 over the baseline's p99.
+    pub p99_ratio: Option<f64>,
+    /// Samples sent in this mode.
+    pub sent: u64,
+    /// Samples received.
+    pub received: u64,
+    /// Whether they arrived in the order sent.
+    pub in_order: bool,
+    /// How long sending took in the sending process (orsa's `put`; raw: encoding and `put`).
+    pub sender_put: Latency,
+}
+
+/// What the sample costs to encode and decode, raw and in orsa's envelope (in one process).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CodecCosts {
+    /// CBOR bytes of the sample alone (the raw paths).
+    pub raw_bytes: usize,
+    /// CBOR bytes of the sample in orsa's stamped envelope (the orsa paths).
+    pub orsa_bytes: usize,
+    /// ns to encode the sample (ciborium).
+    pub raw_encode_ns: f64,
+    /// ns to decode it.
+    pub raw_decode_ns: f64,
+    /// ns for orsa's `encode_stamped`.
+    pub orsa_encode_ns: f64,
+    /// ns for orsa's `decode_stamped`.
+    pub orsa_decode_ns: f64,
+}
+
+/// Everything measured across processes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetReport {
+    /// The tokio runtimes.
+    pub runtime: String,
+    /// How the two processes are connected.
+    pub transport: String,
+    /// Wall seconds from opening the session to the first sample on every path (the peer's
+    /// start-up included).
+    pub startup_s: f64,
+    /// One-way latencies.
+    pub latency: Vec<NetLatencyRow>,
+    /// Encoding costs.
+    pub codec: CodecCosts,
+    /// Sense to act with the behaviours in the other process.
+    pub sense_to_act: Option<SenseToAct>,
+}
+
+/// One leg of sense to act.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SenseLeg {
+    /// From where to where.
+    pub leg: String,
+    /// Its distribution over the attributed commands.
+    pub latency: Latency,
 }
 
 /// `orsa run`'s speed: the corridor mission on a paused clock, start-up and shutdown included.
@@ -231,10 +314,13 @@ pub struct BenchReport {
     pub rtf_1_robot: f64,
     /// Real-time factor of 100 robots in one process.
     pub rtf_100_robots: f64,
-    /// Push over zenoh, p50, ns (not measured by this bench yet).
+    /// Push over zenoh to a component in another process, p50, ns (back-to-back; `None` if
+    /// the cross-process bench failed).
     pub zenoh_push_p50_ns: Option<f64>,
-    /// Raw zenoh, p50, ns (not measured by this bench yet).
+    /// Raw zenoh publish to a subscriber callback in another process, same payload, p50, ns.
     pub raw_zenoh_p50_ns: Option<f64>,
+    /// Sense to act with the behaviours in another process, p99, ns.
+    pub sense_to_act_xproc_p99_ns: Option<f64>,
     /// Whether this was a `--quick` run.
     pub quick: bool,
     /// orsa's version.
@@ -253,6 +339,10 @@ pub struct BenchReport {
     pub fanout: Vec<FanoutRow>,
     /// Sense to act.
     pub sense_to_act: SenseToAct,
+    /// Across processes (`None` if that bench failed; see `net_error`).
+    pub net: Option<NetReport>,
+    /// Why the cross-process bench failed, if it did.
+    pub net_error: Option<String>,
     /// `orsa run`'s speed.
     pub mission: MissionRtf,
     /// N robots in one process.
@@ -276,6 +366,7 @@ struct Plan {
     fanout_budget: usize,
     fanout_min_rounds: usize,
     sense_s: f64,
+    net: net::NetSizes,
     mission_s: f64,
     scale: Vec<usize>,
     scale_warm_s: f64,
@@ -304,6 +395,7 @@ impl Plan {
                 fanout_budget: 20_000,
                 fanout_min_rounds: 100,
                 sense_s: 20.0,
+                net: net::NetSizes { warmup: 300, back_to_back: 2_000, at_25hz: 150, sense_s: 10.0 },
                 mission_s: 120.0,
                 scale: vec![1, 10, 100, 1000],
                 scale_warm_s: 2.0,
@@ -328,6 +420,7 @@ impl Plan {
                 fanout_budget: 200_000,
                 fanout_min_rounds: 300,
                 sense_s: 60.0,
+                net: net::NetSizes { warmup: 1_000, back_to_back: 10_000, at_25hz: 750, sense_s: 60.0 },
                 mission_s: 600.0,
                 scale: vec![1, 10, 100, 1000],
                 scale_warm_s: 2.0,
@@ -377,6 +470,14 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let fanout = fanout::run(&plan.fanout, |n| fanout::rounds_for(n, budget, min))?;
     say("sense to act");
     let sense = sense::run(plan.sense_s)?;
+    say("across processes (zenoh on loopback)");
+    let (net, net_error) = match net::run(plan.net, net::exe_launcher) {
+        Ok(n) => (Some(n), None),
+        Err(e) => {
+            say(format!("  across processes failed: {e:#}"));
+            (None, Some(format!("{e:#}")))
+        }
+    };
 
     say(format!("simulation: the corridor mission, {:.0} simulated s", plan.mission_s));
     let mission = sim::mission(plan.mission_s)?;
@@ -412,8 +513,13 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         sense_to_act_inproc_p99_ns: sense.from_update.p99_ns,
         rtf_1_robot: mission.rtf,
         rtf_100_robots: scale.iter().find(|r| r.robots == 100).map_or(f64::NAN, |r| r.rtf),
-        zenoh_push_p50_ns: None,
-        raw_zenoh_p50_ns: None,
+        zenoh_push_p50_ns: net_p50(net.as_ref(), net::ORSA_COMPONENT),
+        raw_zenoh_p50_ns: net_p50(net.as_ref(), net::RAW_CALLBACK),
+        sense_to_act_xproc_p99_ns: net
+            .as_ref()
+            .and_then(|n| n.sense_to_act.as_ref())
+            .filter(|s| s.attributed > 0)
+            .map(|s| s.from_update.p99_ns),
         quick: opts.quick,
         orsa_version: env!("CARGO_PKG_VERSION").to_string(),
         machine: machine(),
@@ -428,6 +534,8 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         throughput,
         fanout,
         sense_to_act: sense,
+        net,
+        net_error,
         mission,
         scale,
         targets: Vec::new(),
@@ -436,6 +544,14 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     report.wall_s = started.elapsed().as_secs_f64();
     say(format!("done in {:.0} s", report.wall_s));
     Ok(report)
+}
+
+/// A back-to-back p50 across processes.
+fn net_p50(net: Option<&NetReport>, path: &str) -> Option<f64> {
+    net?.latency
+        .iter()
+        .find(|r| r.mode == "back-to-back" && r.path == path && r.latency.n > 0)
+        .map(|r| r.latency.p50_ns)
 }
 
 /// The targets against what the run measured.
@@ -450,6 +566,49 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
             },
             met: row.p50_ratio.map(|x| x <= 1.5),
         });
+    }
+    match &r.net {
+        Some(net) => {
+            for row in net.latency.iter().filter(|row| row.path == net::ORSA_COMPONENT) {
+                t.push(TargetCheck {
+                    target: format!(
+                        "zenoh push p50 <= 1.2x raw zenoh ({}; component vs subscriber callback)",
+                        row.mode
+                    ),
+                    measured: match row.p50_ratio {
+                        Some(x) => format!("{x:.2}x ({:.1} us)", row.latency.p50_ns / 1e3),
+                        None => "no baseline".into(),
+                    },
+                    met: row.p50_ratio.map(|x| x <= 1.2),
+                });
+                // Like for like: where the receiving code runs on zenoh's thread in both, and
+                // where both hand the sample to a tokio task.
+                let p50 = |path: &str| {
+                    net.latency
+                        .iter()
+                        .find(|r| r.mode == row.mode && r.path == path && r.latency.n > 0)
+                        .map_or(f64::NAN, |r| r.latency.p50_ns)
+                };
+                let sink = stats::ratio(p50(net::ORSA_SINK), p50(net::RAW_CALLBACK));
+                let task = stats::ratio(p50(net::ORSA_COMPONENT), p50(net::RAW_TASK));
+                t.push(TargetCheck {
+                    target: format!(
+                        "zenoh push p50 <= 1.2x raw zenoh ({}; like for like: client sink vs callback, component vs callback -> tokio task)",
+                        row.mode
+                    ),
+                    measured: match (sink, task) {
+                        (Some(a), Some(b)) => format!("{a:.2}x, {b:.2}x"),
+                        _ => "not measured".into(),
+                    },
+                    met: sink.zip(task).map(|(a, b)| a <= 1.2 && b <= 1.2),
+                });
+            }
+        }
+        None => t.push(TargetCheck {
+            target: "zenoh push p50 <= 1.2x raw zenoh".into(),
+            measured: "not measured (the cross-process bench failed)".into(),
+            met: None,
+        }),
     }
     let s = &r.sense_to_act;
     t.push(TargetCheck {

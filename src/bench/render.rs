@@ -160,6 +160,9 @@ pub fn render_markdown(r: &BenchReport) -> String {
         "| newest sensor firing (adds the simulator's sampling) | {} |",
         lat_cells(&st.from_sensor_firing)
     );
+    leg_rows(&mut s, st);
+
+    render_net(&mut s, r);
 
     let mi = &r.mission;
     let _ = writeln!(
@@ -197,11 +200,96 @@ pub fn render_markdown(r: &BenchReport) -> String {
             row.restarts
         );
     }
+    s
+}
+
+/// The legs of the figure from the update, one row each.
+fn leg_rows(s: &mut String, st: &super::SenseToAct) {
+    for l in &st.legs {
+        let _ = writeln!(s, "| leg: {} | {} |", l.leg, lat_cells(&l.latency));
+    }
+}
+
+/// The cross-process tables.
+fn render_net(s: &mut String, r: &BenchReport) {
+    let Some(net) = &r.net else {
+        let _ = writeln!(
+            s,
+            "\n## Across processes\n\nNot measured: {}.",
+            r.net_error.as_deref().unwrap_or("the cross-process bench did not run")
+        );
+        return;
+    };
     let _ = writeln!(
         s,
-        "\nzenoh: push p50 {}, raw zenoh p50 {}.",
-        r.zenoh_push_p50_ns.map_or_else(|| "not measured".into(), dur),
-        r.raw_zenoh_p50_ns.map_or_else(|| "not measured".into(), dur)
+        "\n## Across processes: latency\n\nTwo processes on this host, {}; {} ({:.2} s from opening the \
+         session to the first sample on every path). One-way: the receiver's UNIX time minus the send time \
+         in the sample (one kernel clock). The sample is a sequence number, the send time and 16 readings \
+         like a `DistanceScan`'s; raw paths send it as CBOR, orsa's paths in orsa's stamped envelope. Ratios \
+         are against the raw subscriber callback, same mode.\n",
+        net.runtime, net.transport, net.startup_s
     );
-    s
+    let _ = writeln!(
+        s,
+        "| mode | path | sent | received | in order | n | p50 | p99 | max | baseline | p50 ratio | p99 ratio | sender's put p50 |\n\
+         |---|---|---:|---:|---|---:|---:|---:|---:|---|---:|---:|---:|"
+    );
+    for row in &net.latency {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            row.mode,
+            row.path,
+            row.sent,
+            row.received,
+            if row.in_order { "yes" } else { "**no**" },
+            lat_cells(&row.latency),
+            row.baseline.as_deref().unwrap_or("-"),
+            ratio(row.p50_ratio),
+            ratio(row.p99_ratio),
+            dur(row.sender_put.p50_ns)
+        );
+    }
+    let c = &net.codec;
+    let _ = writeln!(
+        s,
+        "\nEncoding the sample, in one process (mean per call): raw CBOR {} bytes, encode {}, decode {}; \
+         orsa's stamped envelope {} bytes, `encode_stamped` {}, `decode_stamped` {}.",
+        c.raw_bytes,
+        dur(c.raw_encode_ns),
+        dur(c.raw_decode_ns),
+        c.orsa_bytes,
+        dur(c.orsa_encode_ns),
+        dur(c.orsa_decode_ns)
+    );
+    match &net.sense_to_act {
+        Some(st) => {
+            let _ = writeln!(
+                s,
+                "\n## Sense to act, across processes\n\nSimulator, robot server, master and planner in the bench \
+                 process, both behaviours in the other, over zenoh, in real time for {:.0} s ({}). {} velocity \
+                 commands reached the motor board; {} were attributed to the wired behaviour's step ({}), {} were \
+                 not. Stale commands refused: {}; restarts (both processes): {}.\n",
+                st.duration_s,
+                net.runtime,
+                st.commands_received,
+                st.attributed,
+                st.by_behaviour.iter().map(|(b, n)| format!("{b} {n}")).collect::<Vec<_>>().join(", "),
+                st.unattributed,
+                st.stale_refused,
+                st.restarts
+            );
+            let _ = writeln!(s, "| from | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+            let _ = writeln!(s, "| sensor update published | {} |", lat_cells(&st.from_update));
+            let _ = writeln!(
+                s,
+                "| newest sensor firing (adds the simulator's sampling) | {} |",
+                lat_cells(&st.from_sensor_firing)
+            );
+            leg_rows(s, st);
+        }
+        None => {
+            let _ = writeln!(s, "\nSense to act across processes: not measured in this run.");
+        }
+    }
 }

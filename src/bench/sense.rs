@@ -14,13 +14,23 @@
 //! After the run each command the board received is matched to the wired behaviour's step that
 //! computed it: the same velocities (after the server's clamping to the robot's limits) and the
 //! latest such step whose update is not later than the command. The matching happens after the
-//! run, so the only cost on the measured path is the wrapper's bookkeeping after the behaviour
-//! has sent (a read lock and a push, well under a microsecond).
+//! run, so the only cost on the measured path is the wrapper's bookkeeping: a clock read before
+//! the behaviour's handler and, after it has sent, a clock read, a read lock and a push (well
+//! under a microsecond). The two clock reads split the figure into legs: update to the
+//! handler's start (delivery), the handler itself, and the handler's return to the board.
 //!
 //! The update's stamp is when the robot server published it, right after reading the board;
 //! the figure from the sensor's own firing (the scan's newest reading, which the simulator
 //! stamps at its 10 ms step) is reported beside it and includes that sampling delay.
+//!
+//! [`across`] measures the same across processes: the simulator, the robot server (with the
+//! timed motor board), the master and the planner in the bench process, both behaviours
+//! (traced) in the peer process ([`PeerBehaviours`]), subscribing to the robot's sensors and
+//! sending their commands over zenoh, on a two-worker runtime in each process. Both ends of
+//! the figure are read on the bench process's clock: the update's stamp crosses to the peer as
+//! UNIX time and back (exactly, in integer nanoseconds), so no clock offset enters it.
 
+use super::net::{PeerReply, PeerRequest, WireStep};
 use super::{SenseToAct, say, stats};
 use crate::config::Config;
 use anyhow::{Context as _, anyhow};
@@ -58,6 +68,10 @@ pub(crate) struct Step {
     pub(crate) update: Timestamp,
     /// The newest sensor firing in that update.
     pub(crate) fired: Timestamp,
+    /// When the behaviour's handler started (its component's clock).
+    pub(crate) handled: Timestamp,
+    /// When the behaviour's handler returned, the command sent.
+    pub(crate) done: Timestamp,
     pub(crate) v: f64,
     pub(crate) w: f64,
 }
@@ -122,8 +136,8 @@ impl Triggered for CenterFollow {
 
 /// A behaviour with its steps noted.
 pub(crate) struct Traced<C> {
-    inner: C,
-    steps: Arc<Mutex<Vec<Step>>>,
+    pub(crate) inner: C,
+    pub(crate) steps: Arc<Mutex<Vec<Step>>>,
 }
 
 /// The state of a [`Traced`] behaviour.
@@ -152,7 +166,9 @@ impl<C: Triggered> Component for Traced<C> {
         msg: C::Msg,
     ) -> Result<(), ComponentError> {
         let (update, fired) = C::trigger(&msg);
+        let handled = ctx.now();
         self.inner.handle(ctx, &mut st.inner, msg).await?;
+        let done = ctx.now();
         if let Some(s) = st.status.latest()
             && s.seq != st.last_seq
         {
@@ -162,6 +178,8 @@ impl<C: Triggered> Component for Traced<C> {
                     behaviour: C::NAME,
                     update,
                     fired,
+                    handled,
+                    done,
                     v: s.cmd.v_m_s,
                     w: s.cmd.omega_rad_s,
                 });
@@ -186,6 +204,23 @@ pub(crate) struct Matched {
     pub(crate) by_behaviour: BTreeMap<String, u64>,
     /// Commands that matched no step (the master's zero commands when nothing is wired).
     pub(crate) unattributed: u64,
+    /// Per attributed command: update published to the behaviour's handler starting; the
+    /// handler (controller, status, the send); the handler's return to the board.
+    pub(crate) legs: [Vec<u64>; 3],
+}
+
+/// The legs' names, in order.
+pub(crate) const LEGS: [&str; 3] = [
+    "update published -> behaviour's handler starts",
+    "behaviour's handler (controller, status, send)",
+    "handler returned -> motor board",
+];
+
+fn legs(legs: [Vec<u64>; 3]) -> Vec<super::SenseLeg> {
+    LEGS.iter()
+        .zip(legs)
+        .map(|(leg, v)| super::SenseLeg { leg: leg.to_string(), latency: stats::summarize(v) })
+        .collect()
 }
 
 /// Matches each command to the latest step with the same (clamped) velocities whose update is
@@ -210,6 +245,9 @@ pub(crate) fn attribute(acts: &[Act], steps: &[Step], max_v: f64, max_w: f64, ma
             Some(s) if a.at.saturating_since(s.update) <= max_age => {
                 m.from_update.push(a.at.saturating_since(s.update).as_nanos() as u64);
                 m.from_firing.push(a.at.saturating_since(s.fired).as_nanos() as u64);
+                m.legs[0].push(s.handled.saturating_since(s.update).as_nanos() as u64);
+                m.legs[1].push(s.done.saturating_since(s.handled).as_nanos() as u64);
+                m.legs[2].push(a.at.saturating_since(s.done).as_nanos() as u64);
                 *m.by_behaviour.entry(s.behaviour.to_string()).or_default() += 1;
             }
             _ => m.unattributed += 1,
@@ -308,9 +346,214 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
         by_behaviour: m.by_behaviour,
         from_update: stats::summarize(m.from_update),
         from_sensor_firing: stats::summarize(m.from_firing),
+        legs: legs(m.legs),
         stale_refused: safety.stale_refused,
         restarts: restarts.load(std::sync::atomic::Ordering::Relaxed),
     })
+}
+
+/// Both behaviours, traced, in the peer process, against a robot in the bench process.
+pub(crate) struct PeerBehaviours {
+    supervisor: orsa_actors::supervision::SupervisorRef,
+    steps: Arc<Mutex<Vec<Step>>>,
+    clock: Clock,
+    restarts: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl PeerBehaviours {
+    /// Waits for `robot`'s services, then starts both behaviours under a supervisor.
+    pub(crate) async fn start(
+        registry: &Registry,
+        transport: &orsa_net::ZenohTransport,
+        robot: &str,
+    ) -> anyhow::Result<PeerBehaviours> {
+        let needed: Vec<orsa_actors::ServiceAddr> =
+            ["distanceir", "distanceson", "robotparams", "navigationvelocity"]
+                .iter()
+                .map(|s| orsa_actors::ServiceAddr::new(robot, *s))
+                .collect();
+        if let Err(missing) = transport.wait_for(&needed, Duration::from_secs(30)).await {
+            anyhow::bail!("the robot's services {missing:?} did not appear within 30 s");
+        }
+        let config = Config::default();
+        let steps = Arc::new(Mutex::new(Vec::new()));
+        let wall = Traced {
+            inner: WallFollow { params: config.wallfollow, robot: robot.to_string() },
+            steps: Arc::clone(&steps),
+        };
+        let wall = ComponentHandle::new(registry, WallFollow::NAME, wall)?;
+        let center = Traced {
+            inner: CenterFollow { params: config.centerfollow, robot: robot.to_string() },
+            steps: Arc::clone(&steps),
+        };
+        let center = ComponentHandle::new(registry, CenterFollow::NAME, center)?;
+        let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let r = Arc::clone(&restarts);
+        let spec = SupervisorSpec::new("behaviours", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_clock(registry.clock())
+            .with_event_sink(move |e| {
+                if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
+                    r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+            })
+            .with_child(wall.child_spec())
+            .with_child(center.child_spec());
+        let supervisor =
+            Supervisor::start(spec).await.map_err(|e| anyhow!("starting the behaviours: {e}"))?;
+        Ok(PeerBehaviours { supervisor, steps, clock: registry.clock(), restarts })
+    }
+
+    /// Stops the behaviours; their steps (stamps as UNIX time) and the restarts.
+    pub(crate) async fn stop(self) -> (Vec<WireStep>, u64) {
+        let steps: Vec<Step> = std::mem::take(&mut *self.steps.lock());
+        self.supervisor.shutdown().await;
+        let wire = steps
+            .iter()
+            .map(|s| WireStep {
+                behaviour: s.behaviour.to_string(),
+                update_unix_ns: self.clock.unix_ns(s.update),
+                fired_unix_ns: self.clock.unix_ns(s.fired),
+                handled_unix_ns: self.clock.unix_ns(s.handled),
+                done_unix_ns: self.clock.unix_ns(s.done),
+                v: s.v,
+                w: s.w,
+            })
+            .collect();
+        (wire, self.restarts.load(std::sync::atomic::Ordering::Relaxed))
+    }
+}
+
+/// A step from the peer, on this process's `clock`.
+pub(crate) fn step_from_wire(w: &WireStep, clock: &Clock) -> Step {
+    let behaviour = match w.behaviour.as_str() {
+        WallFollow::NAME => WallFollow::NAME,
+        CenterFollow::NAME => CenterFollow::NAME,
+        _ => "other",
+    };
+    Step {
+        behaviour,
+        update: clock.from_unix_ns(w.update_unix_ns),
+        fired: clock.from_unix_ns(w.fired_unix_ns),
+        handled: clock.from_unix_ns(w.handled_unix_ns),
+        done: clock.from_unix_ns(w.done_unix_ns),
+        v: w.v,
+        w: w.w,
+    }
+}
+
+/// Sense to act across processes for `duration_s`: the robot, master and planner here, the
+/// behaviours in the peer that `control` reaches.
+pub(crate) async fn across(
+    registry: &Registry,
+    transport: &orsa_net::ZenohTransport,
+    control: &QueryClient<PeerRequest, PeerReply>,
+    duration_s: f64,
+) -> anyhow::Result<SenseToAct> {
+    if !(duration_s.is_finite() && duration_s > 0.0) {
+        anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
+    }
+    let config = Config::default();
+    let clock = registry.clock();
+    let sim = SimNomad200::new(World::palazzina()?, config.sim.clone(), 1)
+        .map_err(|e| anyhow!("simulator: {e}"))?;
+    let sim = SimRobot::spawn(sim, clock);
+    let acts = Arc::new(Mutex::new(Vec::new()));
+    let motors = TimedMotors { inner: sim.motor_board(), clock, acts: Arc::clone(&acts) };
+    let robot_params = config.sim.robot_params(config.robot.push_periods());
+    let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
+    let robot = config.robot.name.clone();
+    let server = Nomad200::new(config.robot.clone(), robot_params, sim.sensor_board(), motors);
+    let nomad = ComponentHandle::new(registry, &robot, server)?;
+    let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let sink = |r: Arc<std::sync::atomic::AtomicU64>| {
+        move |e: orsa_actors::supervision::SupervisorEvent| {
+            if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
+                r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    };
+    let spec = SupervisorSpec::new("robot", Strategy::OneForOne)
+        .with_intensity(10, Duration::from_secs(60))
+        .with_clock(clock)
+        .with_event_sink(sink(Arc::clone(&restarts)))
+        .with_child(nomad.child_spec());
+    let robot_sup = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the robot: {e}"))?;
+
+    let out = async {
+        match control
+            .query(PeerRequest::StartBehaviours { robot: robot.clone() }, Some(Duration::from_secs(60)))
+            .await
+        {
+            Ok(PeerReply::Ok) => {}
+            Ok(PeerReply::Failed { reason }) => {
+                anyhow::bail!("the peer could not start the behaviours: {reason}")
+            }
+            Ok(other) => anyhow::bail!("the peer answered {other:?} to starting the behaviours"),
+            Err(e) => anyhow::bail!("starting the behaviours in the peer: {e}"),
+        }
+        let needed: Vec<orsa_actors::ServiceAddr> = [WallFollow::NAME, CenterFollow::NAME]
+            .iter()
+            .flat_map(|b| {
+                [orsa_actors::ServiceAddr::new(*b, "state"), orsa_actors::ServiceAddr::new(*b, "wiring")]
+            })
+            .collect();
+        if let Err(missing) = transport.wait_for(&needed, Duration::from_secs(30)).await {
+            anyhow::bail!("the behaviours' services {missing:?} did not appear within 30 s");
+        }
+        let mut exec = config.executive.clone();
+        exec.robot = robot.clone();
+        let master = ComponentHandle::new(registry, "master", Master { params: exec })?;
+        let planner =
+            Planner { mission: config.planner.mission_for(duration_s + 5.0), executive: "master".into() };
+        let planner = ComponentHandle::new(registry, "planner", planner)?;
+        let spec = SupervisorSpec::new("executive", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_clock(clock)
+            .with_event_sink(sink(Arc::clone(&restarts)))
+            .with_child(master.child_spec())
+            .with_child(planner.child_spec());
+        let exec_sup = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the executive: {e}"))?;
+
+        // Bringing everything up and getting the robot moving is not measured.
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        let from = registry.now();
+        acts.lock().clear();
+        say(format!("  sense to act across processes: the stack in real time for {duration_s:.0} s"));
+        tokio::time::sleep(Duration::from_secs_f64(duration_s)).await;
+        let safety = QueryClient::<Empty, SafetyCounters>::connect(registry, (robot.as_str(), "safety"))?
+            .query(Empty {}, Some(Duration::from_secs(1)))
+            .await
+            .context("the robot server's safety counters")?;
+        let taken: Vec<Act> = std::mem::take(&mut *acts.lock());
+        let (wire_steps, peer_restarts) =
+            match control.query(PeerRequest::StopBehaviours, Some(Duration::from_secs(30))).await {
+                Ok(PeerReply::Steps { steps, restarts }) => (steps, restarts),
+                other => anyhow::bail!("the peer answered {other:?} to stopping the behaviours"),
+            };
+        exec_sup.shutdown().await;
+        let steps: Vec<Step> = wire_steps.iter().map(|w| step_from_wire(w, &clock)).collect();
+        let taken: Vec<Act> = taken.into_iter().filter(|a| a.at >= from).collect();
+        let m = attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+        Ok(SenseToAct {
+            duration_s,
+            commands_received: taken.len() as u64,
+            attributed: m.from_update.len() as u64,
+            unattributed: m.unattributed,
+            by_behaviour: m.by_behaviour,
+            from_update: stats::summarize(m.from_update),
+            from_sensor_firing: stats::summarize(m.from_firing),
+            legs: legs(m.legs),
+            stale_refused: safety.stale_refused,
+            restarts: restarts.load(std::sync::atomic::Ordering::Relaxed) + peer_restarts,
+        })
+    }
+    .await;
+    robot_sup.shutdown().await;
+    if let Err(e) = sim.shutdown().await {
+        tracing::warn!("simulator task ended badly: {e}");
+    }
+    out
 }
 
 #[cfg(test)]
@@ -318,7 +561,15 @@ mod tests {
     use super::*;
 
     fn step(update: u64, v: f64, w: f64) -> Step {
-        Step { behaviour: "wallfollow", update: Timestamp(update), fired: Timestamp(update - 5), v, w }
+        Step {
+            behaviour: "wallfollow",
+            update: Timestamp(update),
+            fired: Timestamp(update - 5),
+            handled: Timestamp(update + 1),
+            done: Timestamp(update + 3),
+            v,
+            w,
+        }
     }
 
     #[test]
@@ -333,6 +584,7 @@ mod tests {
         let m = attribute(&acts, &steps, 1.0, 1.0, Duration::from_secs(1));
         assert_eq!(m.from_update, vec![50, 60, 10]);
         assert_eq!(m.from_firing, vec![55, 65, 15]);
+        assert_eq!(m.legs, [vec![1, 1, 1], vec![2, 2, 2], vec![47, 57, 7]]);
         assert_eq!(m.unattributed, 1);
         assert_eq!(m.by_behaviour.get("wallfollow"), Some(&3));
     }

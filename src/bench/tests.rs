@@ -40,6 +40,7 @@ fn sample_report() -> BenchReport {
         rtf_100_robots: f64::NAN,
         zenoh_push_p50_ns: None,
         raw_zenoh_p50_ns: None,
+        sense_to_act_xproc_p99_ns: None,
         quick: true,
         orsa_version: "0".into(),
         machine: machine(),
@@ -59,9 +60,12 @@ fn sample_report() -> BenchReport {
             by_behaviour: BTreeMap::new(),
             from_update: Latency::default(),
             from_sensor_firing: Latency::default(),
+            legs: Vec::new(),
             stale_refused: 0,
             restarts: 0,
         },
+        net: None,
+        net_error: Some("not run in this test".into()),
         mission: MissionRtf { simulated_s: 1.0, wall_s: 0.0025, rtf: 400.0, distance_m: 0.1, restarts: 0 },
         scale: vec![scale(1, 2000.0), scale(10, 2500.0), scale(100, 3500.0)],
         targets: Vec::new(),
@@ -81,6 +85,7 @@ fn json_has_the_required_keys_and_nulls_for_zenoh() {
         "rtf_100_robots",
         "zenoh_push_p50_ns",
         "raw_zenoh_p50_ns",
+        "sense_to_act_xproc_p99_ns",
     ] {
         assert!(json.get(key).is_some(), "no key {key}");
     }
@@ -100,6 +105,7 @@ fn targets_are_judged_from_the_figures() {
     assert_eq!(get("one robot"), Some(true));
     assert_eq!(get("100 robots"), None, "not measured");
     assert_eq!(get("cost per robot"), Some(false), "3500 / 2000 > 1.5");
+    assert_eq!(get("zenoh push p50"), None, "the cross-process bench did not run");
 }
 
 #[test]
@@ -172,4 +178,206 @@ fn sense_to_act_attributes_commands_in_a_short_real_time_run() {
     assert_eq!(s.attributed + s.unattributed, s.commands_received);
     assert_eq!(s.from_update.n as u64, s.attributed);
     assert!(sense::run(-1.0).is_err());
+}
+
+// ---- across processes ----------------------------------------------------------------------
+
+/// The environment variable that makes [`peer_process`] serve as the peer.
+const PEER_ENV: &str = "ORSA_BENCH_TEST_PEER";
+
+/// In tests this binary is the test harness, which has no `bench --peer`: the peer is this
+/// harness again, running only [`peer_process`].
+fn test_launcher(endpoint: &str) -> anyhow::Result<std::process::Command> {
+    let mut c = std::process::Command::new(std::env::current_exe()?);
+    c.args(["bench::tests::peer_process", "--exact", "--ignored", "--nocapture", "--test-threads=1"])
+        .env(PEER_ENV, endpoint);
+    Ok(c)
+}
+
+#[test]
+#[ignore = "the peer process of the cross-process tests: they start it themselves"]
+fn peer_process() {
+    if let Ok(endpoint) = std::env::var(PEER_ENV) {
+        peer::main(&endpoint).expect("the bench peer");
+    }
+}
+
+#[test]
+fn peer_protocol_messages_round_trip_through_cbor() {
+    let go = net::Go { path: 3, seq: u64::MAX };
+    assert_eq!(net::uncbor::<net::Go>(&net::cbor(&go)), Some(go));
+    let sample =
+        net::Sample { seq: 7, sent_unix_ns: 1_763_700_000_123_456_789, readings: net::Sample::padding() };
+    assert_eq!(sample.readings.len(), 16, "sized like a DistanceScan");
+    assert_eq!(net::uncbor::<net::Sample>(&net::cbor(&sample)), Some(sample.clone()));
+    // orsa's envelope carries the same sample, unchanged (the padding has no Timestamp to map).
+    let clock =
+        orsa_actors::Clock::with_unix_epoch_ns(tokio::time::Instant::now(), 1_763_000_000_000_000_000);
+    let stamped = orsa_actors::Stamped { seq: 1, stamp: orsa_actors::Timestamp(5), value: sample.clone() };
+    let bytes = orsa_actors::wire::encode_stamped(&stamped, &clock);
+    let back = orsa_actors::wire::decode_stamped::<net::Sample>(&bytes, "sample", &clock).expect("decodes");
+    assert_eq!(back.value, sample);
+    for req in [
+        net::PeerRequest::Ping,
+        net::PeerRequest::StartBehaviours { robot: "nomad200".into() },
+        net::PeerRequest::StopBehaviours,
+        net::PeerRequest::Stream { per_path: 3, first_seq: vec![1, 5, 9, 13], spacing_us: 10_000 },
+        net::PeerRequest::TakePutCosts,
+        net::PeerRequest::Quit,
+    ] {
+        assert_eq!(net::uncbor::<net::PeerRequest>(&net::cbor(&req)), Some(req.clone()));
+    }
+    let steps = vec![net::WireStep {
+        behaviour: "wallfollow".into(),
+        update_unix_ns: 1_763_700_000_000_000_000,
+        fired_unix_ns: 1_763_699_999_990_000_000,
+        handled_unix_ns: 1_763_700_000_000_050_000,
+        done_unix_ns: 1_763_700_000_000_060_000,
+        v: 0.25,
+        w: -0.125,
+    }];
+    for reply in [
+        net::PeerReply::Ok,
+        net::PeerReply::Steps { steps, restarts: 2 },
+        net::PeerReply::Failed { reason: "no".into() },
+        net::PeerReply::PutCosts { per_path: vec![lat(1.0), Latency::default()] },
+    ] {
+        assert_eq!(net::uncbor::<net::PeerReply>(&net::cbor(&reply)), Some(reply.clone()));
+    }
+    assert_eq!(net::uncbor::<net::Go>(b"\xff\x00"), None, "garbage is refused, not a panic");
+}
+
+#[test]
+fn run_prefixes_and_keys_follow_the_port() {
+    assert_eq!(net::prefix_for("tcp/127.0.0.1:40123"), "orsabench40123");
+    let k = net::RawKeys::new("orsabench40123");
+    assert_eq!(k.go, "orsabench40123/bench/go");
+    assert_ne!(k.callback, k.task, "each raw path has its own key");
+    assert!(net::in_order(&[1, 2, 5]));
+    assert!(!net::in_order(&[1, 3, 2]));
+    assert!(!net::in_order(&[1, 1]));
+}
+
+#[test]
+fn steps_from_the_peer_land_on_this_clock() {
+    let clock =
+        orsa_actors::Clock::with_unix_epoch_ns(tokio::time::Instant::now(), 1_763_000_000_000_000_000);
+    let w = net::WireStep {
+        behaviour: "centerfollow".into(),
+        update_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_000)),
+        fired_unix_ns: clock.unix_ns(orsa_actors::Timestamp(1_500)),
+        handled_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_100)),
+        done_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_200)),
+        v: 0.1,
+        w: 0.2,
+    };
+    let s = sense::step_from_wire(&w, &clock);
+    assert_eq!((s.behaviour, s.update.0, s.fired.0), ("centerfollow", 2_000, 1_500));
+    assert_eq!((s.handled.0, s.done.0), (2_100, 2_200));
+    let odd = net::WireStep { behaviour: "someone".into(), ..w };
+    assert_eq!(sense::step_from_wire(&odd, &clock).behaviour, "other");
+}
+
+#[test]
+fn a_tiny_cross_process_run_delivers_every_sample_in_order() {
+    let sizes = net::NetSizes { warmup: 5, back_to_back: 30, at_25hz: 3, sense_s: 3.0 };
+    let report = net::run(sizes, test_launcher).expect("cross-process bench");
+    assert_eq!(report.latency.len(), 2 * net::PATHS.len(), "{:?}", report.latency);
+    for row in &report.latency {
+        let expected = if row.mode == "back-to-back" { 30 } else { 3 };
+        assert_eq!((row.sent, row.received), (expected, expected), "{row:?}");
+        assert_eq!(row.latency.n as u64, expected, "{row:?}");
+        assert!(row.in_order, "{row:?}");
+        assert_eq!(row.baseline.is_some(), row.path != net::RAW_CALLBACK, "{row:?}");
+        assert_eq!(row.sender_put.n as u64, expected, "the peer timed every send: {row:?}");
+    }
+    assert!(report.codec.orsa_bytes > report.codec.raw_bytes, "{:?}", report.codec);
+    let s = report.sense_to_act.expect("sense to act across processes");
+    assert!(s.attributed > 0, "{s:?}");
+    assert_eq!(s.attributed + s.unattributed, s.commands_received);
+    assert_eq!(s.from_update.n as u64, s.attributed);
+}
+
+fn sample_net() -> NetReport {
+    let row = |mode: &str, path: &str, p50: f64, base: f64| NetLatencyRow {
+        mode: mode.into(),
+        path: path.into(),
+        baseline: net::baseline_of(path).map(str::to_string),
+        latency: lat(p50),
+        p50_ratio: net::baseline_of(path).map(|_| p50 / base),
+        p99_ratio: None,
+        sent: 10,
+        received: 10,
+        in_order: true,
+        sender_put: lat(1000.0),
+    };
+    let mut latency = Vec::new();
+    for (mode, [component, sink, callback, task]) in
+        [("back-to-back", [45.0, 32.0, 31.0, 42.0]), ("25 Hz", [300.0, 230.0, 220.0, 260.0])]
+    {
+        let base = callback * 1e3;
+        latency.push(row(mode, net::ORSA_COMPONENT, component * 1e3, base));
+        latency.push(row(mode, net::ORSA_SINK, sink * 1e3, base));
+        latency.push(row(mode, net::RAW_CALLBACK, base, base));
+        latency.push(row(mode, net::RAW_TASK, task * 1e3, base));
+    }
+    NetReport {
+        runtime: "multi-thread (2 workers), in both processes".into(),
+        transport: "zenoh".into(),
+        startup_s: 0.5,
+        latency,
+        codec: CodecCosts {
+            raw_bytes: 944,
+            orsa_bytes: 974,
+            raw_encode_ns: 800.0,
+            raw_decode_ns: 3400.0,
+            orsa_encode_ns: 850.0,
+            orsa_decode_ns: 3600.0,
+        },
+        sense_to_act: Some(SenseToAct {
+            duration_s: 1.0,
+            commands_received: 3,
+            attributed: 2,
+            unattributed: 1,
+            by_behaviour: BTreeMap::from([("centerfollow".to_string(), 2)]),
+            from_update: lat(500_000.0),
+            from_sensor_firing: lat(5_000_000.0),
+            legs: vec![SenseLeg { leg: "a leg".into(), latency: lat(100_000.0) }],
+            stale_refused: 0,
+            restarts: 0,
+        }),
+    }
+}
+
+#[test]
+fn cross_process_targets_and_tables_come_from_the_net_report() {
+    let mut r = sample_report();
+    r.net = Some(sample_net());
+    r.net_error = None;
+    r.targets = judge(&r);
+    let find = |needle: &str| r.targets.iter().find(|t| t.target.contains(needle)).expect(needle).clone();
+    // 45 / 31 > 1.2: the headline misses; like for like (32 / 31 and 45 / 42) it is met.
+    let headline = find("back-to-back; component vs subscriber callback");
+    assert_eq!(headline.met, Some(false), "{headline:?}");
+    assert!(headline.measured.starts_with("1.45x"), "{headline:?}");
+    let like = find("back-to-back; like for like");
+    assert_eq!(like.met, Some(true), "{like:?}");
+    assert_eq!(like.measured, "1.03x, 1.07x");
+    assert_eq!(find("25 Hz; like for like").met, Some(true));
+    let text = render_markdown(&r);
+    for heading in ["## Across processes: latency", "## Sense to act, across processes"] {
+        assert!(text.contains(heading), "no {heading} in\n{text}");
+    }
+    assert!(text.contains("| back-to-back | orsa push newest -> component | 10 | 10 | yes | 10 |"), "{text}");
+    assert!(text.contains("| leg: a leg |"), "{text}");
+    assert!(text.contains("raw CBOR 944 bytes"), "{text}");
+    let json = serde_json::to_value(&r).expect("serialise");
+    assert!(json["net"]["latency"].as_array().is_some_and(|a| a.len() == 8));
+}
+
+#[test]
+fn a_failed_cross_process_bench_is_reported_not_fatal() {
+    let r = sample_report();
+    let text = render_markdown(&r);
+    assert!(text.contains("## Across processes\n\nNot measured: not run in this test."), "{text}");
 }
