@@ -179,9 +179,14 @@ fn line_of(text: &str, offset: usize) -> usize {
     text[..offset.min(text.len())].matches('\n').count() + 1
 }
 
+/// The longest time a plan may name, seconds (the longest run `orsa run` accepts).
+const MAX_TIME_S: f64 = 1e7;
+
 fn positive(v: Option<f64>, key: &str) -> Result<Option<f64>, String> {
     match v {
-        Some(x) if !(x.is_finite() && x > 0.0) => Err(format!("{key} must be a positive number, not {x}")),
+        Some(x) if !(x.is_finite() && x > 0.0 && x <= MAX_TIME_S) => {
+            Err(format!("{key} must be a positive number of seconds, at most {MAX_TIME_S:e}, not {x}"))
+        }
         other => Ok(other),
     }
 }
@@ -235,14 +240,17 @@ impl FaultPlan {
 }
 
 fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> {
-    if !(raw.at.is_finite() && raw.at >= 0.0) {
-        return Err(format!("at must be a time in seconds from 0, not {}", raw.at));
+    if !(raw.at.is_finite() && (0.0..=MAX_TIME_S).contains(&raw.at)) {
+        return Err(format!("at must be a time in seconds from 0 to {MAX_TIME_S:e}, not {}", raw.at));
     }
     let duration_s = positive(raw.duration, "duration")?;
     let every_s = positive(raw.every, "every")?;
     let until_s = match raw.until {
-        Some(u) if !(u.is_finite() && u >= raw.at) => {
-            return Err(format!("until ({u}) must be a time at or after at ({})", raw.at));
+        Some(u) if !(u.is_finite() && u >= raw.at && u <= MAX_TIME_S) => {
+            return Err(format!(
+                "until ({u}) must be a time at or after at ({}), at most {MAX_TIME_S:e}",
+                raw.at
+            ));
         }
         other => other,
     };
