@@ -57,7 +57,7 @@ use crate::push_timed::{PushTimedClient, PushTimedServer, Tick};
 use crate::query::{QueryClient, QueryRequest, QueryServer};
 use crate::registry::{IntoAddr, Registry, ServiceAddr};
 use crate::send::{SendClient, SendServer};
-use crate::sink::Mailbox;
+use crate::sink::{Envelope, Mailbox};
 use crate::stamped::{Stamped, Update};
 use crate::state::{Cancel, StateHandle, StateSlave, StateSpec};
 use crate::supervision::ChildSpec;
@@ -205,7 +205,7 @@ impl<M: ractor::Message> Ctx<M> {
     }
 
     /// The running instance, if any.
-    pub fn myself(&self) -> Option<ActorRef<M>> {
+    pub fn myself(&self) -> Option<ActorCell> {
         self.shell.mailbox.current()
     }
 
@@ -294,7 +294,7 @@ impl<M: ractor::Message> Ctx<M> {
                 &self.shell.registry,
                 self.addr(service),
                 period,
-                self.shell.mailbox.sink(map),
+                self.shell.mailbox.sink_latest(map),
             )?;
             let stopper = server.clone();
             self.shell.stoppers.lock().push(Box::new(move || stopper.stop()));
@@ -379,7 +379,7 @@ impl<M: ractor::Message> Ctx<M> {
             let client = PushNewestClient::build(
                 &self.shell.registry,
                 &addr,
-                Some(self.shell.mailbox.sink(map)),
+                Some(self.shell.mailbox.sink_latest(map)),
                 Some(self.cancel()),
             )?;
             client.subscribe()?;
@@ -401,7 +401,7 @@ impl<M: ractor::Message> Ctx<M> {
             let client = PushTimedClient::build(
                 &self.shell.registry,
                 &addr,
-                Some(self.shell.mailbox.sink(map)),
+                Some(self.shell.mailbox.sink_latest(map)),
                 Some(self.cancel()),
             )?;
             Ok(Arc::new(client))
@@ -436,11 +436,15 @@ struct Instance<C: Component> {
 }
 
 impl<C: Component> Actor for Instance<C> {
-    type Msg = C::Msg;
+    type Msg = Envelope<C::Msg>;
     type State = C::State;
     type Arguments = ();
 
-    async fn pre_start(&self, myself: ActorRef<C::Msg>, _: ()) -> Result<C::State, ActorProcessingErr> {
+    async fn pre_start(
+        &self,
+        myself: ActorRef<Envelope<C::Msg>>,
+        _: (),
+    ) -> Result<C::State, ActorProcessingErr> {
         if self.ctx.shell.removed.load(std::sync::atomic::Ordering::Acquire) {
             return Err(format!("component '{}' was removed from the system", self.ctx.name()).into());
         }
@@ -452,10 +456,11 @@ impl<C: Component> Actor for Instance<C> {
 
     async fn handle(
         &self,
-        _myself: ActorRef<C::Msg>,
-        msg: C::Msg,
+        _myself: ActorRef<Envelope<C::Msg>>,
+        envelope: Envelope<C::Msg>,
         state: &mut C::State,
     ) -> Result<(), ActorProcessingErr> {
+        let Some(msg) = envelope.open() else { return Ok(()) };
         let faults = &self.ctx.shell.faults;
         let name = self.ctx.name();
         let work = async {
@@ -494,7 +499,7 @@ impl<C: Component> Actor for Instance<C> {
 
     async fn post_stop(
         &self,
-        myself: ActorRef<C::Msg>,
+        myself: ActorRef<Envelope<C::Msg>>,
         state: &mut C::State,
     ) -> Result<(), ActorProcessingErr> {
         self.ctx.end_activities();
@@ -564,7 +569,7 @@ impl<C: Component> ComponentHandle<C> {
     }
 
     /// The running instance, if any.
-    pub fn instance(&self) -> Option<ActorRef<C::Msg>> {
+    pub fn instance(&self) -> Option<ActorCell> {
         self.ctx.myself()
     }
 

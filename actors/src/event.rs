@@ -82,6 +82,7 @@ pub(crate) struct EventEndpoint<P, E> {
     activations: Mutex<BTreeMap<ActivationId, Activation<P, E>>>,
     next_id: AtomicU64,
     seq: AtomicU64,
+    account: crate::ledger::Account,
 }
 
 impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
@@ -106,6 +107,10 @@ struct WireFired<E> {
 }
 
 impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
+    fn clients(&self) -> Option<usize> {
+        Some(self.activations.lock().len())
+    }
+
     fn serve_activate(
         self: Arc<Self>,
         mode: EventMode,
@@ -170,6 +175,7 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             activations: Mutex::new(BTreeMap::new()),
             next_id: AtomicU64::new(1),
             seq: AtomicU64::new(0),
+            account: registry.account(&addr, PatternKind::Event),
         });
         registry.register_service(addr, info::<P, E>(), endpoint.clone(), endpoint.clone())?;
         Ok(EventServer { endpoint, test: Arc::new(test) })
@@ -197,7 +203,7 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
             let msg = Fired { activation: id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
             ep.tap.record(&ep.topic, E::ID, msg.event.stamp, &msg);
-            match sink.deliver(msg) {
+            match sink.deliver_with(msg, ep.account.offer(None, seq)) {
                 Ok(()) => {
                     fired += 1;
                     if mode == EventMode::Single {

@@ -37,6 +37,7 @@ pub mod component;
 pub mod error;
 pub mod event;
 pub mod fault;
+pub mod ledger;
 mod push;
 pub mod push_newest;
 pub mod push_timed;

@@ -11,6 +11,7 @@ use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::fault::Verdict;
+use crate::ledger::{Account, Stream};
 use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
@@ -31,6 +32,17 @@ struct Subscriber<T> {
     every: u64,
     count: AtomicU64,
     sink: Sink<Update<T>>,
+    /// What this subscriber has seen of the server's sequence numbers.
+    stream: Arc<Stream>,
+}
+
+/// What a publication does at each subscriber whose turn it is.
+#[derive(Clone, Copy)]
+enum Hand {
+    /// Hands it over this many times.
+    Copies(usize),
+    /// Loses it (a fault).
+    Drop,
 }
 
 /// Delivery figures of one push service.
@@ -61,6 +73,7 @@ pub(crate) struct PushEndpoint<T> {
     next_id: AtomicU64,
     delivered: AtomicU64,
     failed: AtomicU64,
+    account: Account,
     /// Whether the server produces (always true for push newest).
     pub(crate) active: watch::Sender<bool>,
 }
@@ -85,6 +98,7 @@ impl<T: CommObject> PushEndpoint<T> {
             next_id: AtomicU64::new(1),
             delivered: AtomicU64::new(0),
             failed: AtomicU64::new(0),
+            account: registry.account(&addr, kind),
             active: watch::Sender::new(active),
         });
         registry.register_service(addr, info::<T>(kind), endpoint.clone(), endpoint.clone())?;
@@ -106,26 +120,26 @@ impl<T: CommObject> PushEndpoint<T> {
                 *latest = Some(Arc::clone(&update));
             }
         }
-        let copies = match self.faults.verdict(&self.addr) {
-            Verdict::Deliver => 1,
-            Verdict::Drop => return 0,
-            Verdict::Duplicate => 2,
+        let hand = match self.faults.verdict(&self.addr) {
+            Verdict::Deliver => Hand::Copies(1),
+            Verdict::Drop => Hand::Drop,
+            Verdict::Duplicate => Hand::Copies(2),
             Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
                 (Ok(rt), Some(me)) => {
                     rt.spawn(async move {
                         tokio::time::sleep(d).await;
-                        me.deliver(&update, 1);
+                        me.deliver(&update, Hand::Copies(1));
                     });
                     return 0;
                 }
-                _ => 1,
+                _ => Hand::Copies(1),
             },
         };
-        self.deliver(&update, copies)
+        self.deliver(&update, hand)
     }
 
-    /// Hands `update` (`copies` times) to every subscriber whose turn it is.
-    fn deliver(&self, update: &Update<T>, copies: usize) -> usize {
+    /// Hands `update` to every subscriber whose turn it is.
+    fn deliver(&self, update: &Update<T>, hand: Hand) -> usize {
         let subs = Arc::clone(&self.subs.read());
         let mut delivered = 0;
         let mut closed = Vec::new();
@@ -134,9 +148,18 @@ impl<T: CommObject> PushEndpoint<T> {
             if n % s.every != 0 {
                 continue;
             }
-            let mut result = Ok(());
-            for _ in 0..copies {
-                result = result.and(s.sink.deliver(Arc::clone(update)));
+            let copies = match hand {
+                Hand::Copies(c) => c,
+                Hand::Drop => {
+                    self.account.dropped();
+                    continue;
+                }
+            };
+            let mut result =
+                s.sink.deliver_with(Arc::clone(update), self.account.offer(Some(&s.stream), update.seq));
+            for _ in 1..copies {
+                let copy = self.account.copy(Some(&s.stream), update.seq);
+                result = result.and(s.sink.deliver_with(Arc::clone(update), copy));
             }
             match result {
                 Ok(()) => delivered += 1,
@@ -164,7 +187,13 @@ impl<T: CommObject> PushEndpoint<T> {
 
     pub(crate) fn subscribe(&self, every: NonZeroU32, sink: Sink<Update<T>>) -> u64 {
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
-        let sub = Arc::new(Subscriber { id, every: u64::from(every.get()), count: AtomicU64::new(0), sink });
+        let sub = Arc::new(Subscriber {
+            id,
+            every: u64::from(every.get()),
+            count: AtomicU64::new(0),
+            sink,
+            stream: Arc::new(Stream::default()),
+        });
         let mut subs = self.subs.write();
         let mut next = Vec::with_capacity(subs.len() + 1);
         next.extend(subs.iter().cloned());
@@ -196,6 +225,10 @@ impl<T: CommObject> PushEndpoint<T> {
 }
 
 impl<T: CommObject> Served for PushEndpoint<T> {
+    fn clients(&self) -> Option<usize> {
+        Some(self.subs.read().len())
+    }
+
     fn serve_subscribe(self: Arc<Self>, every: NonZeroU32, sink: ByteSink) -> PatternResult<Subscription> {
         let clock = self.clock;
         let bytes_sink = Sink::from_fn(move |u: Update<T>| {
@@ -276,7 +309,7 @@ impl<T: CommObject> PushClientCore<T> {
         })?;
         let newest = Arc::clone(&self.newest);
         let forward = self.forward.clone();
-        let sink = Sink::from_fn(move |u: Update<T>| {
+        let sink = Sink::with_receipts(move |u: Update<T>, receipt| {
             newest.send_if_modified(|cur| {
                 let newer = cur.as_ref().is_none_or(|c| c.seq < u.seq);
                 if newer {
@@ -288,8 +321,11 @@ impl<T: CommObject> PushClientCore<T> {
                 newer && newest.receiver_count() > 0
             });
             match &forward {
-                Some(f) => f.deliver(u),
-                None => Ok(()),
+                Some(f) => f.deliver_with(u, receipt),
+                None => {
+                    crate::ledger::settle::<()>(receipt, &Ok(()));
+                    Ok(())
+                }
             }
         });
         // Publishers hold no lock while they deliver, so holding ours here cannot deadlock

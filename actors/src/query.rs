@@ -87,6 +87,7 @@ pub(crate) struct QueryEndpoint<Req, Ans> {
     answer_topic: Arc<str>,
     tap: crate::tap::TapSlot,
     sink: Sink<QueryRequest<Req, Ans>>,
+    account: crate::ledger::Account,
 }
 
 impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
@@ -109,7 +110,9 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
                 answer_topic: Arc::clone(&self.answer_topic),
             },
         };
-        self.sink.deliver(msg).map_err(|_| PatternError::Unavailable(self.addr.clone()))?;
+        // A request that vanishes drops its responder, so its client always hears.
+        let receipt = self.account.offer(None, seq).map(crate::ledger::Receipt::reported);
+        self.sink.deliver_with(msg, receipt).map_err(|_| PatternError::Unavailable(self.addr.clone()))?;
         Ok(rx)
     }
 }
@@ -157,6 +160,7 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
             tap: registry.tap_slot(),
             addr: addr.clone(),
             clock: registry.clock(),
+            account: registry.account(&addr, PatternKind::Query),
             sink,
         });
         registry.register_service(addr, info::<Req, Ans>(), endpoint.clone(), endpoint.clone())?;

@@ -219,6 +219,7 @@ struct Inner {
     transport: RwLock<Option<Arc<dyn Transport>>>,
     decode_errors: std::sync::atomic::AtomicU64,
     faults: crate::fault::Faults,
+    ledger: crate::ledger::Ledger,
 }
 
 /// The directory of one orsa system; cheap to clone, shared by all its components.
@@ -252,6 +253,7 @@ impl Registry {
                 transport: RwLock::new(None),
                 decode_errors: std::sync::atomic::AtomicU64::new(0),
                 faults: crate::fault::Faults::new(clock),
+                ledger: crate::ledger::Ledger::default(),
             }),
         }
     }
@@ -269,6 +271,26 @@ impl Registry {
     /// The fault switchboard of this system (see [`crate::fault`]).
     pub fn faults(&self) -> crate::fault::Faults {
         self.inner.faults.clone()
+    }
+
+    /// For every push and event service hosted here, how many clients hold a subscription or
+    /// an activation now (a restart must leave these as they were).
+    pub fn clients(&self) -> BTreeMap<ServiceAddr, usize> {
+        self.inner
+            .services
+            .read()
+            .iter()
+            .filter_map(|(a, s)| s.served.clients().map(|n| (a.clone(), n)))
+            .collect()
+    }
+
+    /// The delivery accounting of this system (see [`crate::ledger`]); off until enabled.
+    pub fn ledger(&self) -> crate::ledger::Ledger {
+        self.inner.ledger.clone()
+    }
+
+    pub(crate) fn account(&self, addr: &ServiceAddr, kind: PatternKind) -> crate::ledger::Account {
+        self.inner.ledger.account(addr, kind)
     }
 
     /// Installs (or, with `None`, removes) the tap that sees every message (see

@@ -23,6 +23,7 @@
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::fault::Verdict;
+use crate::ledger::{Account, Receipt, Stream};
 use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
@@ -42,29 +43,38 @@ pub(crate) struct SendEndpoint<T> {
     tap: crate::tap::TapSlot,
     sink: Sink<Stamped<T>>,
     received: AtomicU64,
+    account: Account,
 }
 
 impl<T: CommObject> SendEndpoint<T> {
-    pub(crate) fn accept(&self, msg: Stamped<T>) -> PatternResult<()> {
+    /// Hands `msg` to the server. `from` is the sending client's sequence (for duplicate
+    /// detection), unknown for messages from other processes.
+    pub(crate) fn accept(&self, msg: Stamped<T>, from: Option<&Arc<Stream>>) -> PatternResult<()> {
         self.tap.record(&self.topic, T::ID, msg.stamp, &msg);
         match self.faults.verdict(&self.addr) {
             Verdict::Deliver => {}
-            Verdict::Drop => return Ok(()),
+            Verdict::Drop => {
+                self.account.dropped();
+                return Ok(());
+            }
             Verdict::Duplicate => {
-                let _ = self.sink.deliver(msg.clone());
+                let _ = self.sink.deliver_with(msg.clone(), self.account.copy(from, msg.seq));
             }
             Verdict::Delay(d) => {
                 if let Ok(rt) = tokio::runtime::Handle::try_current() {
                     let sink = self.sink.clone();
+                    // The sender was told it was handed over: failing later is a loss.
+                    let receipt = self.account.offer(from, msg.seq).map(Receipt::silent);
                     rt.spawn(async move {
                         tokio::time::sleep(d).await;
-                        let _ = sink.deliver(msg);
+                        let _ = sink.deliver_with(msg, receipt);
                     });
                     return Ok(());
                 }
             }
         }
-        match self.sink.deliver(msg) {
+        let receipt = self.account.offer(from, msg.seq);
+        match self.sink.deliver_with(msg, receipt) {
             Ok(()) => {
                 self.received.fetch_add(1, Ordering::Relaxed);
                 Ok(())
@@ -80,7 +90,7 @@ impl<T: CommObject> crate::transport::Served for SendEndpoint<T> {
     fn serve_send(&self, payload: &[u8]) -> PatternResult<()> {
         let msg = crate::wire::decode_stamped::<T>(payload, T::ID, &self.clock)
             .map_err(|e| PatternError::Decode(format!("to {}: {e}", self.addr)))?;
-        self.accept(msg)
+        self.accept(msg, None)
     }
 }
 
@@ -108,6 +118,7 @@ impl<T: CommObject> SendServer<T> {
             clock: registry.clock(),
             sink,
             received: AtomicU64::new(0),
+            account: registry.account(&addr, PatternKind::Send),
         });
         registry.register_service(addr, info::<T>(), endpoint.clone(), endpoint.clone())?;
         Ok(SendServer { endpoint })
@@ -132,6 +143,8 @@ pub struct SendClient<T> {
     /// The last sequence number used. Numbering and handing over happen under this lock, so
     /// clones sending from several threads still arrive in sequence order.
     seq: Arc<parking_lot::Mutex<u64>>,
+    /// What the receiver remembers of this client's sequence numbers.
+    stream: Arc<Stream>,
     _t: PhantomData<fn(T)>,
 }
 
@@ -142,6 +155,7 @@ impl<T> Clone for SendClient<T> {
             addr: self.addr.clone(),
             endpoint: self.endpoint.clone(),
             seq: Arc::clone(&self.seq),
+            stream: Arc::clone(&self.stream),
             _t: PhantomData,
         }
     }
@@ -174,6 +188,7 @@ impl<T: CommObject> SendClient<T> {
             addr,
             endpoint,
             seq: Arc::new(parking_lot::Mutex::new(0)),
+            stream: Arc::new(Stream::default()),
             _t: PhantomData,
         })
     }
@@ -188,7 +203,7 @@ impl<T: CommObject> SendClient<T> {
     /// Sends an already stamped message unchanged (for forwarding and replay).
     pub fn send_stamped(&self, msg: Stamped<T>) -> PatternResult<()> {
         match &self.endpoint {
-            Via::Local(e) => e.accept(msg),
+            Via::Local(e) => e.accept(msg, Some(&self.stream)),
             Via::Remote(r) => {
                 r.transport.send(&r.addr, crate::wire::encode_stamped(&msg, &self.registry.clock()))
             }

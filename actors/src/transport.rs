@@ -124,6 +124,12 @@ pub trait Served: Send + Sync + 'static {
         let _ = (mode, params, sink);
         Err(wrong("activate"))
     }
+
+    /// How many clients hold a subscription (push) or an activation (event) here now; `None`
+    /// for patterns without them.
+    fn clients(&self) -> Option<usize> {
+        None
+    }
 }
 
 fn wrong(op: &str) -> PatternError {

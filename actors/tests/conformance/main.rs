@@ -3,6 +3,7 @@
 
 mod event;
 mod fault;
+mod ledger;
 mod push_newest;
 mod push_timed;
 mod query;

@@ -1,0 +1,412 @@
+//! Delivery accounting: for every service, what was offered, what reached a handler, what the
+//! sender was told failed, what a fault plan took away, what arrived twice, and what vanished
+//! without anyone being told.
+//!
+//! Each message a pattern hands to a receiver carries a [`Receipt`] while the registry's
+//! [`Ledger`] is enabled ([`Ledger::enable`]; off by default, so the message path costs one
+//! atomic load). The receipt is settled exactly once:
+//! - **delivered** when a component's handler receives the message (or, for a sink that is not
+//!   a component, when the sink takes it);
+//! - **duplicate** instead, when the receiver already saw that sequence number from the same
+//!   sender (a window of the last [`WINDOW`] numbers per sender);
+//! - **failed** when the sender was told: the hand-over returned an error;
+//! - **lost** when it is dropped unsettled: the message vanished and its sender believes it
+//!   was handed over. A message queued for a component whose instance dies is not lost: the
+//!   mailbox hands it to the next instance (see [`Mailbox`](crate::Mailbox)), except a push
+//!   update, which is **superseded** (the next update replaces it); it is lost only
+//!   if the component leaves the system for good with the message queued, or if a message a
+//!   delay fault held back (its sender already told it was handed over) cannot be handed over
+//!   when it is let go.
+//!
+//! Messages a fault plan drops are counted apart ([`DeliveryCounts::dropped`]): they are the
+//! plan's, not the system's. What remains unsettled when the counts are read is in flight
+//! (queued, or held back by a delay fault).
+//!
+//! Duplicates are told apart by sender: a Send client (and its clones), a push subscription.
+//! Messages that arrive from other processes carry their sender's sequence numbers but not its
+//! identity, so they are counted delivered, never duplicate.
+
+use crate::registry::{PatternKind, ServiceAddr};
+use parking_lot::Mutex;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// How many sequence numbers behind the newest a receiver remembers, per sender.
+pub const WINDOW: u64 = 1024;
+
+/// The figures of one service.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DeliveryCounts {
+    /// Messages handed to the pattern by senders (a push counts once per subscriber whose
+    /// turn it was).
+    pub offered: u64,
+    /// Extra copies a duplicate fault made.
+    pub copies_injected: u64,
+    /// Messages that reached a receiver (first arrival).
+    pub delivered: u64,
+    /// Arrivals of a sequence number the receiver had already seen from that sender.
+    pub duplicates: u64,
+    /// Messages whose sender was told they could not be handed over (the receiver was
+    /// restarting or gone).
+    pub failed: u64,
+    /// Messages a fault plan dropped on purpose.
+    pub dropped: u64,
+    /// Messages that vanished while their sender believed them handed over.
+    pub lost: u64,
+    /// Messages queued for a component instance that died, handed to its next instance.
+    pub redelivered: u64,
+    /// Push updates queued for a component instance that died, not handed to the next
+    /// instance because a newer update replaces them.
+    pub superseded: u64,
+}
+
+impl DeliveryCounts {
+    /// Messages not settled yet: queued, or held back by a delay fault.
+    pub fn in_flight(&self) -> u64 {
+        (self.offered + self.copies_injected).saturating_sub(
+            self.delivered + self.duplicates + self.failed + self.dropped + self.lost + self.superseded,
+        )
+    }
+
+    /// Adds `other`'s figures to these.
+    pub fn add(&mut self, other: &DeliveryCounts) {
+        self.offered += other.offered;
+        self.copies_injected += other.copies_injected;
+        self.delivered += other.delivered;
+        self.duplicates += other.duplicates;
+        self.failed += other.failed;
+        self.dropped += other.dropped;
+        self.lost += other.lost;
+        self.redelivered += other.redelivered;
+        self.superseded += other.superseded;
+    }
+}
+
+/// The running figures of one service.
+#[derive(Debug, Default)]
+pub(crate) struct Tally {
+    kind: Option<PatternKind>,
+    offered: AtomicU64,
+    copies_injected: AtomicU64,
+    delivered: AtomicU64,
+    duplicates: AtomicU64,
+    failed: AtomicU64,
+    dropped: AtomicU64,
+    lost: AtomicU64,
+    redelivered: AtomicU64,
+    superseded: AtomicU64,
+}
+
+impl Tally {
+    fn counts(&self) -> DeliveryCounts {
+        let l = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        DeliveryCounts {
+            offered: l(&self.offered),
+            copies_injected: l(&self.copies_injected),
+            delivered: l(&self.delivered),
+            duplicates: l(&self.duplicates),
+            failed: l(&self.failed),
+            dropped: l(&self.dropped),
+            lost: l(&self.lost),
+            redelivered: l(&self.redelivered),
+            superseded: l(&self.superseded),
+        }
+    }
+}
+
+/// What one receiver remembers of one sender's sequence numbers: the newest, and which of the
+/// [`WINDOW`] before it arrived.
+#[derive(Debug, Default)]
+pub(crate) struct Stream {
+    seen: Mutex<Window>,
+}
+
+#[derive(Debug, Default)]
+struct Window {
+    newest: u64,
+    /// Bit `k` of word `k / 64`: whether `newest - k` arrived.
+    bits: [u64; (WINDOW / 64) as usize],
+}
+
+impl Stream {
+    /// Records that `n` arrived; whether it had arrived before. Numbers older than the window
+    /// are taken as first arrivals.
+    fn arrived(&self, n: u64) -> bool {
+        let mut w = self.seen.lock();
+        if n > w.newest {
+            let shift = n - w.newest;
+            w.newest = n;
+            if shift >= WINDOW {
+                w.bits = [0; (WINDOW / 64) as usize];
+            } else {
+                shift_window(&mut w.bits, shift as usize);
+            }
+            w.bits[0] |= 1;
+            return false;
+        }
+        let back = w.newest - n;
+        if back >= WINDOW {
+            return false;
+        }
+        let (word, bit) = ((back / 64) as usize, back % 64);
+        let before = w.bits[word] & (1 << bit) != 0;
+        w.bits[word] |= 1 << bit;
+        before
+    }
+}
+
+/// Moves every bit `shift` places towards older numbers (higher indices).
+fn shift_window(bits: &mut [u64], shift: usize) {
+    let (words, rest) = (shift / 64, shift % 64);
+    for i in (0..bits.len()).rev() {
+        let from = i.checked_sub(words);
+        let hi = from.map_or(0, |f| bits[f] << rest);
+        let lo = match (from, rest) {
+            (Some(f), r) if r > 0 && f > 0 => bits[f - 1] >> (64 - r),
+            _ => 0,
+        };
+        bits[i] = hi | lo;
+    }
+}
+
+/// A message's claim on its service's figures, settled once (see the module docs).
+#[derive(Debug)]
+pub struct Receipt {
+    tally: Arc<Tally>,
+    stream: Option<Arc<Stream>>,
+    n: u64,
+    live: bool,
+    /// Whether a failure to hand the message over is a loss: its sender was already told it
+    /// was handed over (a delay fault held it back).
+    silent: bool,
+    /// Whether the message's sender hears if it vanishes (a query's client does).
+    reported: bool,
+}
+
+impl Receipt {
+    /// This receipt, for a message whose sender hears if it vanishes.
+    pub(crate) fn reported(mut self) -> Self {
+        self.reported = true;
+        self
+    }
+
+    /// This receipt, for a message whose sender was already told it was handed over.
+    pub(crate) fn silent(mut self) -> Self {
+        self.silent = true;
+        self
+    }
+
+    /// The message reached its receiver.
+    pub(crate) fn arrived(mut self) {
+        self.live = false;
+        let again = self.stream.as_ref().is_some_and(|s| s.arrived(self.n));
+        let counter = if again { &self.tally.duplicates } else { &self.tally.delivered };
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The sender was told the message could not be handed over.
+    pub(crate) fn failed(mut self) {
+        self.live = false;
+        let counter = if self.silent { &self.tally.lost } else { &self.tally.failed };
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The message was replaced by a newer one before its receiver handled it.
+    pub(crate) fn superseded(mut self) {
+        self.live = false;
+        self.tally.superseded.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The message is being handed to another instance of its receiver.
+    pub(crate) fn redelivered(&self) {
+        self.tally.redelivered.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+impl Drop for Receipt {
+    fn drop(&mut self) {
+        if self.live {
+            let counter = if self.reported { &self.tally.failed } else { &self.tally.lost };
+            counter.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// The figures of one service, as a sender sees them: makes receipts and counts what never
+/// gets one.
+#[derive(Debug, Clone)]
+pub(crate) struct Account {
+    enabled: Arc<AtomicBool>,
+    tally: Arc<Tally>,
+}
+
+impl Account {
+    /// Whether messages are being accounted (one atomic load).
+    pub(crate) fn on(&self) -> bool {
+        self.enabled.load(Ordering::Relaxed)
+    }
+
+    /// One message offered, with its receipt (`None` while accounting is off). `stream` and
+    /// `n` identify it for duplicate detection.
+    pub(crate) fn offer(&self, stream: Option<&Arc<Stream>>, n: u64) -> Option<Receipt> {
+        self.on().then(|| {
+            self.tally.offered.fetch_add(1, Ordering::Relaxed);
+            self.receipt(stream, n)
+        })
+    }
+
+    /// The receipt of an extra copy a duplicate fault made of message `n`.
+    pub(crate) fn copy(&self, stream: Option<&Arc<Stream>>, n: u64) -> Option<Receipt> {
+        self.on().then(|| {
+            self.tally.copies_injected.fetch_add(1, Ordering::Relaxed);
+            self.receipt(stream, n)
+        })
+    }
+
+    /// One message offered that a fault plan dropped.
+    pub(crate) fn dropped(&self) {
+        if self.on() {
+            self.tally.offered.fetch_add(1, Ordering::Relaxed);
+            self.tally.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn receipt(&self, stream: Option<&Arc<Stream>>, n: u64) -> Receipt {
+        Receipt {
+            tally: Arc::clone(&self.tally),
+            stream: stream.cloned(),
+            n,
+            live: true,
+            silent: false,
+            reported: false,
+        }
+    }
+}
+
+/// Settles `receipt` by the outcome of a hand-over to a sink that is not a component.
+pub(crate) fn settle<E>(receipt: Option<Receipt>, result: &Result<(), E>) {
+    if let Some(r) = receipt {
+        match result {
+            Ok(()) => r.arrived(),
+            Err(_) => r.failed(),
+        }
+    }
+}
+
+/// The delivery figures of one system, per service (see the module docs).
+#[derive(Clone, Default)]
+pub struct Ledger {
+    enabled: Arc<AtomicBool>,
+    tallies: Arc<Mutex<BTreeMap<ServiceAddr, Arc<Tally>>>>,
+}
+
+impl std::fmt::Debug for Ledger {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ledger")
+            .field("enabled", &self.enabled.load(Ordering::Relaxed))
+            .finish_non_exhaustive()
+    }
+}
+
+impl Ledger {
+    /// Starts (or stops) accounting for messages offered from now on.
+    pub fn enable(&self, on: bool) {
+        self.enabled.store(on, Ordering::Relaxed);
+    }
+
+    /// Whether messages are being accounted.
+    pub fn is_enabled(&self) -> bool {
+        self.enabled.load(Ordering::Relaxed)
+    }
+
+    /// The account of the service at `addr` (made on first use; a service registered again
+    /// under the same address keeps adding to the same figures).
+    pub(crate) fn account(&self, addr: &ServiceAddr, kind: PatternKind) -> Account {
+        let tally = Arc::clone(
+            self.tallies
+                .lock()
+                .entry(addr.clone())
+                .or_insert_with(|| Arc::new(Tally { kind: Some(kind), ..Tally::default() })),
+        );
+        Account { enabled: Arc::clone(&self.enabled), tally }
+    }
+
+    /// The figures so far, per service, with each service's pattern.
+    pub fn counts(&self) -> Vec<(ServiceAddr, PatternKind, DeliveryCounts)> {
+        self.tallies.lock().iter().filter_map(|(a, t)| t.kind.map(|k| (a.clone(), k, t.counts()))).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn account() -> (Ledger, Account) {
+        let ledger = Ledger::default();
+        ledger.enable(true);
+        let addr = ServiceAddr::new("a", "b");
+        let account = ledger.account(&addr, PatternKind::Send);
+        (ledger, account)
+    }
+
+    #[test]
+    fn every_receipt_is_settled_once_and_the_unsettled_are_lost() {
+        let (ledger, acc) = account();
+        let s = Arc::new(Stream::default());
+        acc.offer(Some(&s), 1).expect("on").arrived();
+        acc.offer(Some(&s), 2).expect("on").failed();
+        drop(acc.offer(Some(&s), 3));
+        acc.dropped();
+        let held = acc.offer(Some(&s), 4);
+        let c = ledger.counts()[0].2;
+        assert_eq!((c.offered, c.delivered, c.failed, c.lost, c.dropped), (5, 1, 1, 1, 1));
+        assert_eq!(c.in_flight(), 1, "the held receipt");
+        drop(held);
+        assert_eq!(ledger.counts()[0].2.in_flight(), 0);
+    }
+
+    #[test]
+    fn a_number_seen_again_from_the_same_sender_is_a_duplicate() {
+        let (ledger, acc) = account();
+        let (s1, s2) = (Arc::new(Stream::default()), Arc::new(Stream::default()));
+        acc.offer(Some(&s1), 7).expect("on").arrived();
+        acc.copy(Some(&s1), 7).expect("on").arrived();
+        acc.offer(Some(&s2), 7).expect("on").arrived();
+        acc.offer(None, 7).expect("on").arrived();
+        acc.offer(None, 7).expect("on").arrived();
+        let c = ledger.counts()[0].2;
+        assert_eq!((c.delivered, c.duplicates, c.copies_injected), (4, 1, 1));
+        assert_eq!(c.in_flight(), 0);
+    }
+
+    #[test]
+    fn the_window_remembers_out_of_order_numbers_and_forgets_the_oldest() {
+        let s = Stream::default();
+        for n in [5, 3, 9, 4] {
+            assert!(!s.arrived(n), "{n} is new");
+        }
+        for n in [5, 3, 9, 4] {
+            assert!(s.arrived(n), "{n} was seen");
+        }
+        assert!(!s.arrived(8));
+        assert!(!s.arrived(9 + 63));
+        assert!(s.arrived(9), "63 behind: still in the first word");
+        assert!(!s.arrived(9 + 64 + 130));
+        assert!(s.arrived(9), "194 behind: across words");
+        assert!(s.arrived(72), "carried across the word boundary");
+        assert!(!s.arrived(7), "never seen");
+        assert!(!s.arrived(5000));
+        assert!(!s.arrived(9), "beyond the window: taken as new");
+    }
+
+    #[test]
+    fn nothing_is_counted_while_off() {
+        let (ledger, acc) = account();
+        ledger.enable(false);
+        assert!(acc.offer(None, 1).is_none());
+        acc.dropped();
+        assert_eq!(ledger.counts()[0].2, DeliveryCounts::default());
+    }
+}
