@@ -36,6 +36,25 @@ async fn a_behaviour_panicking_at_10_hz_for_ten_minutes_never_leaves_the_robot_o
     assert_eq!(report.bumps, 0);
     assert_eq!(report.stalls, 0);
     assert!(report.distance_m > 100.0, "the robot kept patrolling: {} m", report.distance_m);
+    held_together(&report);
+}
+
+/// Nothing that must arrive was lost, the motors never ran unwired or on a stale command, and
+/// every subscription and wiring stayed as it should.
+fn held_together(report: &orsa::mission::report::Report) {
+    let d = &report.delivery;
+    assert_eq!(d.lost_must_arrive, 0, "{:?}", d.services);
+    assert!(d.total.offered > 0, "the ledger counted the run");
+    for (service, s) in &d.services {
+        assert!(s.in_flight <= 2, "{service}: {s:?}");
+    }
+    let i = &report.integrity;
+    assert_eq!(i.driven_unwired_s, 0.0, "{i:?}");
+    assert_eq!(i.driven_on_stale_command_s, 0.0, "{i:?}");
+    assert!(i.client_checks > 0 && i.wiring_checks > 0, "{i:?}");
+    assert_eq!(i.client_mismatches, 0, "{i:?}");
+    assert_eq!(i.wiring_mismatches, 0, "{i:?}");
+    assert!(i.wiring_matches_master, "{i:?}");
 }
 
 /// Every kind a single process can have, repeatedly, over five simulated minutes.
@@ -66,4 +85,10 @@ async fn the_standard_plan_is_survived_and_accounted_for() {
     assert!(f.hardware_altered > 0);
     assert_eq!(report.bumps, 0);
     assert!(report.distance_m > 40.0, "the robot kept patrolling: {} m", report.distance_m);
+    held_together(&report);
+    // The receivers saw each injected copy as a duplicate, and the plan's drops are its own.
+    let v = &report.delivery.services["nomad200/navigationvelocity"];
+    assert_eq!(v.counts.duplicates, v.counts.copies_injected, "{v:?}");
+    assert_eq!(v.counts.dropped, velocity.dropped, "{v:?}");
+    assert!(v.counts.duplicates > 0);
 }

@@ -74,6 +74,8 @@ struct State {
     rng: ChaCha8Rng,
     /// Reads altered and commands swallowed so far.
     altered: u64,
+    /// When the motors last got a command (on tokio's clock), and whether it moves them.
+    last_command: Option<(tokio::time::Instant, bool)>,
 }
 
 /// The switch for the faults of one robot's boards; cheap to clone.
@@ -93,7 +95,19 @@ impl BoardFaults {
             stalled: false,
             rng: ChaCha8Rng::seed_from_u64(seed ^ 0x6661_756c_7479),
             altered: 0,
+            last_command: None,
         })))
+    }
+
+    /// How long ago the motors got their last command, and whether it moves them (`None`
+    /// before the first). A watch on the motors' side of the robot server: a robot driving on
+    /// a command older than the velocity timeout shows here, whatever the server believes.
+    pub fn last_command(&self) -> Option<(Duration, bool)> {
+        self.0.lock().last_command.map(|(at, moving)| (at.elapsed(), moving))
+    }
+
+    fn commanded(&self, moving: bool) {
+        self.0.lock().last_command = Some((tokio::time::Instant::now(), moving));
     }
 
     /// Sets (or with `None` clears) the fault of `ring`.
@@ -238,6 +252,7 @@ impl<M> FaultyMotorBoard<M> {
 
 impl<M: MotorBoard> MotorBoard for FaultyMotorBoard<M> {
     async fn move_velocity(&self, v: AxisVelocities) -> Result<(), BoardError> {
+        self.faults.commanded(v.translate_m_s != 0.0 || v.steer_rad_s != 0.0 || v.turret_rad_s != 0.0);
         if self.faults.stalled() {
             // The command is taken; the wheels do not turn.
             return self.inner.stop().await;
@@ -245,6 +260,7 @@ impl<M: MotorBoard> MotorBoard for FaultyMotorBoard<M> {
         self.inner.move_velocity(v).await
     }
     async fn stop(&self) -> Result<(), BoardError> {
+        self.faults.commanded(false);
         self.inner.stop().await
     }
     async fn wait_stop(&self, timeout: Duration) -> Result<(), BoardError> {

@@ -2,12 +2,14 @@
 //!
 //! - [`stack`]: brings the components up under one supervisor;
 //! - [`metrics`]: the thesis' measures, from ground truth;
-//! - [`report`]: `report.json` and the table against the original experiment.
+//! - [`report`]: `report.json` and the table against the original experiment;
+//! - [`integrity`]: what was delivered and lost, and whether the stack held together.
 //!
 //! [`run`] is what `orsa run` does, minus argument parsing and printing: it runs on whatever
 //! tokio runtime calls it, so the same code runs an hour in seconds on a paused clock or in
 //! real time, and tests call it directly.
 
+pub mod integrity;
 pub mod metrics;
 pub mod recording;
 pub mod report;
@@ -158,12 +160,25 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let mut driving: Option<String> = None;
     let start = tokio::time::Instant::now();
     let mut ticks = tokio::time::interval_at(start + period, period);
+    let mut watch = integrity::Watch::new(
+        stack.board_faults.clone(),
+        Duration::from_secs_f64(opts.config.robot.cmd_timeout_s),
+    );
+    let behaviours = opts.config.executive.behaviours();
+    let behaviours: Vec<&str> = behaviours.iter().map(String::as_str).collect();
+    let check_every = ((1.0 / opts.sample_period_s).round() as u64).max(1);
     for k in 1..=samples {
         ticks.tick().await;
         while let Ok(change) = wrx.try_recv() {
             driving = change.driving.clone();
         }
         let t = stack.truth.truth();
+        let t_s = k as f64 * opts.sample_period_s;
+        watch.sample(t_s, opts.sample_period_s, t.v_m_s, t.omega_rad_s, driving.is_some());
+        if k % check_every == 0 {
+            watch.check_clients(&stack.registry, t_s);
+            watch.check_wiring(&stack.registry, &behaviours, driving.as_deref(), t_s).await;
+        }
         let following = driving.is_some();
         let center = driving.as_deref() == Some("centerfollow");
         metrics.add(&Sample {
@@ -191,6 +206,11 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         .await?;
     let faults_switch = stack.registry.faults();
     let boards = stack.board_faults.clone();
+    let delivery = integrity::DeliveryReport::from_ledger(&stack.registry);
+    while let Ok(change) = wrx.try_recv() {
+        driving = change.driving.clone();
+    }
+    let held = watch.finish(&stack.registry, &behaviours, driving.as_deref()).await;
     drop(wiring);
     stack.shutdown().await;
     let mut events = Vec::new();
@@ -204,6 +224,8 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         command_timeouts: safety.timeouts,
     };
     let mut report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
+    report.delivery = delivery;
+    report.integrity = held;
     if let Some(plan) = &opts.faults {
         let mut by_child = std::collections::BTreeMap::new();
         let mut failed_at: std::collections::BTreeMap<&str, f64> = std::collections::BTreeMap::new();

@@ -64,6 +64,13 @@ pub struct Report {
     pub faults: Option<crate::faults::FaultsReport>,
     /// The robot server's command safety figures.
     pub safety: SafetyFigures,
+    /// What every service delivered, and what it lost.
+    #[serde(default)]
+    pub delivery: super::integrity::DeliveryReport,
+    /// Whether the stack held together: driving unwired or on stale commands, subscriptions
+    /// and wiring.
+    #[serde(default)]
+    pub integrity: super::integrity::IntegrityReport,
 }
 
 impl Report {
@@ -96,6 +103,8 @@ impl Report {
             restarts,
             faults: None,
             safety,
+            delivery: Default::default(),
+            integrity: Default::default(),
         }
     }
 

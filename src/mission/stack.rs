@@ -66,6 +66,8 @@ impl Stack {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
         registry.set_tap(tap);
+        // Every message is accounted for: the report says what was delivered and what lost.
+        registry.ledger().enable(true);
         let sim =
             SimNomad200::new(world, config.sim.clone(), seed).map_err(|e| StackError::Sim(e.to_string()))?;
         let sim = SimRobot::spawn(sim, clock);
