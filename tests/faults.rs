@@ -51,6 +51,7 @@ fn held_together(report: &orsa::mission::report::Report) {
     let i = &report.integrity;
     assert_eq!(i.driven_unwired_s, 0.0, "{i:?}");
     assert_eq!(i.driven_on_stale_command_s, 0.0, "{i:?}");
+    assert_eq!(report.safety.stale_commands_applied, 0, "{:?}", report.safety);
     assert!(i.client_checks > 0 && i.wiring_checks > 0, "{i:?}");
     assert_eq!(i.client_mismatches, 0, "{i:?}");
     assert_eq!(i.wiring_mismatches, 0, "{i:?}");

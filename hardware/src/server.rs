@@ -134,6 +134,10 @@ pub struct SafetyCounters {
     /// `navigationvelocity` commands ignored because teleoperation held the robot.
     #[serde(default)]
     pub overridden: u64,
+    /// Commands older than the timeout when the motor board took them (checked after the
+    /// board answered, apart from the refusal on arrival: a slow board would show here).
+    #[serde(default)]
+    pub stale_applied: u64,
 }
 comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 
@@ -246,6 +250,10 @@ where
         }
         if self.drive(st, v, w).await {
             st.counters.applied += 1;
+            if ctx.now().saturating_since(cmd.stamp) > timeout {
+                st.counters.stale_applied += 1;
+                tracing::warn!("nomad200: a command stamped {} reached the motors stale", cmd.stamp);
+            }
             st.last_applied = Some(cmd.stamp);
             // The robot may go on with this command until it is cmd_timeout old (counted from
             // now at the latest, whatever a skewed clock says).

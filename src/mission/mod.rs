@@ -222,6 +222,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         commands_applied: safety.applied,
         stale_commands_refused: safety.stale_refused,
         command_timeouts: safety.timeouts,
+        stale_commands_applied: safety.stale_applied,
     };
     let mut report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
     report.delivery = delivery;

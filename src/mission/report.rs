@@ -32,6 +32,9 @@ pub struct SafetyFigures {
     pub stale_commands_refused: u64,
     /// Times the robot was stopped for lack of fresh commands.
     pub command_timeouts: u64,
+    /// Commands older than the velocity timeout when the motors took them.
+    #[serde(default)]
+    pub stale_commands_applied: u64,
 }
 
 /// Everything `report.json` says about a run.
