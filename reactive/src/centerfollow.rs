@@ -10,6 +10,11 @@
 //! forward motion while the robot turns, so it never drives its front into what it turns away
 //! from.
 //!
+//! The side windows are configurable: `left_sensors`/`right_sensors` give the distances (the
+//! thesis: 1..7 and 9..15; default 1..5 and 11..15), `angle_left_sensors`/`angle_right_sensors`
+//! the wall angle (default: the same windows), taken from the side whose angle window sees the
+//! nearer wall. With the defaults this is exactly the single-window controller.
+//!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
@@ -47,6 +52,15 @@ pub struct CenterFollowParams {
     pub left_sensors: [usize; 2],
     /// The right sensors, first and last (the thesis: 9 to 15).
     pub right_sensors: [usize; 2],
+    /// The left sensors the wall angle is taken from, first and last (by default the same as
+    /// `left_sensors`). Widening `left_sensors` backwards (to the thesis' 1 to 7) lets the
+    /// distance see a person following close behind, but the angle must not come from there:
+    /// the nearest reading on a round person behind gives only the coarse `pi/8 (m - c)`,
+    /// 45 to 67 degrees off, and the robot weaves (EXPERIMENTS.md).
+    pub angle_left_sensors: [usize; 2],
+    /// The right sensors the wall angle is taken from, first and last (see
+    /// `angle_left_sensors`).
+    pub angle_right_sensors: [usize; 2],
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
 }
@@ -65,6 +79,8 @@ impl Default for CenterFollowParams {
             estimator: AngleEstimator::default(),
             left_sensors: [1, 5],
             right_sensors: [11, 15],
+            angle_left_sensors: [1, 5],
+            angle_right_sensors: [11, 15],
             loops: CascadeParams { k_d: 5.0, k_alpha: -2.0, ..CascadeParams::default() },
         }
     }
@@ -92,13 +108,19 @@ impl CenterFollowParams {
                 self.v_min_m_s, self.v_max_m_s
             ));
         }
-        let [a, b] = self.left_sensors;
-        if !(1..=7).contains(&a) || !(a..=7).contains(&b) {
-            return Err(format!("centerfollow.left_sensors: [{a}, {b}] must be first and last of 1..7"));
+        for (key, [a, b]) in
+            [("left_sensors", self.left_sensors), ("angle_left_sensors", self.angle_left_sensors)]
+        {
+            if !(1..=7).contains(&a) || !(a..=7).contains(&b) {
+                return Err(format!("centerfollow.{key}: [{a}, {b}] must be first and last of 1..7"));
+            }
         }
-        let [a, b] = self.right_sensors;
-        if !(9..=15).contains(&a) || !(a..=15).contains(&b) {
-            return Err(format!("centerfollow.right_sensors: [{a}, {b}] must be first and last of 9..15"));
+        for (key, [a, b]) in
+            [("right_sensors", self.right_sensors), ("angle_right_sensors", self.angle_right_sensors)]
+        {
+            if !(9..=15).contains(&a) || !(a..=15).contains(&b) {
+                return Err(format!("centerfollow.{key}: [{a}, {b}] must be first and last of 9..15"));
+            }
         }
         self.loops.validate("centerfollow")
     }
@@ -156,15 +178,27 @@ impl CenterFollower {
         let [r0, r1] = p.right_sensors;
         let left = wall_in(&r, Side::Left, l0..=l1, p.estimator, &ring, p.l_m);
         let right = wall_in(&r, Side::Right, r0..=r1, p.estimator, &ring, p.l_m);
+        let [a0, a1] = p.angle_left_sensors;
+        let [b0, b1] = p.angle_right_sensors;
+        let angle_left = wall_in(&r, Side::Left, a0..=a1, p.estimator, &ring, p.l_m);
+        let angle_right = wall_in(&r, Side::Right, b0..=b1, p.estimator, &ring, p.l_m);
+        let angle = match (angle_left, angle_right) {
+            (Some(l), Some(rt)) => {
+                Some(if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad })
+            }
+            (Some(w), None) | (None, Some(w)) => Some(w.alpha_rad),
+            (None, None) => None,
+        };
         let (error_left, alpha, offset) = match (left, right) {
             (Some(l), Some(rt)) => {
                 let e = (l.distance_m - rt.distance_m) / 2.0;
-                let alpha = if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad };
+                let nearer = if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad };
+                let alpha = angle.unwrap_or(nearer);
                 // Left wall farther (e > 0): the robot is right of the centre.
                 (e, alpha, Some(-e))
             }
-            (Some(w), None) | (None, Some(w)) => (0.0, w.alpha_rad, None),
-            (None, None) => (0.0, 0.0, None),
+            (Some(w), None) | (None, Some(w)) => (0.0, angle.unwrap_or(w.alpha_rad), None),
+            (None, None) => (0.0, angle.unwrap_or(0.0), None),
         };
         let mut omega = p.loops.omega(error_left, alpha);
         let wmax = p.loops.omega_max_deg_s.to_radians();
@@ -231,6 +265,36 @@ mod tests {
         assert!((s.offset_m.expect("both sides") - 0.3).abs() < 0.01, "{:?}", s.offset_m);
         let bad = CenterFollowParams { v_min_m_s: 0.3, ..Default::default() };
         assert!(bad.validate().expect_err("v_min above v_max").starts_with("centerfollow.v_min_m_s"));
+    }
+
+    #[test]
+    fn a_person_close_behind_moves_the_distance_but_not_the_angle() {
+        // Centred and parallel; someone 0.5 m away behind-left, seen by sensor 7 only.
+        let (mut ir, mut so) = views(2.4, 0.0, 0.0);
+        ir[7] = Some(0.5);
+        so[7] = Some(0.5);
+        let wide = CenterFollowParams {
+            left_sensors: [1, 7],
+            right_sensors: [9, 15],
+            angle_left_sensors: [1, 5],
+            angle_right_sensors: [11, 15],
+            ..Default::default()
+        };
+        assert!(wide.validate().is_ok());
+        let s = CenterFollower::new(wide, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
+        assert!(s.offset_m.is_some_and(|o| o > 0.2), "the person counts on the left: {:?}", s.offset_m);
+        assert!(s.alpha_rad.abs() < 1e-9, "the angle still comes from the walls: {}", s.alpha_rad);
+        assert!(s.cmd.omega_rad_s < -0.05, "moves right, away from the person");
+        // The angle from the same wide window is the coarse guess of sensor 7, far from 0.
+        let same = CenterFollowParams { angle_left_sensors: [1, 7], angle_right_sensors: [9, 15], ..wide };
+        let s = CenterFollower::new(same, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
+        assert!(s.alpha_rad > 0.5, "coarse angle of sensor 7: {}", s.alpha_rad);
+        // The defaults are the single-window controller: the person behind is not seen.
+        let s =
+            CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
+        assert!(s.offset_m.is_some_and(|o| o.abs() < 1e-9) && s.cmd.omega_rad_s.abs() < 1e-9);
+        let bad = CenterFollowParams { angle_right_sensors: [8, 15], ..Default::default() };
+        assert!(bad.validate().expect_err("8 is the back").starts_with("centerfollow.angle_right_sensors"));
     }
 
     #[test]
