@@ -141,6 +141,24 @@ impl Keys {
         format!("{}/stats/*", self.root)
     }
 
+    /// Where a process publishes its heartbeat.
+    pub fn heartbeat(&self, zid: &str, role: &str) -> String {
+        format!("{}/heartbeat/{zid}/{role}", self.root)
+    }
+
+    /// The heartbeats of every process of `role`.
+    pub fn heartbeats(&self, role: &str) -> String {
+        format!("{}/heartbeat/*/{role}", self.root)
+    }
+
+    /// Parses a heartbeat key: (zid, role).
+    pub fn parse_heartbeat(&self, key: &str) -> Option<(String, String)> {
+        let rest = key.strip_prefix(&format!("{}/heartbeat/", self.root))?;
+        let (zid, role) = rest.split_once('/')?;
+        (!zid.is_empty() && !role.is_empty() && !role.contains('/'))
+            .then(|| (zid.to_string(), role.to_string()))
+    }
+
     /// The liveliness token of a process.
     pub fn process_token(&self, zid: &str, role: &str) -> String {
         format!("{}/alive/proc/{zid}/{role}", self.root)

@@ -22,6 +22,13 @@
 //! Every subscription's every-n-th is counted at the source: a remote subscriber at n = 10
 //! receives a stream published at a tenth of the rate. Remote subscribers with the same n
 //! share one stream. The wire format is documented in `docs/wire-format.md`.
+//!
+//! Every message orsa sends carries its sender's zenoh id as the zenoh attachment, so a
+//! receiver knows which process (and so which role) it comes from. That is what
+//! [`ZenohTransport::cut_link`] uses to cut this process off from the processes of a role
+//! while the zenoh session stays up (fault injection, see [`gate`](ZenohTransport::cut_link)).
+//! A process may also publish a heartbeat ([`NetOptions::heartbeat`], [`ZenohTransport::on_heartbeat`])
+//! so that a peer notices a silent link faster than zenoh's lease.
 
 mod keys;
 mod options;
@@ -137,11 +144,50 @@ pub struct NetStats {
     pub decode_errors: u64,
 }
 
+/// What a process publishes on `orsa/v1/heartbeat/<zid>/<role>` every period (see
+/// [`NetOptions::heartbeat`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Heartbeat {
+    /// Counts from 0 at the session's start.
+    pub seq: u64,
+    /// The period the sender publishes at, ms.
+    pub period_ms: u64,
+}
+
+/// What a link cut (see [`ZenohTransport::cut_link`]) kept from crossing.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkCutStats {
+    /// Messages, requests and heartbeats from cut processes dropped on arrival.
+    pub dropped_in: u64,
+    /// Messages, stream updates, firings and requests to cut processes not sent.
+    pub withheld_out: u64,
+}
+
+/// The most requests from cut processes held unanswered at once (beyond: answered at once
+/// with nothing, which the requester sees as a failed request).
+const MAX_HELD_QUERIES: usize = 1024;
+
+/// A link cut: the roles whose processes this process neither hears nor speaks to.
+#[derive(Default)]
+struct Gate {
+    /// Whether any role is cut: the one check on every message's path while nothing is.
+    active: std::sync::atomic::AtomicBool,
+    roles: RwLock<BTreeSet<String>>,
+    /// Requests from cut processes, held unanswered (as a lost request would be) until
+    /// their role's link is restored. (role, query).
+    held: Mutex<Vec<(String, zenoh::query::Query)>>,
+    dropped_in: AtomicU64,
+    withheld_out: AtomicU64,
+}
+
 type ClientKey = (String, u64);
+type Clients = Arc<Mutex<BTreeSet<ClientKey>>>;
 
 /// One every-n-th stream of a push service hosted here.
 struct Stream {
-    clients: BTreeSet<ClientKey>,
+    /// Shared with the stream's publishing sink, which withholds updates whose every client
+    /// is cut off.
+    clients: Clients,
     _sub: Subscription,
 }
 
@@ -166,6 +212,9 @@ struct Inner {
     session: zenoh::Session,
     keys: Keys,
     zid: String,
+    /// This process's zenoh id as the attachment of everything it sends.
+    me: zenoh::bytes::ZBytes,
+    gate: Gate,
     registry: Registry,
     runtime: tokio::runtime::Handle,
     /// Services announced by peers.
@@ -214,7 +263,9 @@ impl ZenohTransport {
         let inner = Arc::new(Inner {
             session,
             keys,
+            me: zenoh::bytes::ZBytes::from(zid.clone()),
             zid,
+            gate: Gate::default(),
             registry: registry.clone(),
             runtime,
             remote: RwLock::new(BTreeMap::new()),
@@ -231,6 +282,11 @@ impl ZenohTransport {
             on_process_found: Mutex::new(Vec::new()),
         });
         let mut entities: Vec<Box<dyn std::any::Any + Send + Sync>> = Vec::new();
+        // The heartbeat starts before the process token is declared: a peer that sees this
+        // process also hears it beat.
+        if let Some(period) = options.heartbeat {
+            entities.push(Box::new(inner.start_heartbeat(role, period).await?));
+        }
         let proc_key = inner.keys.process_token(&inner.zid, role);
         entities.push(Box::new(
             inner
@@ -274,6 +330,7 @@ impl ZenohTransport {
             .declare_queryable(inner.keys.stats(&inner.zid))
             .callback(move |query| {
                 let Some(inner) = weak.upgrade() else { return };
+                let Some(query) = inner.admit_query(query) else { return };
                 let figures = NetStats {
                     published: inner.published.load(Ordering::Relaxed),
                     received: inner.received.load(Ordering::Relaxed),
@@ -345,6 +402,7 @@ impl ZenohTransport {
             .inner
             .session
             .get(self.inner.keys.all_stats())
+            .attachment(self.inner.me.clone())
             .consolidation(zenoh::query::ConsolidationMode::None)
             .timeout(timeout)
             .await
@@ -354,6 +412,10 @@ impl ZenohTransport {
         while let Ok(reply) = replies.recv_async().await {
             let Ok(sample) = reply.result() else { continue };
             let zid = sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_string();
+            if self.inner.is_cut(&zid) {
+                self.inner.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
             match decode::<Reply<NetStats>>(&sample.payload().to_bytes(), "orsa.NetStats/1") {
                 Ok(Reply::Ok(s)) => {
                     out.insert(zid, s);
@@ -373,6 +435,109 @@ impl ZenohTransport {
     /// Calls `f` whenever a peer process appears.
     pub fn on_process_found(&self, f: impl Fn(&Process) + Send + Sync + 'static) {
         self.inner.on_process_found.lock().push(Box::new(f));
+    }
+
+    /// Cuts (`cut = true`) or restores the link between this process and every process of
+    /// `role` (`executive`, `teleop`, `tool`, ...), while the zenoh session stays up: for fault
+    /// injection, a partition that zenoh's lease does not see, since liveliness tokens stay.
+    ///
+    /// While a role is cut, this process:
+    /// - drops on arrival every message, stream update, firing, heartbeat and reply that a
+    ///   process of that role sent (known by the sender's zenoh id in the attachment, and its
+    ///   role by its process token);
+    /// - holds unanswered every request (Query, State, Wiring, subscription and activation
+    ///   control) from such a process, as if it were lost: the requester times out;
+    /// - does not send what is addressed to a service such a process hosts: a Send message is
+    ///   lost, a request fails with [`PatternError::Timeout`] after its timeout, a
+    ///   subscription or activation request is not sent (it is sent again on restore);
+    /// - does not publish stream updates and firings whose every subscriber is such a process.
+    ///
+    /// Limits: the session, its liveliness tokens and zenoh's keep-alives go on (that is the
+    /// point); a push stream shared by a cut and an uncut subscriber (same service, same
+    /// every-n-th) still reaches both; this process's own heartbeat still goes out to every
+    /// peer; a message without the sender's id (a client that is not orsa's) is not gated; a
+    /// process whose token this process has not seen is not recognised. The cut is one
+    /// process's view: peers of the cut role still talk to each other.
+    pub fn cut_link(&self, role: &str, cut: bool) {
+        let inner = &self.inner;
+        let mut roles = inner.gate.roles.write();
+        let changed = if cut { roles.insert(role.to_string()) } else { roles.remove(role) };
+        inner.gate.active.store(!roles.is_empty(), Ordering::Release);
+        drop(roles);
+        if !changed {
+            return;
+        }
+        tracing::info!(role, cut, "link cut");
+        if !cut {
+            // Requests held while cut are answered with nothing: the requesters have timed out.
+            inner.gate.held.lock().retain(|(r, _)| r != role);
+            // Subscriptions and activations held at that role's services are asked for again.
+            let hosts: BTreeSet<String> = inner
+                .processes
+                .read()
+                .iter()
+                .filter(|(_, r)| r.as_str() == role)
+                .map(|(z, _)| z.clone())
+                .collect();
+            let addrs: Vec<ServiceAddr> = inner
+                .remote
+                .read()
+                .values()
+                .filter(|a| hosts.contains(&a.host))
+                .map(|a| a.addr.clone())
+                .collect();
+            for a in addrs {
+                inner.renew(&a);
+            }
+        }
+    }
+
+    /// The roles whose link is cut now.
+    pub fn cut_roles(&self) -> Vec<String> {
+        self.inner.gate.roles.read().iter().cloned().collect()
+    }
+
+    /// What link cuts kept from crossing so far.
+    pub fn link_cut_stats(&self) -> LinkCutStats {
+        LinkCutStats {
+            dropped_in: self.inner.gate.dropped_in.load(Ordering::Relaxed),
+            withheld_out: self.inner.gate.withheld_out.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Calls `f(zid, heartbeat)` for every heartbeat of a process of `role` (see
+    /// [`NetOptions::heartbeat`]), except from processes whose link is cut. Keep the returned
+    /// value: dropping it stops the calls.
+    pub async fn on_heartbeat(
+        &self,
+        role: &str,
+        f: impl Fn(&str, &Heartbeat) + Send + Sync + 'static,
+    ) -> Result<HeartbeatWatch, NetError> {
+        let weak = Arc::downgrade(&self.inner);
+        let sub = self
+            .inner
+            .session
+            .declare_subscriber(self.inner.keys.heartbeats(role))
+            .callback(move |sample| {
+                let Some(inner) = weak.upgrade() else { return };
+                let key = sample.key_expr().as_str();
+                let Some((zid, _)) = inner.keys.parse_heartbeat(key) else {
+                    tracing::warn!("ignoring a heartbeat on a malformed key '{key}'");
+                    return;
+                };
+                if inner.is_cut(&zid) {
+                    inner.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+                inner.received.fetch_add(1, Ordering::Relaxed);
+                match decode::<Heartbeat>(&sample.payload().to_bytes(), "orsa.Heartbeat/1") {
+                    Ok(h) => f(&zid, &h),
+                    Err(e) => inner.bad(key, &e),
+                }
+            })
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        Ok(HeartbeatWatch { _sub: sub })
     }
 
     /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
@@ -441,6 +606,115 @@ impl ZenohTransport {
 }
 
 impl Inner {
+    /// The role of process `zid` if its link is cut.
+    fn cut_role_of(&self, zid: &str) -> Option<String> {
+        if !self.gate.active.load(Ordering::Acquire) {
+            return None;
+        }
+        let role = self.processes.read().get(zid)?.clone();
+        self.gate.roles.read().contains(&role).then_some(role)
+    }
+
+    /// Whether the link to process `zid` is cut.
+    fn is_cut(&self, zid: &str) -> bool {
+        self.cut_role_of(zid).is_some()
+    }
+
+    /// The role of the sender of a message with this attachment, if its link is cut.
+    fn cut_sender(&self, attachment: Option<&zenoh::bytes::ZBytes>) -> Option<String> {
+        if !self.gate.active.load(Ordering::Acquire) {
+            return None;
+        }
+        let bytes = attachment?.to_bytes();
+        self.cut_role_of(std::str::from_utf8(&bytes).ok()?)
+    }
+
+    /// Whether a message with this attachment may be delivered (its sender is not cut off);
+    /// counts it if not.
+    fn admit(&self, attachment: Option<&zenoh::bytes::ZBytes>) -> bool {
+        if self.cut_sender(attachment).is_some() {
+            self.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+            return false;
+        }
+        true
+    }
+
+    /// The query, if its sender is not cut off; otherwise it is held unanswered.
+    fn admit_query(&self, query: zenoh::query::Query) -> Option<zenoh::query::Query> {
+        match self.cut_sender(query.attachment()) {
+            None => Some(query),
+            Some(role) => {
+                self.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+                self.park(role, query);
+                None
+            }
+        }
+    }
+
+    /// Holds a query of a cut process unanswered until its role's link is restored (dropping
+    /// a query answers it with nothing at once, which a lost request would not do).
+    fn park(&self, role: String, query: zenoh::query::Query) {
+        let mut held = self.gate.held.lock();
+        if held.len() < MAX_HELD_QUERIES {
+            held.push((role, query));
+        }
+    }
+
+    /// Whether the process hosting `addr` is cut off; counts a withheld message if so.
+    fn withhold_to(&self, addr: &ServiceAddr) -> bool {
+        if !self.gate.active.load(Ordering::Acquire) {
+            return false;
+        }
+        let host = self.remote.read().get(addr).map(|a| a.host.clone());
+        if host.is_some_and(|h| self.is_cut(&h)) {
+            self.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
+            return true;
+        }
+        false
+    }
+
+    /// Publishes a heartbeat on this process's key every `period`, until the transport is
+    /// dropped or the session closed.
+    async fn start_heartbeat(
+        self: &Arc<Self>,
+        role: &str,
+        period: std::time::Duration,
+    ) -> Result<Entity, NetError> {
+        if period.is_zero() || period > Duration::from_secs(60) {
+            return Err(NetError::Config(format!(
+                "heartbeat period {period:?}: must be more than 0 and at most 60 s"
+            )));
+        }
+        let publisher = self
+            .session
+            .declare_publisher(self.keys.heartbeat(&self.zid, role))
+            .express(true)
+            .congestion_control(CongestionControl::Drop)
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        let publisher = Arc::new(publisher);
+        let weak = Arc::downgrade(self);
+        let beat = Arc::clone(&publisher);
+        let period_ms = u64::try_from(period.as_millis()).unwrap_or(u64::MAX);
+        let task = self.runtime.spawn(async move {
+            let mut tick = tokio::time::interval(period);
+            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            for seq in 0u64.. {
+                tick.tick().await;
+                let Some(inner) = weak.upgrade() else { return };
+                let bytes = encode(&Heartbeat { seq, period_ms });
+                if let Err(e) = beat.put(bytes).attachment(inner.me.clone()).await {
+                    tracing::debug!("heartbeat: {e}");
+                    if inner.session.is_closed() {
+                        return;
+                    }
+                }
+                inner.published.fetch_add(1, Ordering::Relaxed);
+            }
+        });
+        Ok(Box::new(HeartbeatTask { task, _publisher: publisher }))
+    }
+
     fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
         self.decode_errors.fetch_add(1, Ordering::Relaxed);
         tracing::warn!("dropped an undecodable message on {from}: {e}");
@@ -490,8 +764,9 @@ impl Inner {
                 let exports: Vec<Arc<Export>> = self.exports.lock().values().cloned().collect();
                 for e in exports {
                     e.streams.lock().retain(|_, s| {
-                        s.clients.retain(|(c, _)| *c != p.zid);
-                        !s.clients.is_empty()
+                        let mut clients = s.clients.lock();
+                        clients.retain(|(c, _)| *c != p.zid);
+                        !clients.is_empty()
                     });
                     e.activations.lock().retain(|(c, _), _| *c != p.zid);
                 }
@@ -515,13 +790,18 @@ impl Inner {
             .map(|h| (h.key.clone(), h.payload.clone()))
             .collect();
         for (key, payload) in again {
-            self.control(key, payload);
+            self.control(addr, key, payload);
         }
     }
 
     /// Sends a control request in the background; failures are logged (renewal repeats it
     /// when the service reappears).
-    fn control(self: &Arc<Self>, key: String, payload: Vec<u8>) {
+    /// Not sent while the service's host is cut off (it is sent again when the link is
+    /// restored).
+    fn control(self: &Arc<Self>, addr: &ServiceAddr, key: String, payload: Vec<u8>) {
+        if self.withhold_to(addr) {
+            return;
+        }
         let inner = Arc::clone(self);
         self.runtime.spawn(async move {
             match inner.get(&key, payload, Duration::from_secs(5)).await {
@@ -541,7 +821,14 @@ impl Inner {
     }
 
     async fn get(&self, key: &str, payload: Vec<u8>, timeout: Duration) -> PatternResult<Vec<u8>> {
-        let replies = self.session.get(key).payload(payload).timeout(timeout).await.map_err(link)?;
+        let replies = self
+            .session
+            .get(key)
+            .payload(payload)
+            .attachment(self.me.clone())
+            .timeout(timeout)
+            .await
+            .map_err(link)?;
         match replies.recv_async().await {
             Ok(reply) => match reply.result() {
                 Ok(sample) => {
@@ -592,6 +879,9 @@ impl Inner {
                     .declare_subscriber(self.keys.send(addr))
                     .callback(move |sample| {
                         let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
+                        if !inner.admit(sample.attachment()) {
+                            return;
+                        }
                         inner.received.fetch_add(1, Ordering::Relaxed);
                         match export.served.serve_send(&sample.payload().to_bytes()) {
                             Ok(()) => {}
@@ -608,6 +898,7 @@ impl Inner {
                     .declare_queryable(self.keys.request(addr))
                     .callback(move |query| {
                         let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
+                        let Some(query) = inner.admit_query(query) else { return };
                         inner.received.fetch_add(1, Ordering::Relaxed);
                         let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
                         let answer = Arc::clone(&export.served).serve_request(&payload);
@@ -618,6 +909,12 @@ impl Inner {
                                 && f.code == "decode"
                             {
                                 inner.bad(&topic, &f.message);
+                            }
+                            // Cut off while the request was being served: the answer is lost.
+                            if let Some(role) = inner.cut_sender(query.attachment()) {
+                                inner.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
+                                inner.park(role, query);
+                                return;
                             }
                             if let Err(e) = query.reply(query.key_expr().clone(), reply).await {
                                 tracing::debug!("{topic}: cannot reply: {e}");
@@ -671,6 +968,7 @@ impl Inner {
             .declare_queryable(key)
             .callback(move |query| {
                 let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
+                let Some(query) = inner.admit_query(query) else { return };
                 inner.received.fetch_add(1, Ordering::Relaxed);
                 let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
                 let result = match decode::<R>(&payload, what) {
@@ -711,11 +1009,28 @@ impl Inner {
         Ok(Arc::new(p))
     }
 
-    fn publishing_sink(self: &Arc<Self>, publisher: Arc<zenoh::pubsub::Publisher<'static>>) -> ByteSink {
+    fn publishing_sink(
+        self: &Arc<Self>,
+        publisher: Arc<zenoh::pubsub::Publisher<'static>>,
+        audience: Audience,
+    ) -> ByteSink {
         let weak = Arc::downgrade(self);
         Arc::new(move |bytes: &[u8]| {
             let Some(inner) = weak.upgrade() else { return false };
-            match publisher.put(bytes.to_vec()).wait() {
+            if inner.gate.active.load(Ordering::Acquire) {
+                let all_cut = match &audience {
+                    Audience::Clients(c) => {
+                        let c = c.lock();
+                        !c.is_empty() && c.iter().all(|(zid, _)| inner.is_cut(zid))
+                    }
+                    Audience::Client(zid) => inner.is_cut(zid),
+                };
+                if all_cut {
+                    inner.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
+                    return true;
+                }
+            }
+            match publisher.put(bytes.to_vec()).attachment(inner.me.clone()).wait() {
                 Ok(()) => {
                     inner.published.fetch_add(1, Ordering::Relaxed);
                     true
@@ -740,7 +1055,7 @@ impl Inner {
                     .ok_or_else(|| PatternError::InvalidArgument("every must be at least 1".into()))?;
                 let mut streams = export.streams.lock();
                 if let Some(s) = streams.get_mut(&every) {
-                    s.clients.insert((client, id));
+                    s.clients.lock().insert((client, id));
                     return Ok(());
                 }
                 if streams.len() >= MAX_STREAMS {
@@ -749,15 +1064,18 @@ impl Inner {
                     )));
                 }
                 let publisher = self.publisher(self.keys.stream(addr, n), false)?;
-                let sub = Arc::clone(&export.served).serve_subscribe(n, self.publishing_sink(publisher))?;
-                streams.insert(every, Stream { clients: BTreeSet::from([(client, id)]), _sub: sub });
+                let clients: Clients = Arc::new(Mutex::new(BTreeSet::from([(client, id)])));
+                let sink = self.publishing_sink(publisher, Audience::Clients(Arc::clone(&clients)));
+                let sub = Arc::clone(&export.served).serve_subscribe(n, sink)?;
+                streams.insert(every, Stream { clients, _sub: sub });
                 Ok(())
             }
             SubscribeRequest::Unsubscribe { client, id } => {
                 let key = (client, id);
                 export.streams.lock().retain(|_, s| {
-                    s.clients.remove(&key);
-                    !s.clients.is_empty()
+                    let mut clients = s.clients.lock();
+                    clients.remove(&key);
+                    !clients.is_empty()
                 });
                 Ok(())
             }
@@ -778,11 +1096,8 @@ impl Inner {
                     return Ok(());
                 }
                 let publisher = self.publisher(self.keys.firings(&key.0, key.1), true)?;
-                let sub = Arc::clone(&export.served).serve_activate(
-                    mode,
-                    &params,
-                    self.publishing_sink(publisher),
-                )?;
+                let sink = self.publishing_sink(publisher, Audience::Client(key.0.clone()));
+                let sub = Arc::clone(&export.served).serve_activate(mode, &params, sink)?;
                 acts.insert(key, sub);
                 Ok(())
             }
@@ -795,12 +1110,41 @@ impl Inner {
 
     fn hold(self: &Arc<Self>, id: u64, addr: &ServiceAddr, key: String, payload: Vec<u8>) -> u64 {
         self.held.lock().insert(id, Held { addr: addr.clone(), key: key.clone(), payload: payload.clone() });
-        self.control(key, payload);
+        self.control(addr, key, payload);
         id
     }
 }
 
 type Entity = Box<dyn std::any::Any + Send + Sync>;
+
+/// Who a publishing sink's messages are for: the clients of a stream, or one client.
+enum Audience {
+    Clients(Clients),
+    Client(String),
+}
+
+/// The heartbeat task: ends when dropped.
+struct HeartbeatTask {
+    task: tokio::task::JoinHandle<()>,
+    _publisher: Arc<zenoh::pubsub::Publisher<'static>>,
+}
+
+impl Drop for HeartbeatTask {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+/// Heartbeats being watched (see [`ZenohTransport::on_heartbeat`]); dropping it stops the watch.
+pub struct HeartbeatWatch {
+    _sub: zenoh::pubsub::Subscriber<()>,
+}
+
+impl std::fmt::Debug for HeartbeatWatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HeartbeatWatch").finish_non_exhaustive()
+    }
+}
 
 /// The most distinct every-n-th streams one push service serves to peers (each is a publisher).
 const MAX_STREAMS: usize = 64;
@@ -818,6 +1162,7 @@ fn reply_now<T: Serialize>(inner: &Arc<Inner>, query: zenoh::query::Query, resul
 /// Ends a subscription or activation held at a peer.
 struct Release {
     inner: std::sync::Weak<Inner>,
+    addr: ServiceAddr,
     held: u64,
     key: String,
     payload: Vec<u8>,
@@ -829,7 +1174,7 @@ impl Drop for Release {
         if let Some(inner) = self.inner.upgrade() {
             inner.held.lock().remove(&self.held);
             if tokio::runtime::Handle::try_current().is_ok() {
-                inner.control(std::mem::take(&mut self.key), std::mem::take(&mut self.payload));
+                inner.control(&self.addr, std::mem::take(&mut self.key), std::mem::take(&mut self.payload));
             }
         }
     }
@@ -845,6 +1190,10 @@ impl Transport for ZenohTransport {
     }
 
     fn send(&self, addr: &ServiceAddr, payload: Vec<u8>) -> PatternResult<()> {
+        // To a cut-off process: lost on the way, as a one-way message is.
+        if self.inner.withhold_to(addr) {
+            return Ok(());
+        }
         let publisher = {
             let mut senders = self.inner.senders.lock();
             match senders.get(addr) {
@@ -856,7 +1205,7 @@ impl Transport for ZenohTransport {
                 }
             }
         };
-        publisher.put(payload).wait().map_err(link)?;
+        publisher.put(payload).attachment(self.inner.me.clone()).wait().map_err(link)?;
         self.inner.published.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
@@ -869,7 +1218,20 @@ impl Transport for ZenohTransport {
     ) -> BoxFuture<'static, PatternResult<Vec<u8>>> {
         let inner = Arc::clone(&self.inner);
         let key = self.inner.keys.request(addr);
-        Box::pin(async move { inner.get(&key, payload, timeout).await })
+        let addr = addr.clone();
+        Box::pin(async move {
+            // To a cut-off process: the request is lost, so its answer never comes.
+            if inner.withhold_to(&addr) {
+                tokio::time::sleep(timeout).await;
+                return Err(PatternError::Timeout);
+            }
+            let answer = inner.get(&key, payload, timeout).await;
+            // Cut off while the request was out: the answer is lost.
+            if answer.is_ok() && inner.withhold_to(&addr) {
+                return Err(PatternError::Timeout);
+            }
+            answer
+        })
     }
 
     fn subscribe(
@@ -884,9 +1246,11 @@ impl Transport for ZenohTransport {
             .session
             .declare_subscriber(inner.keys.stream(addr, every))
             .callback(move |sample| {
-                if let Some(inner) = weak.upgrade() {
-                    inner.received.fetch_add(1, Ordering::Relaxed);
+                let Some(inner) = weak.upgrade() else { return };
+                if !inner.admit(sample.attachment()) {
+                    return;
                 }
+                inner.received.fetch_add(1, Ordering::Relaxed);
                 sink(&sample.payload().to_bytes());
             })
             .wait()
@@ -897,6 +1261,7 @@ impl Transport for ZenohTransport {
         let release = SubscribeRequest::Unsubscribe { client: inner.zid.clone(), id };
         Ok(Subscription::new(Release {
             inner: Arc::downgrade(inner),
+            addr: addr.clone(),
             held,
             key: inner.keys.subscribe(addr),
             payload: encode(&release),
@@ -919,6 +1284,9 @@ impl Transport for ZenohTransport {
             .declare_subscriber(inner.keys.firings(&inner.zid, id))
             .callback(move |sample| {
                 let Some(inner) = weak.upgrade() else { return };
+                if !inner.admit(sample.attachment()) {
+                    return;
+                }
                 inner.received.fetch_add(1, Ordering::Relaxed);
                 if !sink(&sample.payload().to_bytes()) {
                     // Ended (single shot fired, or the receiver is gone): do not renew it.
@@ -932,6 +1300,7 @@ impl Transport for ZenohTransport {
         let release = ActivateRequest::Deactivate { client: inner.zid.clone(), id };
         Ok(Subscription::new(Release {
             inner: Arc::downgrade(inner),
+            addr: addr.clone(),
             held,
             key: inner.keys.activate(addr),
             payload: encode(&release),

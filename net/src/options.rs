@@ -25,11 +25,21 @@ pub struct NetOptions {
     pub config_file: Option<PathBuf>,
     /// The first chunk(s) of every key: systems with different prefixes do not see each other.
     pub prefix: String,
+    /// Publish a heartbeat this often (`orsa/v1/heartbeat/<zid>/<role>`, see
+    /// `docs/wire-format.md`), so that a peer watching it notices a silent link sooner than
+    /// zenoh's lease; `None`: no heartbeat.
+    pub heartbeat: Option<std::time::Duration>,
 }
 
 impl Default for NetOptions {
     fn default() -> Self {
-        NetOptions { listen: Vec::new(), connect: Vec::new(), config_file: None, prefix: "orsa".into() }
+        NetOptions {
+            listen: Vec::new(),
+            connect: Vec::new(),
+            config_file: None,
+            prefix: "orsa".into(),
+            heartbeat: None,
+        }
     }
 }
 
