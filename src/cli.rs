@@ -123,7 +123,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
+pub(crate) fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create the folder", dir.display()))?;

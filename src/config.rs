@@ -35,6 +35,59 @@ pub struct Config {
     pub planner: PlannerParams,
     /// How the stack's supervisor restarts what fails (`[supervision]`).
     pub supervision: SupervisionParams,
+    /// How the robot watches its executive across processes (`[link]`).
+    pub link: LinkParams,
+}
+
+/// How the robot watches its executive across processes: the executive publishes a heartbeat,
+/// and the robot treats it as lost when none came for the lease (as when its process token
+/// disappears), so a link that goes silent while zenoh's session stays up stops the robot
+/// within the velocity timeout.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LinkParams {
+    /// The executive publishes a heartbeat this often, seconds.
+    pub heartbeat_period_s: f64,
+    /// The robot treats the executive as lost after this long without a heartbeat, seconds;
+    /// default: 0.6 x `robot.cmd_timeout_s`. At most `robot.cmd_timeout_s`.
+    pub lease_s: Option<f64>,
+}
+
+impl Default for LinkParams {
+    fn default() -> Self {
+        LinkParams { heartbeat_period_s: 0.1, lease_s: None }
+    }
+}
+
+impl LinkParams {
+    /// The lease for a robot whose command timeout is `cmd_timeout_s`.
+    pub fn lease(&self, cmd_timeout_s: f64) -> std::time::Duration {
+        std::time::Duration::from_secs_f64(self.lease_s.unwrap_or(0.6 * cmd_timeout_s))
+    }
+
+    /// Checks the values against the robot's command timeout; the message names the key.
+    pub fn validate(&self, cmd_timeout_s: f64) -> Result<(), String> {
+        let p = self.heartbeat_period_s;
+        if !(p.is_finite() && (0.001..=10.0).contains(&p)) {
+            return Err(format!("link.heartbeat_period_s: must be from 0.001 to 10 seconds, not {p}"));
+        }
+        if let Some(l) = self.lease_s
+            && !(l.is_finite() && l > 0.0 && l <= cmd_timeout_s)
+        {
+            return Err(format!(
+                "link.lease_s: must be more than 0 and at most robot.cmd_timeout_s ({cmd_timeout_s} s), \
+                 so that a silent executive stops the robot within the velocity timeout, not {l}"
+            ));
+        }
+        let lease = self.lease(cmd_timeout_s).as_secs_f64();
+        if lease < 2.0 * p {
+            return Err(format!(
+                "link.lease_s ({lease} s) must be at least twice link.heartbeat_period_s ({p} s): \
+                 one late heartbeat would lose the executive"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// How the stack's supervisor restarts what fails.
@@ -148,6 +201,7 @@ impl Config {
         self.centerfollow.validate()?;
         self.executive.validate()?;
         self.supervision.validate()?;
+        self.link.validate(self.robot.cmd_timeout_s)?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
         self.planner.validate(&modes)?;
         let behaviours = self.executive.behaviours();
@@ -189,6 +243,13 @@ mod tests {
         let e = Config::from_toml("[executive.modes.x]\nbehaviours = [\"teleop\"]\n", "m.toml")
             .expect_err("unknown");
         assert!(e.to_string().contains("'teleop'"), "{e}");
+        let e = Config::from_toml("[link]\nlease_s = 0.8\n", "m.toml").expect_err("lease too long");
+        assert!(
+            e.to_string().contains("link.lease_s: must be more than 0 and at most robot.cmd_timeout_s"),
+            "{e}"
+        );
+        let e = Config::from_toml("[link]\nheartbeat_period_s = 0.2\n", "m.toml").expect_err("too slow");
+        assert!(e.to_string().contains("at least twice link.heartbeat_period_s"), "{e}");
         let e = Config::load(Path::new("/nonexistent/orsa.toml")).expect_err("missing file");
         assert!(e.to_string().starts_with("/nonexistent/orsa.toml: cannot read"), "{e}");
     }

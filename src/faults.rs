@@ -18,7 +18,7 @@
 //! | `drop`, `delay`, `duplicate` | a service, `component/service` (Send or push) | yes | `delay_s` for `delay` |
 //! | `sensor_stuck`, `sensor_dropout`, `sensor_noise` | a ring: `sonar`, `infrared`, `bumpers` | yes | `sigma_m` for `sensor_noise` |
 //! | `motor_stall` | `motors` | yes | |
-//! | `link_cut` | a process role (`executive`, `teleop`) | yes | only in `orsa robot` |
+//! | `link_cut` | a process role (`executive`, `teleop`, `tool`) | yes | only in `orsa robot --faults` |
 //!
 //! Every error names the fault (its number and line in the file) and what is wrong with it,
 //! and lists what would have been accepted.
@@ -162,6 +162,21 @@ impl PlanTargets {
         services.push(ServiceAddr::new("centerfollow", "status"));
         services.push(ServiceAddr::new("master", "driving"));
         PlanTargets { components, services, processes: false }
+    }
+
+    /// What `orsa robot`'s process offers to a plan: the robot server and the behaviours, their
+    /// Send and push services, and the links to the other processes.
+    pub fn for_robot(config: &crate::config::Config) -> Self {
+        let robot = config.robot.name.as_str();
+        let components = vec![robot.to_string(), "wallfollow".into(), "centerfollow".into()];
+        let mut services: Vec<ServiceAddr> =
+            ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
+                .iter()
+                .map(|s| ServiceAddr::new(robot, *s))
+                .collect();
+        services.push(ServiceAddr::new("wallfollow", "status"));
+        services.push(ServiceAddr::new("centerfollow", "status"));
+        PlanTargets { components, services, processes: true }
     }
 }
 
@@ -423,6 +438,56 @@ pub struct FaultsReport {
     pub hardware_altered: u64,
     /// Every event, in order (time in s, target, what).
     pub log: Vec<(f64, String, String)>,
+    /// Every link cut and what the robot did about it (`orsa robot --faults`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<LinkCutReport>,
+}
+
+/// One link cut as the robot lived it; times in seconds on the robot's clock (from the start
+/// of its process), like the log's.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LinkCutReport {
+    /// The role cut off.
+    pub role: String,
+    /// When the link was cut.
+    pub cut_at_s: f64,
+    /// When it was restored (none: still cut at the end).
+    pub restored_at_s: Option<f64>,
+    /// When the robot declared a process of that role lost (the executive's heartbeat lease).
+    pub lost_at_s: Option<f64>,
+    /// When the robot, having lost its executive, unwired the behaviours and commanded zero.
+    pub stop_commanded_at_s: Option<f64>,
+    /// The first base state at rest (no translation, no rotation) at or after the cut.
+    pub at_rest_at_s: Option<f64>,
+    /// When the lost process was heard again and given back what it drove.
+    pub back_at_s: Option<f64>,
+    /// The first base state moving after the link was restored.
+    pub moving_again_at_s: Option<f64>,
+}
+
+/// Restarts by child and each restart's duration in ms, from a supervisor's events.
+pub fn restarts_of(
+    events: &[orsa_actors::supervision::SupervisorEvent],
+) -> (BTreeMap<String, u64>, Vec<f64>) {
+    use orsa_actors::supervision::SupervisorEventKind;
+    let mut by_child = BTreeMap::new();
+    let mut failed_at: BTreeMap<&str, f64> = BTreeMap::new();
+    let mut restart_ms = Vec::new();
+    for e in events {
+        match e.kind {
+            SupervisorEventKind::ChildFailed => {
+                failed_at.insert(e.child.as_str(), e.at.as_secs_f64());
+            }
+            SupervisorEventKind::Restarted => {
+                *by_child.entry(e.child.clone()).or_insert(0u64) += 1;
+                if let Some(t) = failed_at.remove(e.child.as_str()) {
+                    restart_ms.push((e.at.as_secs_f64() - t) * 1e3);
+                }
+            }
+            _ => {}
+        }
+    }
+    (by_child, restart_ms)
 }
 
 impl FaultsReport {

@@ -8,10 +8,13 @@
 //!   ├── wallfollow                    └── planner                ── nomad200/teleop ──▶ robot
 //!   └── centerfollow
 //! ```
-//! The robot watches the executive's liveliness: when it disappears, the robot unwires every
-//! behaviour and stops its motors at once (within zenoh's lease, 1 s by default), keeps its
-//! behaviours computing, and, if `--fallback MODE` is given, drives that mode with a local
-//! master until an executive is back.
+//! The robot watches the executive's liveliness and its heartbeat: when its token disappears
+//! (within zenoh's lease, 1 s by default) or no heartbeat came for the lease (`[link]`, 0.3 s by
+//! default, at most the velocity timeout), the robot unwires every behaviour and stops its
+//! motors at once, keeps its behaviours computing, and, if `--fallback MODE` is given, drives
+//! that mode with a local master until an executive is back. An executive heard again after a
+//! lost heartbeat (a link that was cut while its session stayed up) gets back the behaviour it
+//! had wired.
 
 use crate::config::Config;
 use anyhow::{Context as _, bail};
@@ -25,6 +28,7 @@ use orsa_executive::Master;
 use orsa_executive::goal::{Goal, GoalReply};
 use orsa_executive::master::VEL_PORT;
 use orsa_hardware::comm::NavigationVelocity;
+use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
 use orsa_hardware::server::Nomad200;
 use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
@@ -53,12 +57,13 @@ pub struct NetArgs {
 }
 
 impl NetArgs {
-    fn options(&self) -> NetOptions {
+    fn options(&self, heartbeat: Option<Duration>) -> NetOptions {
         NetOptions {
             listen: self.listen.clone(),
             connect: self.connect.clone(),
             config_file: self.zenoh_config.clone(),
             prefix: self.prefix.clone(),
+            heartbeat,
         }
     }
 }
@@ -82,6 +87,15 @@ pub struct RobotArgs {
     /// Stop after this many seconds (default: run until interrupted).
     #[arg(long, value_name = "SECS")]
     pub duration: Option<f64>,
+    /// Break this process on purpose as this fault plan says (see docs/faults.md): components,
+    /// services, sensors, motors, and `link_cut` to the executive, teleop or tools. Its clock
+    /// starts when the robot is on the network.
+    #[arg(long, value_name = "PLAN.toml")]
+    pub faults: Option<PathBuf>,
+    /// At exit, write a report here (JSON): safety counters, link-cut counts and, with
+    /// --faults, what was injected, detected and restarted.
+    #[arg(long, value_name = "PATH.json")]
+    pub report: Option<PathBuf>,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
@@ -234,8 +248,13 @@ fn load_config(path: &Option<PathBuf>) -> anyhow::Result<Config> {
     })
 }
 
-async fn open(registry: &Registry, net: &NetArgs, role: &str) -> anyhow::Result<ZenohTransport> {
-    Ok(ZenohTransport::open(registry, &net.options(), role).await?)
+async fn open(
+    registry: &Registry,
+    net: &NetArgs,
+    role: &str,
+    heartbeat: Option<Duration>,
+) -> anyhow::Result<ZenohTransport> {
+    Ok(ZenohTransport::open(registry, &net.options(heartbeat), role).await?)
 }
 
 async fn wait_for(t: &ZenohTransport, addrs: &[ServiceAddr], wait: Duration) -> anyhow::Result<()> {
@@ -264,6 +283,45 @@ async fn until_stopped(duration: Option<Duration>) {
     }
 }
 
+/// What `orsa robot --report` writes at exit.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct RobotReport {
+    /// Seconds the robot ran (its clock at the end).
+    pub duration_s: f64,
+    /// When the fault plan's clock started (its `at` 0), seconds on the robot's clock.
+    pub plan_started_at_s: Option<f64>,
+    /// What the robot server did with velocity commands over its whole life.
+    pub safety: orsa_hardware::server::SafetyCounters,
+    /// What link cuts kept from crossing.
+    pub link: orsa_net::LinkCutStats,
+    /// What the fault plan broke and how the robot came back (with `--faults`).
+    pub faults: Option<crate::faults::FaultsReport>,
+}
+
+/// What the robot's main loop hears about.
+enum RobotEvent {
+    /// A process of role executive appeared (its token).
+    ExecutiveFound(String),
+    /// An executive's token disappeared.
+    ExecutiveGone(String),
+    /// A heartbeat of an executive, with its period in ms.
+    Beat(String, u64),
+    /// The fault plan cut (true) or restored (false) the link to a role.
+    Link(String, bool),
+}
+
+/// An executive as the robot sees it.
+struct Executive {
+    /// No heartbeat by then: lost.
+    deadline: tokio::time::Instant,
+    /// Lost (token gone or heartbeat lease expired) and not heard since.
+    lost: bool,
+    /// The behaviour it had wired to the motors when it was lost, given back when it returns.
+    restore: Option<String>,
+    /// Whether its heartbeat period was found too slow for the lease (warned once).
+    warned: bool,
+}
+
 /// `orsa robot`.
 pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
     let world = match &args.world {
@@ -278,6 +336,14 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         bail!("--fallback {mode}: no such mode in executive.modes (known: {known:?})");
     }
     let duration = args.duration.map(|d| secs(d, "--duration")).transpose()?;
+    let plan = match &args.faults {
+        Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_robot(&config))?),
+        None => None,
+    };
+    if let Some(p) = &args.report {
+        crate::cli::ensure_parent(p)?;
+    }
+    let lease = config.link.lease(config.robot.cmd_timeout_s);
     runtime()?.block_on(async move {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
@@ -286,92 +352,361 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         let sim = SimRobot::spawn(sim, clock);
         let robot = config.robot.name.clone();
         let params = config.sim.robot_params(config.robot.push_periods());
-        let server = Nomad200::new(config.robot.clone(), params, sim.sensor_board(), sim.motor_board());
-        let nomad = ComponentHandle::new(&registry, &robot, server)?;
+        let boards = BoardFaults::new(args.seed);
+        let sensors = FaultySensorBoard::new(sim.sensor_board(), boards.clone());
+        let motor_board = FaultyMotorBoard::new(sim.motor_board(), boards.clone());
+        let server = Nomad200::new(config.robot.clone(), params, sensors, motor_board);
+        let watchdog = Duration::from_secs_f64(config.supervision.handler_timeout_s);
+        let nomad = ComponentHandle::new(&registry, &robot, server)?.with_handler_timeout(watchdog);
         let wall = ComponentHandle::new(
             &registry,
             "wallfollow",
             WallFollow { params: config.wallfollow, robot: robot.clone() },
-        )?;
+        )?
+        .with_handler_timeout(watchdog);
         let center = ComponentHandle::new(
             &registry,
             "centerfollow",
             CenterFollow { params: config.centerfollow, robot: robot.clone() },
-        )?;
+        )?
+        .with_handler_timeout(watchdog);
+        let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
+        let sink = Arc::clone(&supervisor_events);
+        let s = config.supervision;
         let spec = SupervisorSpec::new("robot", Strategy::OneForOne)
-            .with_intensity(10, Duration::from_secs(60))
+            .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))
             .with_clock(clock)
+            .with_event_sink(move |e| sink.lock().push(e))
             .with_child(nomad.child_spec())
             .with_child(wall.child_spec())
             .with_child(center.child_spec());
         let supervisor =
             Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the robot: {e}"))?;
-        let transport = open(&registry, &args.net, "robot").await?;
+        let transport = open(&registry, &args.net, "robot", None).await?;
         eprintln!("robot: up as {} (zenoh id {})", robot, transport.zid());
 
-        // Executives coming (true) and going (false).
-        let (exec_tx, mut exec_rx) = tokio::sync::mpsc::unbounded_channel::<(String, bool)>();
-        let tx = exec_tx.clone();
+        let (ev_tx, mut ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
+        let tx = ev_tx.clone();
         transport.on_process_lost(move |p| {
             if p.role == "executive" {
-                let _ = tx.send((p.zid.clone(), false));
+                let _ = tx.send(RobotEvent::ExecutiveGone(p.zid.clone()));
             }
         });
+        let tx = ev_tx.clone();
         transport.on_process_found(move |p| {
             if p.role == "executive" {
-                let _ = exec_tx.send((p.zid.clone(), true));
+                let _ = tx.send(RobotEvent::ExecutiveFound(p.zid.clone()));
             }
         });
+        let tx = ev_tx.clone();
+        let _beats = transport
+            .on_heartbeat("executive", move |zid, h| {
+                let _ = tx.send(RobotEvent::Beat(zid.to_string(), h.period_ms));
+            })
+            .await?;
+        // The robot's own base state, to report when it came to rest and moved again.
+        let (base_tx, mut base_rx) = tokio::sync::mpsc::unbounded_channel();
+        let base = orsa_actors::push_timed::PushTimedClient::<orsa_hardware::comm::BaseState>::connect_to(
+            &registry,
+            (robot.as_str(), "basestate"),
+            orsa_actors::Sink::channel(base_tx),
+        )?;
+        base.subscribe(1)?;
+
+        let plan_started_at = plan.as_ref().map(|_| registry.now());
+        let plan_task = plan.clone().map(|plan| {
+            let t = transport.clone();
+            let tx = ev_tx.clone();
+            let link: crate::faults::LinkSwitch = Arc::new(move |role: &str, cut: bool| {
+                t.cut_link(role, cut);
+                let _ = tx.send(RobotEvent::Link(role.to_string(), cut));
+            });
+            let targets =
+                crate::faults::FaultTargets { faults: registry.faults(), boards: boards.clone(), link: Some(link) };
+            tokio::spawn(crate::faults::run_plan(plan, targets, duration.map_or(1e7, |d| d.as_secs_f64())))
+        });
+        drop(ev_tx);
+
         let behaviours = ["wallfollow", "centerfollow"];
-        let motors =
-            SendClient::<NavigationVelocity>::connect(&registry, (robot.as_str(), "navigationvelocity"))?;
+        let motors_addr = ServiceAddr::new(&robot, "navigationvelocity");
+        let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors_addr)?;
         let mut fallback: Option<ComponentHandle<Master>> = None;
+        let mut executives: std::collections::BTreeMap<String, Executive> = std::collections::BTreeMap::new();
+        let mut links: Vec<crate::faults::LinkCutReport> = Vec::new();
+        let mut link_log: Vec<(f64, String, String)> = Vec::new();
+        let far = Duration::from_secs(86_400);
         let stop = until_stopped(duration);
         tokio::pin!(stop);
         loop {
+            let now = tokio::time::Instant::now();
+            let next = executives.values().filter(|e| !e.lost).map(|e| e.deadline).min().unwrap_or(now + far);
             tokio::select! {
                 () = &mut stop => break,
-                Some((zid, back)) = exec_rx.recv() => {
-                    if back {
+                () = tokio::time::sleep_until(next) => {
+                    let now = tokio::time::Instant::now();
+                    let expired: Vec<String> = executives
+                        .iter()
+                        .filter(|(_, e)| !e.lost && e.deadline <= now)
+                        .map(|(z, _)| z.clone())
+                        .collect();
+                    for zid in expired {
+                        let why = format!("no heartbeat for {} ms", lease.as_millis());
+                        let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why).await;
+                        if let Some(e) = executives.get_mut(&zid) {
+                            e.lost = true;
+                            e.restore = restore;
+                        }
+                        note_loss(&registry, &mut links, &mut link_log, &zid, &why);
+                        start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
+                    }
+                }
+                Some(ev) = ev_rx.recv() => match ev {
+                    RobotEvent::ExecutiveFound(zid) => {
                         // A new executive takes over: the fallback master goes first (the
                         // executive waits for its services to disappear before it starts).
                         if let Some(f) = fallback.take() {
                             eprintln!("robot: executive {zid} is back: stopping the fallback");
                             f.stop().await;
                         }
-                        continue;
-                    }
-                    eprintln!("robot: executive {zid} lost: unwiring the behaviours and stopping");
-                    let wiring = WiringMaster::new(&registry);
-                    for b in behaviours {
-                        if let Err(e) = wiring.disconnect(b, VEL_PORT).await {
-                            tracing::warn!("robot: cannot unwire {b}: {e}");
+                        let e = executives.entry(zid.clone()).or_insert(Executive {
+                            deadline: tokio::time::Instant::now() + lease,
+                            lost: false,
+                            restore: None,
+                            warned: false,
+                        });
+                        if e.lost {
+                            e.lost = false;
+                            e.deadline = tokio::time::Instant::now() + lease;
+                            let restore = e.restore.take();
+                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links).await;
                         }
                     }
-                    let zero = NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
-                    if let Err(e) = motors.send(zero) {
-                        tracing::warn!("robot: cannot stop the motors: {e}");
+                    RobotEvent::ExecutiveGone(zid) => {
+                        let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
+                        if !was_lost {
+                            let why = "its process token disappeared";
+                            lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why).await;
+                            note_loss(&registry, &mut links, &mut link_log, &zid, why);
+                        }
+                        start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
                     }
-                    if let (Some(mode), None) = (&args.fallback, &fallback) {
-                        match start_fallback(&registry, &config, mode).await {
-                            Ok(f) => {
-                                eprintln!("robot: driving fallback mode '{mode}'");
-                                fallback = Some(f);
+                    RobotEvent::Beat(zid, period_ms) => {
+                        let e = executives.entry(zid.clone()).or_insert(Executive {
+                            deadline: tokio::time::Instant::now() + lease,
+                            lost: false,
+                            restore: None,
+                            warned: false,
+                        });
+                        e.deadline = tokio::time::Instant::now() + lease;
+                        if !e.warned && Duration::from_millis(period_ms.saturating_mul(2)) > lease {
+                            e.warned = true;
+                            eprintln!(
+                                "robot: executive {zid} beats every {period_ms} ms: too slow for the {} ms lease \
+                                 (link.heartbeat_period_s in its config)",
+                                lease.as_millis()
+                            );
+                        }
+                        if e.lost {
+                            e.lost = false;
+                            let restore = e.restore.take();
+                            if let Some(f) = fallback.take() {
+                                eprintln!("robot: executive {zid} is heard again: stopping the fallback");
+                                f.stop().await;
                             }
-                            Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
+                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links).await;
+                        }
+                    }
+                    RobotEvent::Link(role, cut) => {
+                        let t = registry.now().as_secs_f64();
+                        if cut {
+                            eprintln!("robot: [{t:.3} s] fault: link to {role} cut");
+                            links.push(crate::faults::LinkCutReport { role: role.clone(), cut_at_s: t, ..Default::default() });
+                            link_log.push((t, role, "link cut".into()));
+                        } else {
+                            eprintln!("robot: [{t:.3} s] fault: link to {role} restored");
+                            if let Some(l) = links.iter_mut().rev().find(|l| l.role == role && l.restored_at_s.is_none()) {
+                                l.restored_at_s = Some(t);
+                            }
+                            link_log.push((t, role, "link restored".into()));
+                        }
+                    }
+                },
+                Some(u) = base_rx.recv() => {
+                    let u: orsa_actors::Update<orsa_hardware::comm::BaseState> = u;
+                    let t = u.stamp.as_secs_f64();
+                    let b = &u.value;
+                    let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
+                    for l in &mut links {
+                        if l.at_rest_at_s.is_none() && t >= l.cut_at_s && at_rest {
+                            l.at_rest_at_s = Some(t);
+                        }
+                        if l.moving_again_at_s.is_none() && l.restored_at_s.is_some_and(|r| t >= r) && !at_rest {
+                            l.moving_again_at_s = Some(t);
                         }
                     }
                 }
             }
         }
+        if let Some(p) = plan_task {
+            p.abort();
+        }
+        let safety = orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_hardware::server::SafetyCounters>::connect(
+            &registry,
+            (robot.as_str(), "safety"),
+        )?
+        .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
+        .await
+        .unwrap_or_else(|e| {
+            eprintln!("robot: cannot read the safety counters: {e}");
+            Default::default()
+        });
         if let Some(f) = fallback {
             f.stop().await;
         }
+        drop(base);
+        let faults_switch = registry.faults();
         supervisor.shutdown().await;
         let _ = sim.shutdown().await;
+        let end_s = registry.now().as_secs_f64();
+        let faults = plan.as_ref().map(|plan| {
+            let plan_end = end_s - plan_started_at.map_or(0.0, |t| t.as_secs_f64());
+            let (restarts, restart_ms) = crate::faults::restarts_of(&supervisor_events.lock());
+            let mut report =
+                crate::faults::FaultsReport::new(plan, plan_end, &faults_switch, &boards, restarts, restart_ms);
+            for (_, role, what) in &link_log {
+                if what.starts_with("detected") {
+                    *report.detected.entry(role.clone()).or_default() += 1;
+                }
+            }
+            report.log.extend(link_log.iter().cloned());
+            report.log.sort_by(|a, b| a.0.total_cmp(&b.0));
+            report.links = links.clone();
+            report
+        });
+        let report = RobotReport {
+            duration_s: end_s,
+            plan_started_at_s: plan_started_at.map(|t| t.as_secs_f64()),
+            safety,
+            link: transport.link_cut_stats(),
+            faults,
+        };
         transport.close().await;
+        if let Some(p) = &args.report {
+            std::fs::write(p, serde_json::to_string_pretty(&report)?)
+                .with_context(|| format!("{}: cannot write the report", p.display()))?;
+            eprintln!("robot: report: {}", p.display());
+        }
         Ok(())
     })
+}
+
+/// The executive `zid` is lost (`why`): unwires every behaviour and commands the motors to
+/// zero. Answers the behaviour it had wired to the motors.
+async fn lose_executive(
+    registry: &Registry,
+    behaviours: &[&str],
+    motors: &SendClient<NavigationVelocity>,
+    motors_addr: &ServiceAddr,
+    zid: &str,
+    why: &str,
+) -> Option<String> {
+    let t = registry.now().as_secs_f64();
+    eprintln!("robot: [{t:.3} s] executive {zid} lost ({why}): unwiring the behaviours and stopping");
+    let wiring = WiringMaster::new(registry);
+    let mut driving = None;
+    for b in behaviours {
+        if let Ok(ports) = wiring.ports(b).await
+            && ports.iter().any(|p| p.port == VEL_PORT && p.target.as_ref() == Some(motors_addr))
+        {
+            driving = Some((*b).to_string());
+        }
+        if let Err(e) = wiring.disconnect(b, VEL_PORT).await {
+            tracing::warn!("robot: cannot unwire {b}: {e}");
+        }
+    }
+    let zero = NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
+    if let Err(e) = motors.send(zero) {
+        tracing::warn!("robot: cannot stop the motors: {e}");
+    }
+    driving
+}
+
+/// Records the loss of an executive against the link cut it happened under, if any.
+fn note_loss(
+    registry: &Registry,
+    links: &mut [crate::faults::LinkCutReport],
+    log: &mut Vec<(f64, String, String)>,
+    zid: &str,
+    why: &str,
+) {
+    let t = registry.now().as_secs_f64();
+    log.push((
+        t,
+        "executive".into(),
+        format!("detected: executive {zid} lost ({why}); motors commanded to zero"),
+    ));
+    if let Some(l) = links
+        .iter_mut()
+        .rev()
+        .find(|l| l.role == "executive" && l.restored_at_s.is_none() && l.lost_at_s.is_none())
+    {
+        l.lost_at_s = Some(t);
+        l.stop_commanded_at_s = Some(t);
+    }
+}
+
+/// The executive `zid`, lost, is heard again: gives it back the behaviour it had wired.
+async fn executive_back(
+    registry: &Registry,
+    behaviours: &[&str],
+    motors_addr: &ServiceAddr,
+    zid: &str,
+    restore: Option<String>,
+    links: &mut [crate::faults::LinkCutReport],
+) {
+    let t = registry.now().as_secs_f64();
+    let wiring = WiringMaster::new(registry);
+    if let Some(b) = &restore {
+        // Whatever a fallback wired goes first: never two behaviours on the motors.
+        for other in behaviours.iter().filter(|o| **o != b.as_str()) {
+            if let Err(e) = wiring.disconnect(other, VEL_PORT).await {
+                tracing::warn!("robot: cannot unwire {other}: {e}");
+            }
+        }
+        match wiring.connect(b, VEL_PORT, motors_addr).await {
+            Ok(()) => {
+                eprintln!("robot: [{t:.3} s] executive {zid} is back: {b} drives again, as it had wired")
+            }
+            Err(e) => eprintln!("robot: executive {zid} is back, but {b} cannot be wired again: {e}"),
+        }
+    } else {
+        eprintln!("robot: [{t:.3} s] executive {zid} is back (it had nothing wired)");
+    }
+    if let Some(l) = links
+        .iter_mut()
+        .rev()
+        .find(|l| l.role == "executive" && l.lost_at_s.is_some() && l.back_at_s.is_none())
+    {
+        l.back_at_s = Some(t);
+    }
+}
+
+/// Starts the fallback master if one is asked for and none runs.
+async fn start_fallback_if(
+    registry: &Registry,
+    config: &Config,
+    mode: &Option<String>,
+    fallback: &mut Option<ComponentHandle<Master>>,
+) {
+    if let (Some(mode), None) = (mode, &*fallback) {
+        match start_fallback(registry, config, mode).await {
+            Ok(f) => {
+                eprintln!("robot: driving fallback mode '{mode}'");
+                *fallback = Some(f);
+            }
+            Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
+        }
+    }
 }
 
 /// The component name of the robot's fallback master.
@@ -408,7 +743,9 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
-        let transport = open(&registry, &args.net, "executive").await?;
+        // The heartbeat tells the robot this process still drives it (see [link] in the config).
+        let beat = Duration::from_secs_f64(config.link.heartbeat_period_s);
+        let transport = open(&registry, &args.net, "executive", Some(beat)).await?;
         let mut exec = config.executive.clone();
         exec.robot = config.robot.name.clone();
         let mut needed = vec![
@@ -453,7 +790,7 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
-        let transport = open(&registry, &args.net, "teleop").await?;
+        let transport = open(&registry, &args.net, "teleop", None).await?;
         let addr = ServiceAddr::new(&args.robot, "teleop");
         wait_for(&transport, std::slice::from_ref(&addr), wait).await?;
         let client = SendClient::<NavigationVelocity>::connect(&registry, &addr)?;
@@ -509,7 +846,7 @@ pub fn list(args: ListArgs) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
-        let transport = open(&registry, &args.net, "tool").await?;
+        let transport = open(&registry, &args.net, "tool", None).await?;
         // Discovery is asynchronous: listen for a moment, as `ros2 node list` spins.
         tokio::time::sleep(wait).await;
         let roles: std::collections::BTreeMap<String, String> =
@@ -608,7 +945,7 @@ pub fn echo(args: EchoArgs) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
-        let transport = open(&registry, &args.net, "tool").await?;
+        let transport = open(&registry, &args.net, "tool", None).await?;
         wait_for(&transport, std::slice::from_ref(&args.service), wait).await?;
         let info = transport.lookup(&args.service).context("the service vanished")?;
         if !matches!(info.pattern, PatternKind::PushNewest | PatternKind::PushTimed) {
@@ -690,7 +1027,7 @@ pub fn wire(args: WireArgs) -> anyhow::Result<()> {
     }
     runtime()?.block_on(async move {
         let registry = Registry::new();
-        let transport = open(&registry, &args.net, "tool").await?;
+        let transport = open(&registry, &args.net, "tool", None).await?;
         wait_for(&transport, &[ServiceAddr::new(&args.component, "wiring")], wait).await?;
         let master = WiringMaster::new(&registry);
         match &args.target {
@@ -711,7 +1048,7 @@ pub fn state(args: StateArgs) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
-        let transport = open(&registry, &args.net, "tool").await?;
+        let transport = open(&registry, &args.net, "tool", None).await?;
         wait_for(&transport, &[ServiceAddr::new(&args.component, "state")], wait).await?;
         let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
         if let Some(main) = &args.main {

@@ -228,23 +228,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     report.delivery = delivery;
     report.integrity = held;
     if let Some(plan) = &opts.faults {
-        let mut by_child = std::collections::BTreeMap::new();
-        let mut failed_at: std::collections::BTreeMap<&str, f64> = std::collections::BTreeMap::new();
-        let mut restart_ms = Vec::new();
-        for e in &events {
-            match e.kind {
-                SupervisorEventKind::ChildFailed => {
-                    failed_at.insert(e.child.as_str(), e.at.as_secs_f64());
-                }
-                SupervisorEventKind::Restarted => {
-                    *by_child.entry(e.child.clone()).or_insert(0u64) += 1;
-                    if let Some(t) = failed_at.remove(e.child.as_str()) {
-                        restart_ms.push((e.at.as_secs_f64() - t) * 1e3);
-                    }
-                }
-                _ => {}
-            }
-        }
+        let (by_child, restart_ms) = crate::faults::restarts_of(&events);
         report.faults = Some(crate::faults::FaultsReport::new(
             plan,
             opts.duration_s,
