@@ -222,7 +222,7 @@ struct Inner {
     /// Processes announced by peers (and this one).
     processes: RwLock<BTreeMap<String, String>>,
     exports: Mutex<BTreeMap<ServiceAddr, Arc<Export>>>,
-    senders: Mutex<HashMap<ServiceAddr, Arc<zenoh::pubsub::Publisher<'static>>>>,
+    senders: Mutex<HashMap<ServiceAddr, Arc<Outlet>>>,
     held: Mutex<BTreeMap<u64, Held>>,
     next_id: AtomicU64,
     published: AtomicU64,
@@ -835,10 +835,16 @@ impl Inner {
                     self.received.fetch_add(1, Ordering::Relaxed);
                     Ok(sample.payload().to_bytes().into_owned())
                 }
-                Err(e) => Err(PatternError::Link(format!(
-                    "{key}: {}",
-                    String::from_utf8_lossy(&e.payload().to_bytes())
-                ))),
+                Err(e) => {
+                    let why = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
+                    // zenoh answers a query whose timeout ran out while its queryable held it
+                    // with an error reply saying so: that is a timeout, not a broken link.
+                    if why == "Timeout" {
+                        Err(PatternError::Timeout)
+                    } else {
+                        Err(PatternError::Link(format!("{key}: {why}")))
+                    }
+                }
             },
             // No reply before the timeout: nobody serves the key, or it took too long.
             Err(_) => Err(PatternError::Timeout),
@@ -993,27 +999,19 @@ impl Inner {
 
     /// A publisher: sensor streams and Send messages drop under congestion (the newest value
     /// wins); event firings (`must_arrive`) block instead, since a lost firing is not sent again.
-    fn publisher(
-        &self,
-        key: String,
-        must_arrive: bool,
-    ) -> PatternResult<Arc<zenoh::pubsub::Publisher<'static>>> {
+    fn publisher(&self, key: String, must_arrive: bool) -> PatternResult<Arc<Outlet>> {
         let congestion = if must_arrive { CongestionControl::Block } else { CongestionControl::Drop };
-        let p = self
+        let publisher = self
             .session
             .declare_publisher(key)
             .express(true)
             .congestion_control(congestion)
             .wait()
             .map_err(link)?;
-        Ok(Arc::new(p))
+        Ok(Arc::new(Outlet { publisher, congestion, matched: std::sync::atomic::AtomicBool::new(false) }))
     }
 
-    fn publishing_sink(
-        self: &Arc<Self>,
-        publisher: Arc<zenoh::pubsub::Publisher<'static>>,
-        audience: Audience,
-    ) -> ByteSink {
+    fn publishing_sink(self: &Arc<Self>, publisher: Arc<Outlet>, audience: Audience) -> ByteSink {
         let weak = Arc::downgrade(self);
         Arc::new(move |bytes: &[u8]| {
             let Some(inner) = weak.upgrade() else { return false };
@@ -1030,7 +1028,7 @@ impl Inner {
                     return true;
                 }
             }
-            match publisher.put(bytes.to_vec()).attachment(inner.me.clone()).wait() {
+            match publisher.put(&inner.session, bytes.to_vec(), &inner.me) {
                 Ok(()) => {
                     inner.published.fetch_add(1, Ordering::Relaxed);
                     true
@@ -1146,6 +1144,46 @@ impl std::fmt::Debug for HeartbeatWatch {
     }
 }
 
+/// A declared publisher, and whether zenoh has matched it with a subscriber yet.
+///
+/// A declared publisher filters on the writer's side: until the peer's answer to the interest
+/// it sends when declared comes back, it believes nobody listens and drops what it is given.
+/// So the first message sent right after discovering a service could be lost. Until the
+/// publisher is matched, puts go through the session instead, which does not filter; after
+/// that, through the publisher.
+struct Outlet {
+    publisher: zenoh::pubsub::Publisher<'static>,
+    congestion: CongestionControl,
+    matched: std::sync::atomic::AtomicBool,
+}
+
+impl Outlet {
+    fn put(
+        &self,
+        session: &zenoh::Session,
+        payload: Vec<u8>,
+        from: &zenoh::bytes::ZBytes,
+    ) -> zenoh::Result<()> {
+        if !self.matched.load(Ordering::Acquire) {
+            if self.publisher.matching_status().wait().is_ok_and(|m| m.matching()) {
+                self.matched.store(true, Ordering::Release);
+            } else {
+                return session
+                    .put(self.publisher.key_expr().clone(), payload)
+                    .attachment(from.clone())
+                    .express(true)
+                    .congestion_control(self.congestion)
+                    .wait();
+            }
+        }
+        self.publisher.put(payload).attachment(from.clone()).wait()
+    }
+
+    fn key_expr(&self) -> &zenoh::key_expr::KeyExpr<'static> {
+        self.publisher.key_expr()
+    }
+}
+
 /// The most distinct every-n-th streams one push service serves to peers (each is a publisher).
 const MAX_STREAMS: usize = 64;
 type ProcessLost = Box<dyn Fn(&Process) + Send + Sync>;
@@ -1205,7 +1243,7 @@ impl Transport for ZenohTransport {
                 }
             }
         };
-        publisher.put(payload).attachment(self.inner.me.clone()).wait().map_err(link)?;
+        publisher.put(&self.inner.session, payload, &self.inner.me).map_err(link)?;
         self.inner.published.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
