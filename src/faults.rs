@@ -441,6 +441,48 @@ pub struct FaultsReport {
     /// Every link cut and what the robot did about it (`orsa robot --faults`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub links: Vec<LinkCutReport>,
+    /// What was lost, in short (the whole accounting is the report's `delivery` section;
+    /// `orsa run` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss: Option<LossFigures>,
+    /// Whether the robot stayed safe, in short (`orsa run` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub safety: Option<FaultSafety>,
+}
+
+/// The loss counts of a fault run, over all services.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct LossFigures {
+    /// Send, Query and Event messages that vanished while their sender believed them handed
+    /// over.
+    pub lost_must_arrive: u64,
+    /// All messages lost so (push updates included).
+    pub lost: u64,
+    /// Messages whose sender was told they could not be handed over.
+    pub failed: u64,
+    /// Arrivals a receiver had already seen.
+    pub duplicates: u64,
+    /// Messages the plan dropped.
+    pub dropped_by_plan: u64,
+    /// Push updates left in a dead instance and replaced by the next one.
+    pub superseded: u64,
+    /// Subscription and wiring checks (each second) that found something other than expected.
+    pub subscription_mismatches: u64,
+    /// Wiring checks that found a lasting mismatch with the master's decision.
+    pub wiring_mismatches: u64,
+}
+
+/// The safety figures of a fault run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct FaultSafety {
+    /// Contact onsets.
+    pub bumps: u64,
+    /// Simulated seconds driven with nothing wired, beyond the velocity timeout.
+    pub driven_unwired_s: f64,
+    /// Simulated seconds driven on a command older than the velocity timeout (motor side).
+    pub driven_on_stale_command_s: f64,
+    /// Commands older than the velocity timeout when the motors took them.
+    pub stale_commands_applied: u64,
 }
 
 /// One link cut as the robot lived it; times in seconds on the robot's clock (from the start

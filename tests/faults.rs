@@ -92,4 +92,11 @@ async fn the_standard_plan_is_survived_and_accounted_for() {
     assert_eq!(v.counts.duplicates, v.counts.copies_injected, "{v:?}");
     assert_eq!(v.counts.dropped, velocity.dropped, "{v:?}");
     assert!(v.counts.duplicates > 0);
+    // The faults section says the same in short.
+    let loss = f.loss.expect("loss figures");
+    assert_eq!((loss.lost_must_arrive, loss.wiring_mismatches, loss.subscription_mismatches), (0, 0, 0));
+    assert_eq!(loss.duplicates, report.delivery.total.duplicates);
+    let safety = f.safety.expect("safety figures");
+    assert_eq!((safety.bumps, safety.stale_commands_applied), (0, 0));
+    assert_eq!(safety.driven_on_stale_command_s, 0.0);
 }

@@ -237,6 +237,25 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
             by_child,
             restart_ms,
         ));
+        if let Some(f) = report.faults.as_mut() {
+            let (d, i) = (&report.delivery, &report.integrity);
+            f.loss = Some(crate::faults::LossFigures {
+                lost_must_arrive: d.lost_must_arrive,
+                lost: d.total.lost,
+                failed: d.total.failed,
+                duplicates: d.total.duplicates,
+                dropped_by_plan: d.total.dropped,
+                superseded: d.total.superseded,
+                subscription_mismatches: i.client_mismatches,
+                wiring_mismatches: i.wiring_mismatches,
+            });
+            f.safety = Some(crate::faults::FaultSafety {
+                bumps: report.bumps,
+                driven_unwired_s: i.driven_unwired_s,
+                driven_on_stale_command_s: i.driven_on_stale_command_s,
+                stale_commands_applied: report.safety.stale_commands_applied,
+            });
+        }
     }
     let recording = recording.and_then(|r| r.finish().transpose());
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
