@@ -103,9 +103,7 @@ impl<M> Envelope<M> {
         }
         self.msg.take()
     }
-}
 
-impl<M> Envelope<M> {
     /// Takes the message out, so dropping the envelope does not send it back; returns the
     /// receipt (dropping it unsettled counts the message lost).
     fn discard(mut self) -> Option<Receipt> {
@@ -306,16 +304,23 @@ impl<M: ractor::Message> Mailbox<M> {
     /// A sink that converts each value with `map` and casts it to the current instance.
     /// What the instance had not handled when it died goes to the next one.
     pub fn sink<T: Send + 'static>(&self, map: impl Fn(T) -> M + Send + Sync + 'static) -> Sink<T> {
-        let mailbox = self.clone();
-        Sink { deliver: Arc::new(move |v, receipt| mailbox.cast_with(map(v), receipt, false)) }
+        self.sink_as(map, false)
     }
 
     /// A sink like [`sink`](Self::sink) for values that the next one replaces (push updates,
     /// timer ticks): what the instance had not handled when it died is not handed to the next
     /// one, which acts on fresh values instead of stale ones.
     pub fn sink_latest<T: Send + 'static>(&self, map: impl Fn(T) -> M + Send + Sync + 'static) -> Sink<T> {
+        self.sink_as(map, true)
+    }
+
+    fn sink_as<T: Send + 'static>(
+        &self,
+        map: impl Fn(T) -> M + Send + Sync + 'static,
+        superseded_by_next: bool,
+    ) -> Sink<T> {
         let mailbox = self.clone();
-        Sink { deliver: Arc::new(move |v, receipt| mailbox.cast_with(map(v), receipt, true)) }
+        Sink { deliver: Arc::new(move |v, receipt| mailbox.cast_with(map(v), receipt, superseded_by_next)) }
     }
 }
 
