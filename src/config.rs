@@ -228,6 +228,20 @@ mod tests {
     }
 
     #[test]
+    fn the_shipped_experiment_files_parse_and_change_only_center_following() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        for name in ["centerfollow-wide.toml", "centerfollow-deadend.toml"] {
+            let c = Config::load(&root.join("config").join(name)).expect("parses");
+            assert_ne!(c.centerfollow, Config::default().centerfollow, "{name} changes center following");
+            let mut same = c.clone();
+            same.centerfollow = Config::default().centerfollow;
+            assert_eq!(same, Config::default(), "{name} changes nothing else");
+        }
+        let c = Config::load(&root.join("config/centerfollow-deadend.toml")).expect("parses");
+        assert!(c.centerfollow.dead_end_turn && !Config::default().centerfollow.dead_end_turn);
+    }
+
+    #[test]
     fn errors_name_the_place_and_the_key() {
         let e = Config::from_toml("[wallfollow]\ntarget_m = 0.2\nk_dd = 3.0\n", "my.toml")
             .expect_err("unknown key");

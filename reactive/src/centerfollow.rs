@@ -19,7 +19,7 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::{CascadeParams, check_positive};
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, fuse, wall_in};
+use crate::ring::{AngleEstimator, DeadEnd, Ranges, RingGeometry, Side, Wedge, front_min, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -41,6 +41,16 @@ pub struct CenterFollowParams {
     pub tight_gap_m: f64,
     /// The front (45 degrees each side) counts as open when nothing is nearer than this, m.
     pub open_front_m: f64,
+    /// Turn round in place at a dead end, where the end wall is as far as the side walls
+    /// (an orsa addition, see [`DeadEnd`]; off by default, see EXPERIMENTS.md); `false` drives on
+    /// until the master hands over.
+    pub dead_end_turn: bool,
+    /// A dead end counts when the wall ahead is at most this much farther than the farther
+    /// side wall, m (the robot is still braking when it decides).
+    pub dead_end_margin_m: f64,
+    /// Sensors 15, 0 and 1 see one flat wall when their readings, projected on the heading,
+    /// agree within this, m.
+    pub dead_end_flat_m: f64,
     /// Infrared is trusted under this distance, sonar beyond, m.
     pub ir_below_m: f64,
     /// Baseline of the original angle formula, m.
@@ -74,6 +84,9 @@ impl Default for CenterFollowParams {
             stop_below_m: 0.08,
             tight_gap_m: 0.15,
             open_front_m: 0.30,
+            dead_end_turn: false,
+            dead_end_margin_m: 0.05,
+            dead_end_flat_m: 0.10,
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
@@ -98,6 +111,8 @@ impl CenterFollowParams {
                 ("stop_below_m", self.stop_below_m),
                 ("tight_gap_m", self.tight_gap_m),
                 ("open_front_m", self.open_front_m),
+                ("dead_end_margin_m", self.dead_end_margin_m),
+                ("dead_end_flat_m", self.dead_end_flat_m),
                 ("ir_below_m", self.ir_below_m),
                 ("l_m", self.l_m),
             ],
@@ -132,6 +147,8 @@ pub struct CenterFollower {
     params: CenterFollowParams,
     /// Getting out of gaps barely wider than the body.
     wedge: Wedge,
+    /// Turning round at the end of a corridor.
+    dead_end: DeadEnd,
     radius_m: f64,
     ir_half_beam_rad: f64,
     sonar_half_beam_rad: f64,
@@ -154,6 +171,7 @@ impl CenterFollower {
     pub fn new(params: CenterFollowParams, radius_m: f64, ir_beam_rad: f64, sonar_beam_rad: f64) -> Self {
         CenterFollower {
             wedge: Wedge::default(),
+            dead_end: DeadEnd::default(),
             params,
             radius_m,
             ir_half_beam_rad: ir_beam_rad / 2.0,
@@ -202,7 +220,11 @@ impl CenterFollower {
         };
         let mut omega = p.loops.omega(error_left, alpha);
         let wmax = p.loops.omega_max_deg_s.to_radians();
-        let wedged = self.wedge.step(&r, p.tight_gap_m, p.open_front_m, wmax);
+        let mut wedged = self.wedge.step(&r, p.tight_gap_m, p.open_front_m, wmax);
+        if p.dead_end_turn {
+            let turning = self.dead_end.step(&r, &ring, angle, p.dead_end_margin_m, p.dead_end_flat_m, wmax);
+            wedged = wedged.or(turning);
+        }
         if let Some(turn) = wedged {
             omega = turn;
         }

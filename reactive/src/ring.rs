@@ -153,6 +153,87 @@ impl Wedge {
     }
 }
 
+/// Where a flat wall facing direction `phi` (rad, counter-clockwise from the front) would be,
+/// measured from the robot's centre along `phi`, given sensor `i`'s reading `d`: the echo
+/// comes from the edge of the beam nearest to `phi` (or its axis, if `phi` is inside the beam).
+/// For a flat wall square to `phi` every sensor that sees it gives the same value.
+pub fn projected(i: usize, d: f64, phi: f64, ring: &RingGeometry) -> f64 {
+    let off = wrap(ring_angle_rad(i) - phi);
+    let edge = (off.abs() - ring.half_beam_rad[i]).max(0.0);
+    ring.radius_m * off.cos() + d * edge.cos()
+}
+
+/// An angle wrapped into (-pi, pi].
+fn wrap(a: f64) -> f64 {
+    let w = a.rem_euclid(2.0 * PI);
+    if w > PI { w - 2.0 * PI } else { w }
+}
+
+/// Turning round at a dead end, an orsa addition to center following.
+///
+/// At the closed end of a corridor the thesis' robot drove on until the master handed it to
+/// wall following (front infrared under 0.50 m), which turned it round close to the end wall
+/// and off the centre line. Here the robot turns round where the end is as far away as the
+/// side walls, in place: the one spot from which a turn keeps it equally far from everything.
+///
+/// A dead end is ahead when sensors 15, 0 and 1 all see one flat wall square to the heading
+/// (their readings, projected on the heading, agree within `flat_m`) no farther than the
+/// farther side wall (sensors 3-5 and 11-13) plus `margin_m`, no nearer than the side walls
+/// minus `margin_m + flat_m`, with the robot about as far from both sides and nothing within a
+/// metre beyond that behind it (sensor 8). A person ahead does not look like that: beside the
+/// one or two sensors it fills, the others see the side walls far off. The
+/// robot then turns in place, always the same way (toward the more open side), until the front
+/// is open and `alpha`, the wall angle, says it runs parallel to the walls again.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DeadEnd {
+    /// The turn rate while turning, and the front distance when it began.
+    turn: Option<(f64, f64)>,
+}
+
+impl DeadEnd {
+    /// The turn rate to turn in place at; `None` when not at a dead end.
+    pub fn step(
+        &mut self,
+        r: &Ranges,
+        ring: &RingGeometry,
+        alpha: Option<f64>,
+        margin_m: f64,
+        flat_m: f64,
+        omega_max_rad_s: f64,
+    ) -> Option<f64> {
+        let ahead = |i: usize| r[i].map(|d| projected(i, d, 0.0, ring) - ring.radius_m);
+        if let Some((turn, front_at_start)) = self.turn {
+            // Open: nothing ahead within a metre beyond where the end wall was.
+            let open = ahead(0).is_none_or(|d| d > front_at_start + 1.0);
+            let parallel = alpha.is_some_and(|a| a.abs() < 5f64.to_radians());
+            if open && parallel {
+                self.turn = None;
+                return None;
+            }
+            return Some(turn);
+        }
+        let (Some(f15), Some(f0), Some(f1)) = (ahead(15), ahead(0), ahead(1)) else {
+            return None;
+        };
+        let (Some((_, left)), Some((_, right))) = (window_min(r, 3..=5), window_min(r, 11..=13)) else {
+            return None;
+        };
+        let flat = f15.max(f0).max(f1) - f15.min(f0).min(f1) <= flat_m;
+        // The way back must be open: a dead end is the end of a passage, not a tight spot.
+        let behind_open = r[8].is_none_or(|d| d > f0 + 1.0);
+        let centred = (left - right).abs() <= 2.0 * margin_m + flat_m;
+        // As far ahead as to the sides: nearer, it is an obstacle in a passage, not its end.
+        let far = left.max(right);
+        let level = f0 <= far + margin_m && f0 >= far - margin_m - flat_m;
+        if !flat || !behind_open || !centred || !level {
+            return None;
+        }
+        let turn = if left >= right { omega_max_rad_s } else { -omega_max_rad_s };
+        self.turn = Some((turn, f0));
+        Some(turn)
+    }
+}
+
 /// The wall seen on one side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WallEstimate {
@@ -326,12 +407,56 @@ pub(crate) mod synthetic {
         }
         out
     }
+
+    /// Ring readings in a scene of walls and discs around a robot at the origin heading along
+    /// `heading` (rad): each wall is `(normal angle, distance)`, the infinite line at that
+    /// distance from the centre across that direction; each disc is `(x, y, radius)`. Beams
+    /// `2 half_beam` wide, 41 rays each, as in [`corridor_beam`].
+    pub(crate) fn scene(
+        walls: &[(f64, f64)],
+        discs: &[(f64, f64, f64)],
+        heading: f64,
+        r0: f64,
+        max: f64,
+        half_beam: f64,
+    ) -> Ranges {
+        let mut out = [None; RING_SIZE];
+        for (i, slot) in out.iter_mut().enumerate() {
+            let axis = ring_angle_rad(i) + heading;
+            let face = (r0 * axis.cos(), r0 * axis.sin());
+            let mut best = f64::INFINITY;
+            for k in 0..41 {
+                let a = axis + half_beam * (f64::from(k) / 20.0 - 1.0);
+                let u = (a.cos(), a.sin());
+                for &(n, c) in walls {
+                    let nu = n.cos() * u.0 + n.sin() * u.1;
+                    if nu > 1e-9 {
+                        let t = (c - (n.cos() * face.0 + n.sin() * face.1)) / nu;
+                        if t >= 0.0 {
+                            best = best.min(t);
+                        }
+                    }
+                }
+                for &(x, y, rad) in discs {
+                    let (px, py) = (x - face.0, y - face.1);
+                    let along = px * u.0 + py * u.1;
+                    let across2 = px * px + py * py - along * along;
+                    if along > 0.0 && across2 <= rad * rad {
+                        best = best.min(along - (rad * rad - across2).sqrt());
+                    }
+                }
+            }
+            *slot = Some(best).filter(|d| *d <= max);
+        }
+        out
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::synthetic::corridor;
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     #[test]
     fn line_fit_recovers_distance_and_angle_of_a_flat_wall() {
@@ -472,5 +597,70 @@ mod tests {
         let (f, beams) = fuse(&ir, &so, 0.6, 0.05, 0.2);
         assert_eq!((f[1], f[2], f[3], f[4]), (Some(0.3), Some(0.66), Some(2.0), None));
         assert_eq!((beams[1], beams[2]), (0.05, 0.2));
+    }
+
+    /// A dead end 1.2 m wide each side of a robot heading along +x, its end wall `end` m ahead
+    /// of the centre; 25 degree sonar beams.
+    fn dead_end_view(end: f64, heading: f64, discs: &[(f64, f64, f64)]) -> (Ranges, RingGeometry) {
+        let hb = 12.5f64.to_radians();
+        let walls = [(FRAC_PI_2, 1.2), (-FRAC_PI_2, 1.2), (0.0, end)];
+        // The scene is given in the corridor's frame; turning the robot turns it the other way.
+        let walls: Vec<_> = walls.iter().map(|&(n, c)| (n - heading, c)).collect();
+        let discs: Vec<_> = discs
+            .iter()
+            .map(|&(x, y, r)| {
+                (x * heading.cos() + y * heading.sin(), y * heading.cos() - x * heading.sin(), r)
+            })
+            .collect();
+        (super::synthetic::scene(&walls, &discs, 0.0, 0.25, 6.0, hb), RingGeometry::uniform(0.25, 2.0 * hb))
+    }
+
+    #[test]
+    fn projected_readings_of_a_flat_wall_agree() {
+        let (r, ring) = dead_end_view(1.2, 0.0, &[]);
+        for i in [15, 0, 1] {
+            let p = projected(i, r[i].expect("in range"), 0.0, &ring);
+            assert!((p - 1.2).abs() < 0.01, "sensor {i}: {p}");
+        }
+    }
+
+    #[test]
+    fn a_dead_end_turns_the_robot_round_where_the_end_is_as_far_as_the_sides() {
+        let w = 45f64.to_radians();
+        let mut d = DeadEnd::default();
+        let (far, ring) = dead_end_view(2.0, 0.0, &[]);
+        assert_eq!(d.step(&far, &ring, Some(0.0), 0.05, 0.10, w), None, "the end is still far");
+        let (near, ring) = dead_end_view(1.22, 0.0, &[]);
+        let turn = d.step(&near, &ring, Some(0.0), 0.05, 0.10, w).expect("turns round here");
+        assert_eq!(turn.abs(), w);
+        // Half way round the end wall is beside it: it keeps turning the same way.
+        let (side, ring) = dead_end_view(1.22, FRAC_PI_2, &[]);
+        assert_eq!(d.step(&side, &ring, Some(0.4), 0.05, 0.10, w), Some(turn));
+        // Round, but not yet parallel to the walls: still turning.
+        let (round, ring) = dead_end_view(1.22, PI, &[]);
+        assert_eq!(d.step(&round, &ring, Some(0.2), 0.05, 0.10, w), Some(turn));
+        // Round and parallel: done, and the wall now behind does not start it again.
+        assert_eq!(d.step(&round, &ring, Some(0.01), 0.05, 0.10, w), None);
+        assert_eq!(d.step(&round, &ring, Some(0.01), 0.05, 0.10, w), None);
+    }
+
+    #[test]
+    fn a_person_ahead_or_behind_is_not_a_dead_end() {
+        let w = 45f64.to_radians();
+        // A corridor with no end, a person straight ahead at 1.2 m from the centre.
+        let (r, ring) = dead_end_view(40.0, 0.0, &[(1.45, 0.0, 0.25)]);
+        assert!(r[0].is_some_and(|d| d < 1.0), "the person is seen: {:?}", r[0]);
+        assert_eq!(DeadEnd::default().step(&r, &ring, Some(0.0), 0.05, 0.10, w), None);
+        // A real dead end with somebody close behind: no room to have come from, no turn.
+        let (r, ring) = dead_end_view(1.22, 0.0, &[(-0.9, 0.0, 0.25)]);
+        assert_eq!(DeadEnd::default().step(&r, &ring, Some(0.0), 0.05, 0.10, w), None);
+        // The end seen off the centre line: not the turning spot.
+        let hb = 12.5f64.to_radians();
+        let walls = [(FRAC_PI_2, 0.7), (-FRAC_PI_2, 1.7), (0.0, 1.22)];
+        let r = super::synthetic::scene(&walls, &[], 0.0, 0.25, 6.0, hb);
+        assert_eq!(
+            DeadEnd::default().step(&r, &RingGeometry::uniform(0.25, 2.0 * hb), Some(0.0), 0.05, 0.10, w),
+            None
+        );
     }
 }
