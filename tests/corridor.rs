@@ -91,3 +91,27 @@ fn config_errors_name_file_line_and_key() {
     let e = Config::from_toml("[centerfollow]\nv_max_m_s = \"fast\"\n", "bad.toml").expect_err("invalid");
     assert!(e.to_string().starts_with("bad.toml:2:"), "{e}");
 }
+
+/// A deadlock is got out of. With `config/centerfollow-deadend.toml` and the recovery turned
+/// off, seed 5 is trapped from t = 780 s to the end of the hour: the robot against the upper
+/// wall near x = 10.9 m, a person waiting for it to leave, nobody moving again (EXPERIMENTS.md).
+/// With the behaviours' recovery (`[*.unstick]`, on by default) it keeps patrolling: no stalled
+/// minute, and in every minute it gets at least half a metre from where the minute began
+/// (backing and forth on the spot would pass the stall count, not this).
+#[tokio::test(start_paused = true)]
+async fn a_robot_caught_between_a_wall_and_waiting_people_gets_out() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/config/centerfollow-deadend.toml");
+    let config = Config::load(std::path::Path::new(path)).expect("config");
+    assert!(config.centerfollow.unstick.enabled && config.wallfollow.unstick.enabled);
+    let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 5, 1500.0);
+    let out = mission::run(opts).await.expect("run");
+    assert_eq!(out.report.bumps, 0);
+    assert_eq!(out.report.stalls, 0);
+    let trajectory = &out.metrics.trajectory;
+    for minute in trajectory.chunks(600) {
+        let (t0, x0, y0, _) = &minute[0];
+        let farthest = minute.iter().map(|(_, x, y, _)| (x - x0).hypot(y - y0)).fold(0.0, f64::max);
+        assert!(farthest >= 0.5, "the minute from t = {t0:.0} s: at most {farthest:.2} m from its start");
+    }
+    assert!(out.report.distance_m > 300.0, "{} m", out.report.distance_m);
+}

@@ -19,7 +19,10 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::{CascadeParams, check_positive};
-use crate::ring::{AngleEstimator, DeadEnd, Ranges, RingGeometry, Side, Wedge, front_min, fuse, wall_in};
+use crate::ring::{
+    AngleEstimator, DeadEnd, Ranges, RingGeometry, Side, Unstick, UnstickParams, Wedge, front_min, fuse,
+    wall_in,
+};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -73,6 +76,8 @@ pub struct CenterFollowParams {
     pub angle_right_sensors: [usize; 2],
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
+    /// Backing out of a deadlock (`[...unstick]`).
+    pub unstick: UnstickParams,
 }
 
 impl Default for CenterFollowParams {
@@ -95,6 +100,7 @@ impl Default for CenterFollowParams {
             angle_left_sensors: [1, 5],
             angle_right_sensors: [11, 15],
             loops: CascadeParams { k_d: 5.0, k_alpha: -2.0, ..CascadeParams::default() },
+            unstick: UnstickParams::default(),
         }
     }
 }
@@ -137,6 +143,7 @@ impl CenterFollowParams {
                 return Err(format!("centerfollow.{key}: [{a}, {b}] must be first and last of 9..15"));
             }
         }
+        self.unstick.validate("centerfollow")?;
         self.loops.validate("centerfollow")
     }
 }
@@ -149,6 +156,8 @@ pub struct CenterFollower {
     wedge: Wedge,
     /// Turning round at the end of a corridor.
     dead_end: DeadEnd,
+    /// Backing out of a deadlock.
+    unstick: Unstick,
     radius_m: f64,
     ir_half_beam_rad: f64,
     sonar_half_beam_rad: f64,
@@ -172,11 +181,17 @@ impl CenterFollower {
         CenterFollower {
             wedge: Wedge::default(),
             dead_end: DeadEnd::default(),
+            unstick: Unstick::default(),
             params,
             radius_m,
             ir_half_beam_rad: ir_beam_rad / 2.0,
             sonar_half_beam_rad: sonar_beam_rad / 2.0,
         }
+    }
+
+    /// The robot's odometry: where it is at `stamp` (for getting out of deadlocks).
+    pub fn note_position(&mut self, x_m: f64, y_m: f64, stamp: Timestamp) {
+        self.unstick.note_position(&self.params.unstick, x_m, y_m, stamp.0);
     }
 
     /// The parameters.
@@ -229,13 +244,16 @@ impl CenterFollower {
             omega = turn;
         }
         let front = [15, 0, 1].iter().filter_map(|&i| r[i]).fold(f64::INFINITY, f64::min);
-        let v = if wedged.is_some() || front_min(&r).is_some_and(|d| d < p.stop_below_m) {
+        let mut v = if wedged.is_some() || front_min(&r).is_some_and(|d| d < p.stop_below_m) {
             0.0
         } else if front.is_finite() {
             (p.k_v * front).clamp(p.v_min_m_s, p.v_max_m_s)
         } else {
             p.v_max_m_s
         };
+        if let Some(cmd) = self.unstick.step(&p.unstick, &r, wmax, stamp.0) {
+            (v, omega) = cmd;
+        }
         CenterFollowStep {
             cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega },
             offset_m: offset,

@@ -5,7 +5,9 @@
 //! unwired send is simply not delivered). It computes only while its main state is `active`
 //! (it holds substate `compute` for the instant of each step), so a master can silence it with
 //! the State pattern. It asks the robot for its geometry (`robotparams`) when it starts, so no
-//! robot dimension is hard-coded, and publishes what it saw and decided on `status`.
+//! robot dimension is hard-coded, and publishes what it saw and decided on `status`. It also
+//! follows the robot's odometry (`basestate`), only to notice when it has stopped making
+//! progress (see [`crate::ring::UnstickParams`]).
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
 use crate::ring::{Ranges, RingGeometry, ranges};
@@ -14,7 +16,7 @@ use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update, comm_object};
-use orsa_hardware::comm::{DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
+use orsa_hardware::comm::{BaseState, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -79,6 +81,8 @@ pub struct WallFollow {
 pub enum WallFollowMsg {
     /// A new infrared scan.
     Ir(Update<DistanceScan>),
+    /// New odometry.
+    Base(Update<BaseState>),
 }
 
 /// The running state of [`WallFollow`].
@@ -99,6 +103,7 @@ impl Component for WallFollow {
         let vel = ctx.send_port::<NavigationVelocity>("vel")?;
         let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, WallFollowMsg::Ir)?;
+        ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, WallFollowMsg::Base)?;
         Ok(WallFollowState { ctl: WallFollower::new(self.params, ring), vel, status })
     }
 
@@ -108,7 +113,13 @@ impl Component for WallFollow {
         st: &mut WallFollowState,
         msg: WallFollowMsg,
     ) -> Result<(), ComponentError> {
-        let WallFollowMsg::Ir(scan) = msg;
+        let scan = match msg {
+            WallFollowMsg::Ir(scan) => scan,
+            WallFollowMsg::Base(b) => {
+                st.ctl.note_position(b.x_m, b.y_m, b.stamp);
+                return Ok(());
+            }
+        };
         let Ok(_computing) = ctx.state().try_acquire(COMPUTE) else { return Ok(()) };
         let step = st.ctl.step(&ranges(&scan), scan.stamp);
         let delivered = sent(st.vel.send(step.cmd));
@@ -140,6 +151,8 @@ pub enum CenterFollowMsg {
     Ir(Update<DistanceScan>),
     /// A new sonar scan.
     Sonar(Update<DistanceScan>),
+    /// New odometry.
+    Base(Update<BaseState>),
 }
 
 /// The running state of [`CenterFollow`].
@@ -162,6 +175,7 @@ impl Component for CenterFollow {
         let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, CenterFollowMsg::Ir)?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceson"), 1, CenterFollowMsg::Sonar)?;
+        ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, CenterFollowMsg::Base)?;
         Ok(CenterFollowState {
             ctl: CenterFollower::new(
                 self.params,
@@ -185,6 +199,10 @@ impl Component for CenterFollow {
         match msg {
             CenterFollowMsg::Ir(s) => st.ir = Some((s.stamp, ranges(&s))),
             CenterFollowMsg::Sonar(s) => st.sonar = Some((s.stamp, ranges(&s))),
+            CenterFollowMsg::Base(b) => {
+                st.ctl.note_position(b.x_m, b.y_m, b.stamp);
+                return Ok(());
+            }
         }
         let Ok(_computing) = ctx.state().try_acquire(COMPUTE) else { return Ok(()) };
         let none = [None; RING_SIZE];

@@ -153,6 +153,166 @@ impl Wedge {
     }
 }
 
+/// Getting out of a deadlock, an orsa addition to both behaviours (`[*.unstick]` in the config).
+///
+/// People in orsa's worlds, like polite people, wait while the robot is close. A robot blocked
+/// ahead by a waiting person, with a wall on its other side, can then turn back and forth in
+/// place for ever while nobody moves (EXPERIMENTS.md). When odometry says the robot has not
+/// moved `progress_m` in `after_s`, it backs straight out at `back_m_s` for `back_s` (only while
+/// nothing is within `rear_clear_m` of its back, sensors 6 to 10), then turns in place toward
+/// the most open direction the ring sees, and drives on from there: the person it was facing
+/// can walk on, and the robot goes the other way.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct UnstickParams {
+    /// Get out of deadlocks at all.
+    pub enabled: bool,
+    /// Not having moved `progress_m` for this long is a deadlock, s.
+    pub after_s: f64,
+    /// See `after_s`, m.
+    pub progress_m: f64,
+    /// Back out for this long, s.
+    pub back_s: f64,
+    /// At this speed, m/s (positive; the robot drives backwards).
+    pub back_m_s: f64,
+    /// Only while nothing is this close behind (sensors 6 to 10), m.
+    pub rear_clear_m: f64,
+}
+
+impl Default for UnstickParams {
+    fn default() -> Self {
+        UnstickParams {
+            enabled: true,
+            after_s: 5.0,
+            progress_m: 0.05,
+            back_s: 1.5,
+            back_m_s: 0.10,
+            rear_clear_m: 0.25,
+        }
+    }
+}
+
+impl UnstickParams {
+    /// Checks every value; the message names the offending key under `prefix`.
+    pub fn validate(&self, prefix: &str) -> Result<(), String> {
+        crate::cascade::check_positive(
+            &format!("{prefix}.unstick"),
+            &[
+                ("after_s", self.after_s),
+                ("progress_m", self.progress_m),
+                ("back_s", self.back_s),
+                ("back_m_s", self.back_m_s),
+                ("rear_clear_m", self.rear_clear_m),
+            ],
+        )
+    }
+}
+
+/// What [`Unstick`] is doing.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+enum Recovery {
+    /// Watching for a deadlock.
+    #[default]
+    Watching,
+    /// Backing out until then (ns).
+    Backing { until: u64 },
+    /// Turning in place at this rate until then (ns).
+    Turning { omega: f64, until: u64 },
+}
+
+/// The state of the recovery that [`UnstickParams`] configures.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Unstick {
+    /// Where the robot was when the current window began, and when (ns).
+    window: Option<(u64, [f64; 2])>,
+    /// The latest position (odometry), m.
+    position: Option<[f64; 2]>,
+    recovery: Recovery,
+}
+
+impl Unstick {
+    /// The robot is at `(x, y)` (odometry, m) at `now` (ns).
+    pub fn note_position(&mut self, p: &UnstickParams, x: f64, y: f64, now: u64) {
+        if !(x.is_finite() && y.is_finite()) {
+            return;
+        }
+        self.position = Some([x, y]);
+        match self.window {
+            Some((_, [x0, y0])) if (x - x0).hypot(y - y0) < p.progress_m => {}
+            _ => self.window = Some((now, [x, y])),
+        }
+    }
+
+    /// The command to give instead of the behaviour's own at `now` (ns), if it is getting out of
+    /// a deadlock: `(v, omega)`.
+    pub fn step(
+        &mut self,
+        p: &UnstickParams,
+        r: &Ranges,
+        omega_max_rad_s: f64,
+        now: u64,
+    ) -> Option<(f64, f64)> {
+        if !p.enabled {
+            return None;
+        }
+        let rear_clear = (6..=10).all(|i| r[i].is_none_or(|d| d > p.rear_clear_m));
+        loop {
+            match self.recovery {
+                Recovery::Watching => {
+                    let (since, _) = self.window?;
+                    if (now.saturating_sub(since) as f64) * 1e-9 < p.after_s {
+                        return None;
+                    }
+                    self.recovery = Recovery::Backing { until: now + secs_ns(p.back_s) };
+                }
+                Recovery::Backing { until } => {
+                    if now < until && rear_clear {
+                        return Some((-p.back_m_s, 0.0));
+                    }
+                    // The most open direction, the smallest turn first among equals.
+                    let mut best = (0usize, f64::NEG_INFINITY);
+                    for i in [0, 1, 15, 2, 14, 3, 13, 4, 12, 5, 11, 6, 10, 7, 9, 8] {
+                        let d = r[i].unwrap_or(f64::INFINITY);
+                        if d > best.1 {
+                            best = (i, d);
+                        }
+                    }
+                    let angle = wrap(ring_angle_rad(best.0));
+                    // Steering takes about half a second to reach full rate.
+                    let turn_s = angle.abs() / omega_max_rad_s + 0.5;
+                    let omega = if angle >= 0.0 { omega_max_rad_s } else { -omega_max_rad_s };
+                    self.recovery = if best.0 == 0 {
+                        Recovery::Watching
+                    } else {
+                        Recovery::Turning { omega, until: now + secs_ns(turn_s) }
+                    };
+                    if best.0 == 0 {
+                        self.restart(now);
+                        return None;
+                    }
+                }
+                Recovery::Turning { omega, until } => {
+                    if now < until {
+                        return Some((0.0, omega));
+                    }
+                    self.recovery = Recovery::Watching;
+                    self.restart(now);
+                    return None;
+                }
+            }
+        }
+    }
+
+    /// A new window from where the robot is now.
+    fn restart(&mut self, now: u64) {
+        self.window = self.position.map(|p| (now, p));
+    }
+}
+
+fn secs_ns(s: f64) -> u64 {
+    (s * 1e9) as u64
+}
+
 /// Where a flat wall facing direction `phi` (rad, counter-clockwise from the front) would be,
 /// measured from the robot's centre along `phi`, given sensor `i`'s reading `d`: the echo
 /// comes from the edge of the beam nearest to `phi` (or its axis, if `phi` is inside the beam).
@@ -661,6 +821,64 @@ mod tests {
         assert_eq!(
             DeadEnd::default().step(&r, &RingGeometry::uniform(0.25, 2.0 * hb), Some(0.0), 0.05, 0.10, w),
             None
+        );
+    }
+
+    const S: u64 = 1_000_000_000;
+
+    #[test]
+    fn a_robot_that_stopped_making_progress_backs_out_and_turns_to_the_open_side() {
+        let p = UnstickParams::default();
+        let w = 45f64.to_radians();
+        let mut u = Unstick::default();
+        // Blocked all round but behind-left (sensor 6) and straight behind (sensor 8).
+        let mut r: Ranges = [Some(0.3); RING_SIZE];
+        r[6] = Some(2.0);
+        r[8] = Some(3.0);
+        u.note_position(&p, 1.0, 1.0, 0);
+        // Creeping 1 cm a second is no progress.
+        for k in 0..5 {
+            u.note_position(&p, 1.0 + 0.01 * k as f64, 1.0, k * S);
+            assert_eq!(u.step(&p, &r, w, k * S), None, "{k} s: still its own command");
+        }
+        // Five seconds without 5 cm: back out, straight.
+        assert_eq!(u.step(&p, &r, w, 5 * S), Some((-0.10, 0.0)));
+        assert_eq!(u.step(&p, &r, w, 6 * S), Some((-0.10, 0.0)));
+        // After 1.5 s, turn toward the most open direction (sensor 8, half a turn; left first
+        // among equals) for pi/w + 0.5 s.
+        let (v, omega) = u.step(&p, &r, w, 6 * S + S / 2).expect("turning");
+        assert_eq!((v, omega), (0.0, w));
+        let turn_ns = ((PI / w + 0.5) * 1e9) as u64;
+        assert_eq!(u.step(&p, &r, w, 6 * S + S / 2 + turn_ns - 1), Some((0.0, w)));
+        assert_eq!(u.step(&p, &r, w, 6 * S + S / 2 + turn_ns), None, "done: drives on");
+        // And watches afresh from there.
+        assert_eq!(u.step(&p, &r, w, 10 * S + turn_ns), None);
+    }
+
+    #[test]
+    fn progress_keeps_it_quiet_and_a_blocked_back_skips_the_backing() {
+        let p = UnstickParams::default();
+        let w = 45f64.to_radians();
+        let mut u = Unstick::default();
+        let mut r: Ranges = [None; RING_SIZE];
+        for k in 0..60 {
+            u.note_position(&p, 0.1 * k as f64, 0.0, k * S);
+            assert_eq!(u.step(&p, &r, w, k * S), None, "moving: never");
+        }
+        // Stuck with somebody right behind (sensor 7) and the right side open (sensor 12).
+        r = [Some(0.3); RING_SIZE];
+        r[7] = Some(0.1);
+        r[12] = Some(2.0);
+        let mut u = Unstick::default();
+        u.note_position(&p, 0.0, 0.0, 0);
+        assert_eq!(u.step(&p, &r, w, 5 * S), Some((0.0, -w)), "no backing into the person: turn right");
+        // Disabled: nothing, ever.
+        let off = UnstickParams { enabled: false, ..p };
+        let mut u = Unstick::default();
+        u.note_position(&off, 0.0, 0.0, 0);
+        assert_eq!(u.step(&off, &r, w, 100 * S), None);
+        assert!(
+            UnstickParams { back_s: 0.0, ..p }.validate("centerfollow").is_err_and(|e| e.contains("back_s"))
         );
     }
 }

@@ -18,7 +18,9 @@
 //!   front of it.
 
 use crate::cascade::{CascadeParams, check_positive};
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, Wedge, front_min, side_min, wall};
+use crate::ring::{
+    AngleEstimator, Ranges, RingGeometry, Side, Unstick, UnstickParams, Wedge, front_min, side_min, wall,
+};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -53,6 +55,8 @@ pub struct WallFollowParams {
     pub estimator: AngleEstimator,
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
+    /// Backing out of a deadlock (`[...unstick]`).
+    pub unstick: UnstickParams,
 }
 
 impl Default for WallFollowParams {
@@ -70,6 +74,7 @@ impl Default for WallFollowParams {
             l_m: 0.17,
             estimator: AngleEstimator::default(),
             loops: CascadeParams::default(),
+            unstick: UnstickParams::default(),
         }
     }
 }
@@ -98,6 +103,7 @@ impl WallFollowParams {
                 self.v_slow_m_s, self.v_max_m_s
             ));
         }
+        self.unstick.validate("wallfollow")?;
         self.loops.validate("wallfollow")
     }
 }
@@ -108,6 +114,7 @@ pub struct WallFollower {
     params: WallFollowParams,
     ring: RingGeometry,
     wedge: Wedge,
+    unstick: Unstick,
 }
 
 /// What the controller saw and decided, for logs and plots.
@@ -124,7 +131,12 @@ pub struct WallFollowStep {
 impl WallFollower {
     /// A controller for a robot whose infrared ring is `ring`.
     pub fn new(params: WallFollowParams, ring: RingGeometry) -> Self {
-        WallFollower { params, ring, wedge: Wedge::default() }
+        WallFollower { params, ring, wedge: Wedge::default(), unstick: Unstick::default() }
+    }
+
+    /// The robot's odometry: where it is at `stamp` (for getting out of deadlocks).
+    pub fn note_position(&mut self, x_m: f64, y_m: f64, stamp: Timestamp) {
+        self.unstick.note_position(&self.params.unstick, x_m, y_m, stamp.0);
     }
 
     /// The parameters.
@@ -151,13 +163,16 @@ impl WallFollower {
             omega = turn;
         }
         let front_close = [15, 0, 1].iter().any(|&i| ir[i].is_some_and(|x| x < p.slow_below_m));
-        let v = if wedged.is_some() || front_min(ir).is_some_and(|d| d < p.stop_below_m) {
+        let mut v = if wedged.is_some() || front_min(ir).is_some_and(|d| d < p.stop_below_m) {
             0.0
         } else if front_close {
             p.v_slow_m_s
         } else {
             ir[1].map_or(p.v_max_m_s, |d1| (p.k_v * d1).min(p.v_max_m_s))
         };
+        if let Some(cmd) = self.unstick.step(&p.unstick, ir, p.loops.omega_max_deg_s.to_radians(), stamp.0) {
+            (v, omega) = cmd;
+        }
         WallFollowStep {
             cmd: NavigationVelocity { stamp, v_m_s: v, omega_rad_s: omega },
             wall_m: estimate.map(|w| w.distance_m),

@@ -120,8 +120,11 @@ pub(crate) trait Triggered: Component {
 impl Triggered for WallFollow {
     const NAME: &'static str = "wallfollow";
     fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
-        let WallFollowMsg::Ir(u) = msg;
-        (u.stamp, u.value.stamp)
+        // Odometry never makes a step (no status follows it), so its stamps are never used.
+        match msg {
+            WallFollowMsg::Ir(u) => (u.stamp, u.value.stamp),
+            WallFollowMsg::Base(u) => (u.stamp, u.value.stamp),
+        }
     }
 }
 
@@ -130,6 +133,7 @@ impl Triggered for CenterFollow {
     fn trigger(msg: &CenterFollowMsg) -> (Timestamp, Timestamp) {
         match msg {
             CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.stamp, u.value.stamp),
+            CenterFollowMsg::Base(u) => (u.stamp, u.value.stamp),
         }
     }
 }
