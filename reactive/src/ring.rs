@@ -160,8 +160,9 @@ impl Wedge {
 /// place for ever while nobody moves (EXPERIMENTS.md). When odometry says the robot has not
 /// moved `progress_m` in `after_s`, it backs straight out at `back_m_s` for `back_s` (only while
 /// nothing is within `rear_clear_m` of its back, sensors 6 to 10), then turns in place toward
-/// the most open direction the ring sees, and drives on from there: the person it was facing
-/// can walk on, and the robot goes the other way.
+/// the most open direction the ring sees (the widest opening: a sensor and both its neighbours
+/// far), and drives on from there: the person it was facing can walk on, and the robot goes the
+/// other way.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UnstickParams {
@@ -269,10 +270,13 @@ impl Unstick {
                     if now < until && rear_clear {
                         return Some((-p.back_m_s, 0.0));
                     }
-                    // The most open direction, the smallest turn first among equals.
+                    // The most open direction: the sensor whose reading and both neighbours'
+                    // are farthest (an opening, not a gap beside a person), the smallest turn
+                    // first among equals.
+                    let far = |i: usize| r[i % RING_SIZE].unwrap_or(f64::INFINITY);
                     let mut best = (0usize, f64::NEG_INFINITY);
                     for i in [0, 1, 15, 2, 14, 3, 13, 4, 12, 5, 11, 6, 10, 7, 9, 8] {
-                        let d = r[i].unwrap_or(f64::INFINITY);
+                        let d = far(i + RING_SIZE - 1).min(far(i)).min(far(i + 1));
                         if d > best.1 {
                             best = (i, d);
                         }
@@ -831,10 +835,13 @@ mod tests {
         let p = UnstickParams::default();
         let w = 45f64.to_radians();
         let mut u = Unstick::default();
-        // Blocked all round but behind-left (sensor 6) and straight behind (sensor 8).
+        // Blocked all round but behind (sensors 7-9), and a gap (sensor 4) beside a person.
         let mut r: Ranges = [Some(0.3); RING_SIZE];
+        r[4] = None;
         r[6] = Some(2.0);
-        r[8] = Some(3.0);
+        for i in 7..=9 {
+            r[i] = Some(3.0);
+        }
         u.note_position(&p, 1.0, 1.0, 0);
         // Creeping 1 cm a second is no progress.
         for k in 0..5 {
@@ -844,8 +851,8 @@ mod tests {
         // Five seconds without 5 cm: back out, straight.
         assert_eq!(u.step(&p, &r, w, 5 * S), Some((-0.10, 0.0)));
         assert_eq!(u.step(&p, &r, w, 6 * S), Some((-0.10, 0.0)));
-        // After 1.5 s, turn toward the most open direction (sensor 8, half a turn; left first
-        // among equals) for pi/w + 0.5 s.
+        // After 1.5 s, turn toward the widest opening (sensor 8, half a turn, not the farther
+        // but narrow gap of sensor 4; left first among equals) for pi/w + 0.5 s.
         let (v, omega) = u.step(&p, &r, w, 6 * S + S / 2).expect("turning");
         assert_eq!((v, omega), (0.0, w));
         let turn_ns = ((PI / w + 0.5) * 1e9) as u64;
@@ -865,10 +872,12 @@ mod tests {
             u.note_position(&p, 0.1 * k as f64, 0.0, k * S);
             assert_eq!(u.step(&p, &r, w, k * S), None, "moving: never");
         }
-        // Stuck with somebody right behind (sensor 7) and the right side open (sensor 12).
+        // Stuck with somebody right behind (sensor 7) and the right side open (sensors 11-13).
         r = [Some(0.3); RING_SIZE];
         r[7] = Some(0.1);
-        r[12] = Some(2.0);
+        for i in 11..=13 {
+            r[i] = Some(2.0);
+        }
         let mut u = Unstick::default();
         u.note_position(&p, 0.0, 0.0, 0);
         assert_eq!(u.step(&p, &r, w, 5 * S), Some((0.0, -w)), "no backing into the person: turn right");
