@@ -228,17 +228,16 @@ mod tests {
     }
 
     #[test]
-    fn the_shipped_experiment_files_parse_and_change_only_center_following() {
+    fn the_previous_default_file_parses_and_differs_only_in_the_behaviours() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        for name in ["centerfollow-wide.toml", "centerfollow-deadend.toml"] {
-            let c = Config::load(&root.join("config").join(name)).expect("parses");
-            assert_ne!(c.centerfollow, Config::default().centerfollow, "{name} changes center following");
-            let mut same = c.clone();
-            same.centerfollow = Config::default().centerfollow;
-            assert_eq!(same, Config::default(), "{name} changes nothing else");
-        }
-        let c = Config::load(&root.join("config/centerfollow-deadend.toml")).expect("parses");
-        assert!(c.centerfollow.dead_end_turn && !Config::default().centerfollow.dead_end_turn);
+        let c = Config::load(&root.join("config/previous-default.toml")).expect("parses");
+        assert_ne!(c.centerfollow, Config::default().centerfollow);
+        assert_ne!(c.wallfollow, Config::default().wallfollow);
+        assert!(!c.centerfollow.dead_end_turn && Config::default().centerfollow.dead_end_turn);
+        let mut same = c.clone();
+        same.centerfollow = Config::default().centerfollow;
+        same.wallfollow = Config::default().wallfollow;
+        assert_eq!(same, Config::default(), "nothing else differs");
     }
 
     #[test]

@@ -92,18 +92,17 @@ fn config_errors_name_file_line_and_key() {
     assert!(e.to_string().starts_with("bad.toml:2:"), "{e}");
 }
 
-/// A deadlock is got out of. With `config/centerfollow-deadend.toml` and the recovery turned
-/// off, seed 5 is trapped from t = 780 s to the end of the hour: the robot against the upper
-/// wall near x = 10.9 m, a person waiting for it to leave, nobody moving again (EXPERIMENTS.md).
-/// With the behaviours' recovery (`[*.unstick]`, on by default) it keeps patrolling: no stalled
-/// minute, and in every minute it gets at least half a metre from where the minute began
+/// A deadlock is got out of. With the recovery turned off (`[*.unstick] enabled = false`), seed
+/// 8 is trapped from t = 780 s to 1080 s against the lower wall near x = 13.9 m, beside the
+/// crossing person who waits for it to leave, moving at most 0.55 m in any of those minutes
+/// (EXPERIMENTS.md). With the behaviours' recovery (on by default) it keeps patrolling: no
+/// stalled minute, and in every minute it gets at least a metre from where the minute began
 /// (backing and forth on the spot would pass the stall count, not this).
 #[tokio::test(start_paused = true)]
 async fn a_robot_caught_between_a_wall_and_waiting_people_gets_out() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/config/centerfollow-deadend.toml");
-    let config = Config::load(std::path::Path::new(path)).expect("config");
+    let config = Config::default();
     assert!(config.centerfollow.unstick.enabled && config.wallfollow.unstick.enabled);
-    let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 5, 1500.0);
+    let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 8, 1200.0);
     let out = mission::run(opts).await.expect("run");
     assert_eq!(out.report.bumps, 0);
     assert_eq!(out.report.stalls, 0);
@@ -111,7 +110,7 @@ async fn a_robot_caught_between_a_wall_and_waiting_people_gets_out() {
     for minute in trajectory.chunks(600) {
         let (t0, x0, y0, _) = &minute[0];
         let farthest = minute.iter().map(|(_, x, y, _)| (x - x0).hypot(y - y0)).fold(0.0, f64::max);
-        assert!(farthest >= 0.5, "the minute from t = {t0:.0} s: at most {farthest:.2} m from its start");
+        assert!(farthest >= 1.0, "the minute from t = {t0:.0} s: at most {farthest:.2} m from its start");
     }
-    assert!(out.report.distance_m > 300.0, "{} m", out.report.distance_m);
+    assert!(out.report.distance_m > 250.0, "{} m", out.report.distance_m);
 }

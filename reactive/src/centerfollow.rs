@@ -10,10 +10,11 @@
 //! forward motion while the robot turns, so it never drives its front into what it turns away
 //! from.
 //!
-//! The side windows are configurable: `left_sensors`/`right_sensors` give the distances (the
-//! thesis: 1..7 and 9..15; default 1..5 and 11..15), `angle_left_sensors`/`angle_right_sensors`
-//! the wall angle (default: the same windows), taken from the side whose angle window sees the
-//! nearer wall. With the defaults this is exactly the single-window controller.
+//! The side windows are configurable: `left_sensors`/`right_sensors` give the distances (default
+//! the thesis' 1..7 and 9..15), `angle_left_sensors`/`angle_right_sensors` the wall angle
+//! (default 1..5 and 11..15: a round person close behind gives only a coarse angle), taken from
+//! the side whose angle window sees the nearer wall. With equal windows this is exactly the
+//! thesis' single-window controller.
 //!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
@@ -45,8 +46,8 @@ pub struct CenterFollowParams {
     /// The front (45 degrees each side) counts as open when nothing is nearer than this, m.
     pub open_front_m: f64,
     /// Turn round in place at a dead end, where the end wall is as far as the side walls
-    /// (an orsa addition, see [`DeadEnd`]; off by default, see EXPERIMENTS.md); `false` drives on
-    /// until the master hands over.
+    /// (an orsa addition, see [`DeadEnd`] and EXPERIMENTS.md); `false` drives on until the
+    /// master hands over.
     pub dead_end_turn: bool,
     /// A dead end counts when the wall ahead is at most this much farther than the farther
     /// side wall, m (the robot is still braking when it decides).
@@ -89,17 +90,17 @@ impl Default for CenterFollowParams {
             stop_below_m: 0.08,
             tight_gap_m: 0.15,
             open_front_m: 0.30,
-            dead_end_turn: false,
+            dead_end_turn: true,
             dead_end_margin_m: 0.05,
             dead_end_flat_m: 0.10,
             ir_below_m: 0.70,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
-            left_sensors: [1, 5],
-            right_sensors: [11, 15],
+            left_sensors: [1, 7],
+            right_sensors: [9, 15],
             angle_left_sensors: [1, 5],
             angle_right_sensors: [11, 15],
-            loops: CascadeParams { k_d: 5.0, k_alpha: -2.0, ..CascadeParams::default() },
+            loops: CascadeParams { k_d: 7.0, k_alpha: -2.0, alpha_max_deg: 45.0, omega_max_deg_s: 45.0 },
             unstick: UnstickParams::default(),
         }
     }
@@ -313,13 +314,8 @@ mod tests {
         let (mut ir, mut so) = views(2.4, 0.0, 0.0);
         ir[7] = Some(0.5);
         so[7] = Some(0.5);
-        let wide = CenterFollowParams {
-            left_sensors: [1, 7],
-            right_sensors: [9, 15],
-            angle_left_sensors: [1, 5],
-            angle_right_sensors: [11, 15],
-            ..Default::default()
-        };
+        let wide = CenterFollowParams::default();
+        assert_eq!((wide.left_sensors, wide.angle_left_sensors), ([1, 7], [1, 5]), "the defaults");
         assert!(wide.validate().is_ok());
         let s = CenterFollower::new(wide, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
         assert!(s.offset_m.is_some_and(|o| o > 0.2), "the person counts on the left: {:?}", s.offset_m);
@@ -329,9 +325,9 @@ mod tests {
         let same = CenterFollowParams { angle_left_sensors: [1, 7], angle_right_sensors: [9, 15], ..wide };
         let s = CenterFollower::new(same, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
         assert!(s.alpha_rad > 0.5, "coarse angle of sensor 7: {}", s.alpha_rad);
-        // The defaults are the single-window controller: the person behind is not seen.
-        let s =
-            CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
+        // Narrow windows (1-5 and 11-15 for both): the person behind is not seen.
+        let narrow = CenterFollowParams { left_sensors: [1, 5], right_sensors: [11, 15], ..wide };
+        let s = CenterFollower::new(narrow, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
         assert!(s.offset_m.is_some_and(|o| o.abs() < 1e-9) && s.cmd.omega_rad_s.abs() < 1e-9);
         let bad = CenterFollowParams { angle_right_sensors: [8, 15], ..Default::default() };
         assert!(bad.validate().expect_err("8 is the back").starts_with("centerfollow.angle_right_sensors"));

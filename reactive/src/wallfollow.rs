@@ -73,7 +73,7 @@ impl Default for WallFollowParams {
             ir_range_m: 0.60,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
-            loops: CascadeParams::default(),
+            loops: CascadeParams { k_d: 5.0, alpha_max_deg: 45.0, ..CascadeParams::default() },
             unstick: UnstickParams::default(),
         }
     }
