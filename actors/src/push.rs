@@ -17,7 +17,7 @@ use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
 use crate::state::Cancel;
 use crate::transport::{ByteSink, Served, Subscription};
-use parking_lot::{Mutex, RwLock};
+use parking_lot::Mutex;
 use std::num::NonZeroU32;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -34,6 +34,20 @@ struct Subscriber<T> {
     sink: Sink<Update<T>>,
     /// What this subscriber has seen of the server's sequence numbers.
     stream: Arc<Stream>,
+}
+
+impl<T> Subscriber<T> {
+    /// Whether this publication is one this subscriber receives (counted).
+    fn turn(&self) -> bool {
+        // At `every = 1`, every one: no need to count.
+        self.every == 1 || (self.count.fetch_add(1, Ordering::Relaxed) + 1).is_multiple_of(self.every)
+    }
+}
+
+/// What handing one publication over came to.
+struct Outcome {
+    delivered: usize,
+    closed: Vec<u64>,
 }
 
 /// What a publication does at each subscriber whose turn it is.
@@ -58,6 +72,18 @@ pub struct PushStats {
     pub subscribers: usize,
 }
 
+/// What a publication reads and writes at once.
+struct Board<T> {
+    /// The last sequence number given out.
+    seq: u64,
+    latest: Option<Update<T>>,
+    /// Copy-on-write: a publisher clones the `Arc` and delivers with no lock held, so a sink may
+    /// subscribe, unsubscribe or publish without deadlocking.
+    subs: Subscribers<T>,
+}
+
+type Subscribers<T> = Arc<[Arc<Subscriber<T>>]>;
+
 pub(crate) struct PushEndpoint<T> {
     pub(crate) addr: ServiceAddr,
     me: std::sync::Weak<PushEndpoint<T>>,
@@ -65,17 +91,34 @@ pub(crate) struct PushEndpoint<T> {
     topic: String,
     tap: crate::tap::TapSlot,
     clock: Clock,
-    /// Copy-on-write: a publisher clones the `Arc` and delivers with no lock held, so a sink may
-    /// subscribe, unsubscribe or publish without deadlocking.
-    subs: RwLock<Arc<Vec<Arc<Subscriber<T>>>>>,
-    latest: RwLock<Option<Update<T>>>,
-    seq: AtomicU64,
+    /// The sequence number, the newest update and the subscribers, under one lock: a
+    /// publication takes it once.
+    board: Mutex<Board<T>>,
     next_id: AtomicU64,
     delivered: AtomicU64,
     failed: AtomicU64,
     account: Account,
     /// Whether the server produces (always true for push newest).
     pub(crate) active: watch::Sender<bool>,
+}
+
+impl<T> PushEndpoint<T> {
+    fn remove_subscribers(&self, ids: &[u64]) -> bool {
+        let mut board = self.board.lock();
+        if !board.subs.iter().any(|s| ids.contains(&s.id)) {
+            return false;
+        }
+        let kept: Subscribers<T> = board.subs.iter().filter(|s| !ids.contains(&s.id)).cloned().collect();
+        // The old list is dropped after the lock (a sink's drop may do anything).
+        let old = std::mem::replace(&mut board.subs, kept);
+        drop(board);
+        drop(old);
+        true
+    }
+
+    pub(crate) fn unsubscribe(&self, id: u64) -> bool {
+        self.remove_subscribers(&[id])
+    }
 }
 
 impl<T: CommObject> PushEndpoint<T> {
@@ -92,9 +135,7 @@ impl<T: CommObject> PushEndpoint<T> {
             addr: addr.clone(),
             faults: registry.faults(),
             clock: registry.clock(),
-            subs: RwLock::new(Arc::new(Vec::new())),
-            latest: RwLock::new(None),
-            seq: AtomicU64::new(0),
+            board: Mutex::new(Board { seq: 0, latest: None, subs: Arc::new([]) }),
             next_id: AtomicU64::new(1),
             delivered: AtomicU64::new(0),
             failed: AtomicU64::new(0),
@@ -111,78 +152,95 @@ impl<T: CommObject> PushEndpoint<T> {
     /// an unspecified order, but "newest" ([`latest`](Self::latest), a client's `get_update`)
     /// only ever moves forward in sequence number.
     pub(crate) fn put(&self, value: T) -> usize {
-        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
-        let update = Arc::new(Stamped { seq, stamp: self.clock.now(), value });
+        let stamp = self.clock.now();
+        // One lock per publication: the number, the newest value and the subscribers to hand
+        // it to are taken together (so "newest" follows the numbers even with concurrent
+        // publishers).
+        let (update, subs) = {
+            let mut board = self.board.lock();
+            board.seq += 1;
+            let update = Arc::new(Stamped { seq: board.seq, stamp, value });
+            board.latest = Some(Arc::clone(&update));
+            (update, Arc::clone(&board.subs))
+        };
         self.tap.record(&self.topic, T::ID, update.stamp, &*update);
-        {
-            let mut latest = self.latest.write();
-            if latest.as_ref().is_none_or(|l| l.seq < seq) {
-                *latest = Some(Arc::clone(&update));
-            }
-        }
         let hand = match self.faults.verdict(&self.addr) {
             Verdict::Deliver => Hand::Copies(1),
             Verdict::Drop => Hand::Drop,
             Verdict::Duplicate => Hand::Copies(2),
             Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
                 (Ok(rt), Some(me)) => {
+                    drop(subs);
                     rt.spawn(async move {
                         tokio::time::sleep(d).await;
-                        me.deliver(&update, Hand::Copies(1));
+                        // Whoever subscribes by then receives it.
+                        let subs = Arc::clone(&me.board.lock().subs);
+                        me.deliver(&subs, update, Hand::Copies(1));
                     });
                     return 0;
                 }
                 _ => Hand::Copies(1),
             },
         };
-        self.deliver(&update, hand)
+        self.deliver(&subs, update, hand)
     }
 
     /// Hands `update` to every subscriber whose turn it is.
-    fn deliver(&self, update: &Update<T>, hand: Hand) -> usize {
-        let subs = Arc::clone(&self.subs.read());
-        let mut delivered = 0;
-        let mut closed = Vec::new();
-        for s in subs.iter() {
-            let n = s.count.fetch_add(1, Ordering::Relaxed) + 1;
-            if n % s.every != 0 {
+    fn deliver(&self, subs: &[Arc<Subscriber<T>>], update: Update<T>, hand: Hand) -> usize {
+        let copies = match hand {
+            Hand::Copies(c) => c,
+            Hand::Drop => {
+                for s in subs {
+                    if s.turn() {
+                        self.account.dropped();
+                    }
+                }
+                return 0;
+            }
+        };
+        let mut outcome = Outcome { delivered: 0, closed: Vec::new() };
+        // The last subscriber gets the update itself, the others a clone: one reference count
+        // less per publication.
+        let mut pending: Option<&Subscriber<T>> = None;
+        for s in subs {
+            if !s.turn() {
                 continue;
             }
-            let copies = match hand {
-                Hand::Copies(c) => c,
-                Hand::Drop => {
-                    self.account.dropped();
-                    continue;
-                }
-            };
-            let mut result =
-                s.sink.deliver_with(Arc::clone(update), self.account.offer(Some(&s.stream), update.seq));
-            for _ in 1..copies {
-                let copy = self.account.copy(Some(&s.stream), update.seq);
-                result = result.and(s.sink.deliver_with(Arc::clone(update), copy));
-            }
-            match result {
-                Ok(()) => delivered += 1,
-                Err(Undeliverable::Unavailable) => {
-                    self.failed.fetch_add(1, Ordering::Relaxed);
-                }
-                Err(Undeliverable::Closed) => closed.push(s.id),
+            if let Some(p) = pending.replace(s) {
+                self.hand_to(p, Arc::clone(&update), copies, &mut outcome);
             }
         }
-        if !closed.is_empty() {
-            self.remove_subscribers(&closed);
+        if let Some(p) = pending {
+            self.hand_to(p, update, copies, &mut outcome);
         }
-        self.delivered.fetch_add(delivered as u64, Ordering::Relaxed);
-        delivered
+        if !outcome.closed.is_empty() {
+            self.remove_subscribers(&outcome.closed);
+        }
+        self.delivered.fetch_add(outcome.delivered as u64, Ordering::Relaxed);
+        outcome.delivered
     }
 
-    fn remove_subscribers(&self, ids: &[u64]) -> bool {
-        let mut subs = self.subs.write();
-        if !subs.iter().any(|s| ids.contains(&s.id)) {
-            return false;
+    /// Hands `copies` copies of `update` to `s`.
+    fn hand_to(&self, s: &Subscriber<T>, update: Update<T>, copies: usize, outcome: &mut Outcome) {
+        let seq = update.seq;
+        let result = if copies > 1 {
+            let mut r = s.sink.deliver_with(Arc::clone(&update), self.account.offer(Some(&s.stream), seq));
+            for _ in 2..copies {
+                let copy = self.account.copy(Some(&s.stream), seq);
+                r = r.and(s.sink.deliver_with(Arc::clone(&update), copy));
+            }
+            let copy = self.account.copy(Some(&s.stream), seq);
+            r.and(s.sink.deliver_with(update, copy))
+        } else {
+            s.sink.deliver_with(update, self.account.offer(Some(&s.stream), seq))
+        };
+        match result {
+            Ok(()) => outcome.delivered += 1,
+            Err(Undeliverable::Unavailable) => {
+                self.failed.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(Undeliverable::Closed) => outcome.closed.push(s.id),
         }
-        *subs = Arc::new(subs.iter().filter(|s| !ids.contains(&s.id)).cloned().collect());
-        true
     }
 
     pub(crate) fn subscribe(&self, every: NonZeroU32, sink: Sink<Update<T>>) -> u64 {
@@ -194,16 +252,10 @@ impl<T: CommObject> PushEndpoint<T> {
             sink,
             stream: Arc::new(Stream::default()),
         });
-        let mut subs = self.subs.write();
-        let mut next = Vec::with_capacity(subs.len() + 1);
-        next.extend(subs.iter().cloned());
-        next.push(sub);
-        *subs = Arc::new(next);
+        let mut board = self.board.lock();
+        let next: Subscribers<T> = board.subs.iter().cloned().chain(std::iter::once(sub)).collect();
+        board.subs = next;
         id
-    }
-
-    pub(crate) fn unsubscribe(&self, id: u64) -> bool {
-        self.remove_subscribers(&[id])
     }
 
     pub(crate) fn clock(&self) -> Clock {
@@ -211,22 +263,26 @@ impl<T: CommObject> PushEndpoint<T> {
     }
 
     pub(crate) fn latest(&self) -> Option<Update<T>> {
-        self.latest.read().clone()
+        self.board.lock().latest.clone()
     }
 
     pub(crate) fn stats(&self) -> PushStats {
+        let (published, subscribers) = {
+            let board = self.board.lock();
+            (board.seq, board.subs.len())
+        };
         PushStats {
-            published: self.seq.load(Ordering::Relaxed),
+            published,
             delivered: self.delivered.load(Ordering::Relaxed),
             failed: self.failed.load(Ordering::Relaxed),
-            subscribers: self.subs.read().len(),
+            subscribers,
         }
     }
 }
 
 impl<T: CommObject> Served for PushEndpoint<T> {
     fn clients(&self) -> Option<usize> {
-        Some(self.subs.read().len())
+        Some(self.board.lock().subs.len())
     }
 
     fn serve_subscribe(self: Arc<Self>, every: NonZeroU32, sink: ByteSink) -> PatternResult<Subscription> {
@@ -440,10 +496,7 @@ impl<T: CommObject> PushClientCore<T> {
 impl<T> Drop for PushClientCore<T> {
     fn drop(&mut self) {
         if let (Some(SubHandle::Local(id)), Via::Local(e)) = (self.sub.get_mut().take(), &self.via) {
-            let mut subs = e.subs.write();
-            if subs.iter().any(|s| s.id == id) {
-                *subs = Arc::new(subs.iter().filter(|s| s.id != id).cloned().collect());
-            }
+            e.unsubscribe(id);
         }
     }
 }

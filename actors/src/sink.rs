@@ -89,6 +89,7 @@ impl<T: Send + 'static> Sink<T> {
 pub struct Envelope<M> {
     msg: Option<M>,
     receipt: Option<Receipt>,
+    /// The mailbox to go back to (empty when superseded by the next message).
     home: Weak<Shared<M>>,
     /// Whether a newer message replaces this one (a push update): it is not handed to the
     /// next instance, which gets the next update instead.
@@ -281,8 +282,10 @@ impl<M: ractor::Message> Mailbox<M> {
         receipt: Option<Receipt>,
         superseded_by_next: bool,
     ) -> Result<(), Undeliverable> {
-        let env =
-            Envelope { msg: Some(msg), receipt, home: Arc::downgrade(&self.shared), superseded_by_next };
+        // A superseded message never goes home (see the envelope's `Drop`): it needs no
+        // reference to its mailbox, which spares a push update two atomic operations.
+        let home = if superseded_by_next { Weak::new() } else { Arc::downgrade(&self.shared) };
+        let env = Envelope { msg: Some(msg), receipt, home, superseded_by_next };
         let slot = self.shared.slot.read();
         let refused = match slot.actor.as_ref() {
             Some(actor) => match actor.cast(env) {
