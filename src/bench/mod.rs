@@ -602,6 +602,20 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
                     },
                     met: sink.zip(task).map(|(a, b)| a <= 1.2 && b <= 1.2),
                 });
+                // The component against the raw parts it is made of (a zenoh callback casting
+                // to a ractor actor): what orsa adds on top of them.
+                let parts = stats::ratio(p50(net::ORSA_COMPONENT), p50(net::RAW_ACTOR));
+                t.push(TargetCheck {
+                    target: format!(
+                        "zenoh push p50 <= 1.2x raw zenoh ({}; component vs callback -> ractor cast -> actor)",
+                        row.mode
+                    ),
+                    measured: match parts {
+                        Some(x) => format!("{x:.2}x"),
+                        None => "not measured".into(),
+                    },
+                    met: parts.map(|x| x <= 1.2),
+                });
             }
         }
         None => t.push(TargetCheck {

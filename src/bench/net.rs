@@ -9,7 +9,7 @@
 //!
 //! The peer sends, the bench process receives. Each sample is a [`Sample`]: a sequence number,
 //! the sender's send time, and padding sized like a `DistanceScan` (16 readings with the same
-//! fields). Four paths, each on its own key so that no two subscribers share a delivery:
+//! fields). Five paths, each on its own key so that no two subscribers share a delivery:
 //!
 //! | path | the peer | the bench process |
 //! |---|---|---|
@@ -17,6 +17,7 @@
 //! | [`ORSA_SINK`] | `PushNewestServer::put` | a remote `PushNewestClient` with a sink (`connect_to`); the sink |
 //! | [`RAW_CALLBACK`] | CBOR-encode the sample, `Publisher::put` | a zenoh subscriber callback, after CBOR-decoding |
 //! | [`RAW_TASK`] | the same | the callback decodes and hands the sample to a tokio task through an unbounded channel; the task |
+//! | [`RAW_ACTOR`] | the same | the callback decodes and casts the sample to a plain ractor actor (what an orsa component's subscription does, without orsa); the actor's handler |
 //!
 //! The raw publishers are declared as orsa declares its stream publishers (`express(true)`,
 //! congestion control `Drop`, which is zenoh's default for publications), on the same session
@@ -70,8 +71,11 @@ pub(crate) const ORSA_SINK: &str = "orsa push newest -> client sink";
 pub(crate) const RAW_CALLBACK: &str = "raw zenoh put -> subscriber callback";
 /// raw zenoh to a callback that hands the sample to a tokio task.
 pub(crate) const RAW_TASK: &str = "raw zenoh put -> callback -> tokio task";
+/// raw zenoh to a callback that casts the sample to a plain ractor actor: the raw parts an orsa
+/// component is built on, put together by hand.
+pub(crate) const RAW_ACTOR: &str = "raw zenoh put -> callback -> ractor cast -> actor";
 /// The paths, in the order of their path numbers on the wire.
-pub(crate) const PATHS: [&str; 4] = [ORSA_COMPONENT, ORSA_SINK, RAW_CALLBACK, RAW_TASK];
+pub(crate) const PATHS: [&str; 5] = [ORSA_COMPONENT, ORSA_SINK, RAW_CALLBACK, RAW_TASK, RAW_ACTOR];
 
 /// The baseline of every path's ratio.
 pub(crate) fn baseline_of(path: &str) -> Option<&'static str> {
@@ -203,6 +207,7 @@ pub(crate) struct RawKeys {
     pub(crate) go: String,
     pub(crate) callback: String,
     pub(crate) task: String,
+    pub(crate) actor: String,
 }
 
 impl RawKeys {
@@ -211,6 +216,7 @@ impl RawKeys {
             go: format!("{prefix}/bench/go"),
             callback: format!("{prefix}/bench/raw/callback"),
             task: format!("{prefix}/bench/raw/task"),
+            actor: format!("{prefix}/bench/raw/actor"),
         }
     }
 }
@@ -378,6 +384,35 @@ impl Component for NetSub {
     ) -> Result<(), ComponentError> {
         let NetSubMsg::Up(u) = msg;
         self.rx.hit(u.value.seq, u.value.sent_unix_ns);
+        Ok(())
+    }
+}
+
+/// The plain ractor actor at the end of [`RAW_ACTOR`].
+struct RawNetSub {
+    rx: Arc<Rx>,
+}
+
+impl ractor::Actor for RawNetSub {
+    type Msg = Sample;
+    type State = ();
+    type Arguments = ();
+
+    async fn pre_start(
+        &self,
+        _me: ractor::ActorRef<Sample>,
+        _args: (),
+    ) -> Result<(), ractor::ActorProcessingErr> {
+        Ok(())
+    }
+
+    async fn handle(
+        &self,
+        _me: ractor::ActorRef<Sample>,
+        v: Sample,
+        _st: &mut (),
+    ) -> Result<(), ractor::ActorProcessingErr> {
+        self.rx.hit(v.seq, v.sent_unix_ns);
         Ok(())
     }
 }
@@ -665,6 +700,19 @@ async fn with_peer(
             r.hit(v.seq, v.sent_unix_ns);
         }
     });
+    let (raw_sub, _) = ractor::Actor::spawn(None, RawNetSub { rx: Arc::clone(&rx[4]) }, ())
+        .await
+        .map_err(|e| anyhow!("cannot spawn a ractor actor: {e}"))?;
+    let to_actor = raw_sub.clone();
+    let raw_actor = session
+        .declare_subscriber(keys.actor.clone())
+        .callback(move |s| {
+            if let Some(v) = uncbor::<Sample>(&s.payload().to_bytes()) {
+                let _ = to_actor.cast(v);
+            }
+        })
+        .await
+        .map_err(|e| anyhow!("raw subscriber: {e}"))?;
     let go_pub = session
         .declare_publisher(keys.go.clone())
         .express(true)
@@ -721,6 +769,8 @@ async fn with_peer(
     }
     drop(raw_callback);
     drop(raw_task);
+    drop(raw_actor);
+    raw_sub.stop(None);
     drop(sink_client);
     task.abort();
     sub.stop().await;

@@ -80,6 +80,11 @@ async fn serve(endpoint: String) -> anyhow::Result<()> {
         .express(true)
         .await
         .map_err(|e| anyhow!("raw publisher: {e}"))?;
+    let raw_actor = session
+        .declare_publisher(keys.actor.clone())
+        .express(true)
+        .await
+        .map_err(|e| anyhow!("raw publisher: {e}"))?;
     let (go_tx, mut go_rx) = mpsc::unbounded_channel::<Go>();
     let _go = session
         .declare_subscriber(keys.go.clone())
@@ -105,8 +110,12 @@ async fn serve(endpoint: String) -> anyhow::Result<()> {
                 server.put(s);
                 true
             }
-            2 | 3 => {
-                let publisher = if g.path == 2 { &raw_callback } else { &raw_task };
+            2..=4 => {
+                let publisher = match g.path {
+                    2 => &raw_callback,
+                    3 => &raw_task,
+                    _ => &raw_actor,
+                };
                 s.sent_unix_ns = unix_ns();
                 publisher.put(cbor(&s)).into_future().into_inner().is_ok()
             }

@@ -312,14 +312,15 @@ fn sample_net() -> NetReport {
         sender_put: lat(1000.0),
     };
     let mut latency = Vec::new();
-    for (mode, [component, sink, callback, task]) in
-        [("back-to-back", [45.0, 32.0, 31.0, 42.0]), ("25 Hz", [300.0, 230.0, 220.0, 260.0])]
+    for (mode, [component, sink, callback, task, actor]) in
+        [("back-to-back", [45.0, 32.0, 31.0, 42.0, 43.0]), ("25 Hz", [300.0, 230.0, 220.0, 260.0, 240.0])]
     {
         let base = callback * 1e3;
         latency.push(row(mode, net::ORSA_COMPONENT, component * 1e3, base));
         latency.push(row(mode, net::ORSA_SINK, sink * 1e3, base));
         latency.push(row(mode, net::RAW_CALLBACK, base, base));
         latency.push(row(mode, net::RAW_TASK, task * 1e3, base));
+        latency.push(row(mode, net::RAW_ACTOR, actor * 1e3, base));
     }
     NetReport {
         runtime: "multi-thread (2 workers), in both processes".into(),
@@ -364,6 +365,10 @@ fn cross_process_targets_and_tables_come_from_the_net_report() {
     assert_eq!(like.met, Some(true), "{like:?}");
     assert_eq!(like.measured, "1.03x, 1.07x");
     assert_eq!(find("25 Hz; like for like").met, Some(true));
+    // Against the raw parts: 45 / 43 is met, 300 / 240 is not.
+    let parts = find("back-to-back; component vs callback -> ractor cast -> actor");
+    assert_eq!((parts.measured.as_str(), parts.met), ("1.05x", Some(true)), "{parts:?}");
+    assert_eq!(find("25 Hz; component vs callback -> ractor cast").met, Some(false));
     let text = render_markdown(&r);
     for heading in ["## Across processes: latency", "## Sense to act, across processes"] {
         assert!(text.contains(heading), "no {heading} in\n{text}");
@@ -372,7 +377,7 @@ fn cross_process_targets_and_tables_come_from_the_net_report() {
     assert!(text.contains("| leg: a leg |"), "{text}");
     assert!(text.contains("raw CBOR 944 bytes"), "{text}");
     let json = serde_json::to_value(&r).expect("serialise");
-    assert!(json["net"]["latency"].as_array().is_some_and(|a| a.len() == 8));
+    assert!(json["net"]["latency"].as_array().is_some_and(|a| a.len() == 10));
 }
 
 #[test]
