@@ -273,6 +273,9 @@ pub struct ScaleRow {
     pub rss_mib_per_robot: Option<f64>,
     /// Wall time to shut them all down, s.
     pub shutdown_wall_s: f64,
+    /// The baseline: the same number of robots as raw tokio skeletons (the stack's tasks,
+    /// timers and message flow, none of its work), wall µs per robot per simulated second.
+    pub raw_wall_us_per_robot_sim_s: Option<f64>,
 }
 
 /// One target of the issue, judged.
@@ -485,10 +488,18 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     for &n in &plan.scale {
         let measure = (plan.scale_robot_s / n as f64).max(plan.scale_min_s);
         say(format!("simulation: {n} robots, {measure:.0} simulated s measured"));
-        let row = sim::scale(n, plan.scale_warm_s, measure)?;
+        let mut row = sim::scale(n, plan.scale_warm_s, measure)?;
+        let raw = sim::raw_scale(n, plan.scale_warm_s, measure)?;
+        anyhow::ensure!(
+            raw.steps > 0 && raw.commands > 0,
+            "the raw skeleton of {n} robots did not run: {raw:?}"
+        );
+        row.raw_wall_us_per_robot_sim_s = Some(raw.us_per_robot_sim_s);
         say(format!(
-            "  {n} robots: {:.1}x real time, {:.0} wall us per robot per simulated s",
-            row.rtf, row.wall_us_per_robot_sim_s
+            "  {n} robots: {:.1}x real time, {:.0} wall us per robot per simulated s (raw skeleton {:.0})",
+            row.rtf,
+            row.wall_us_per_robot_sim_s,
+            row.raw_wall_us_per_robot_sim_s.unwrap_or(f64::NAN)
         ));
         scale.push(row);
     }
@@ -642,10 +653,19 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
     });
     let costs: Vec<f64> = r.scale.iter().map(|row| row.wall_us_per_robot_sim_s).collect();
     let (lo, hi) = costs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+    // The raw skeleton's spread over the same robot counts, for the verdict's reader.
+    let raw: Vec<f64> = r.scale.iter().filter_map(|row| row.raw_wall_us_per_robot_sim_s).collect();
+    let (raw_lo, raw_hi) = raw.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     t.push(TargetCheck {
         target: "cost per robot roughly constant from 1 to 1000 (largest / smallest <= 1.5)".into(),
         measured: if costs.is_empty() {
             "not measured".into()
+        } else if raw.len() == costs.len() && raw_lo > 0.0 {
+            format!(
+                "{lo:.0} to {hi:.0} us per robot per simulated s ({:.2}x); raw tokio skeleton {raw_lo:.1} to {raw_hi:.1} us ({:.2}x)",
+                hi / lo,
+                raw_hi / raw_lo
+            )
         } else {
             format!("{lo:.0} to {hi:.0} us per robot per simulated s ({:.2}x)", hi / lo)
         },

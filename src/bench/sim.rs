@@ -5,6 +5,16 @@
 //!   behaviours, master, planner under its own supervisor and registry), on one current-thread
 //!   runtime with a paused clock (as `orsa run` runs), lets them settle, then measures how many
 //!   simulated seconds the whole set covers per wall second.
+//! - [`raw_scale`] is its baseline, measured beside each [`scale`] row: N copies of the
+//!   stack's skeleton in raw tokio, with none of its work or data: per robot the same number of
+//!   tasks (13), timers at the same periods (the simulator's step and the four timed sensor
+//!   services), and the same message flow per simulated second (each sensor tick goes to the
+//!   server, which asks the simulator and answers through a oneshot, then hands infrared scans
+//!   to both behaviours and sonar scans to the wired one, which sends a command back through
+//!   the server to the simulator: about 580 task wake-ups per robot per simulated second, as
+//!   the stack's deliveries count them), through unbounded channels. What the skeleton's cost
+//!   per robot does from 1 to 1000 robots is the scheduler's, the timer wheel's and the
+//!   channels' on this machine, not orsa's.
 
 use super::{MissionRtf, ScaleRow};
 use crate::config::Config;
@@ -40,6 +50,170 @@ pub(crate) fn mission(duration_s: f64) -> anyhow::Result<MissionRtf> {
         rtf: duration_s / wall_s,
         distance_m: out.report.distance_m,
         restarts: out.report.restarts,
+    })
+}
+
+/// What the skeleton's server receives.
+enum RawServerMsg {
+    /// A timed sensor service ticked (0: infrared, 1: sonar, 2: bumpers, 3: base state).
+    Tick(u8),
+    /// The wired behaviour's command.
+    Command(u64),
+}
+
+/// What the skeleton's simulator receives.
+enum RawSimMsg {
+    /// Read a sensor; the answer goes back through the oneshot.
+    Read(tokio::sync::oneshot::Sender<u64>),
+    /// A motor command.
+    Command(u64),
+}
+
+/// What [`raw_scale`] measured.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RawScale {
+    /// Wall µs per robot per simulated second, over the measured span.
+    pub(crate) us_per_robot_sim_s: f64,
+    /// Simulator steps, all robots, the whole run.
+    pub(crate) steps: u64,
+    /// Commands that reached a simulator, all robots, the whole run.
+    pub(crate) commands: u64,
+}
+
+/// What every robot's skeleton counts into.
+#[derive(Default)]
+struct RawCounts {
+    steps: AtomicU64,
+    commands: AtomicU64,
+}
+
+/// Starts one robot's skeleton (13 tasks) on the current runtime.
+fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::task::JoinHandle<()>>) {
+    use tokio::sync::mpsc::unbounded_channel;
+    let (sim_tx, mut sim_rx) = unbounded_channel::<RawSimMsg>();
+    let (srv_tx, mut srv_rx) = unbounded_channel::<RawServerMsg>();
+    let (wall_tx, mut wall_rx) = unbounded_channel::<u64>();
+    let (center_tx, mut center_rx) = unbounded_channel::<u64>();
+    // The simulator: steps on its timer, answers reads, takes commands.
+    let step = Duration::from_secs_f64(config.sim.step_s);
+    let counts = Arc::clone(counts);
+    tasks.push(tokio::spawn(async move {
+        let mut tick = tokio::time::interval(step);
+        let (mut steps, mut command) = (0u64, 0u64);
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {
+                    steps = steps.wrapping_add(1 + command % 2);
+                    counts.steps.fetch_add(1, Ordering::Relaxed);
+                }
+                msg = sim_rx.recv() => match msg {
+                    Some(RawSimMsg::Read(reply)) => {
+                        let _ = reply.send(steps);
+                    }
+                    Some(RawSimMsg::Command(c)) => {
+                        command = c;
+                        counts.commands.fetch_add(1, Ordering::Relaxed);
+                    }
+                    None => return,
+                },
+            }
+        }
+    }));
+    // The four timed sensor services.
+    let p = config.robot.push_periods();
+    for (kind, period) in
+        [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
+    {
+        let srv = srv_tx.clone();
+        let period = Duration::from_secs_f64(period);
+        let kind = u8::try_from(kind).unwrap_or(u8::MAX);
+        tasks.push(tokio::spawn(async move {
+            let mut tick = tokio::time::interval(period);
+            loop {
+                tick.tick().await;
+                if srv.send(RawServerMsg::Tick(kind)).is_err() {
+                    return;
+                }
+            }
+        }));
+    }
+    // The server: reads the simulator on every tick, hands scans on, passes commands down.
+    let sim = sim_tx.clone();
+    tasks.push(tokio::spawn(async move {
+        while let Some(msg) = srv_rx.recv().await {
+            match msg {
+                RawServerMsg::Tick(kind) => {
+                    let (tx, rx) = tokio::sync::oneshot::channel();
+                    if sim.send(RawSimMsg::Read(tx)).is_err() {
+                        return;
+                    }
+                    let Ok(reading) = rx.await else { return };
+                    match kind {
+                        0 => {
+                            let _ = wall_tx.send(reading);
+                            let _ = center_tx.send(reading);
+                        }
+                        1 => {
+                            let _ = center_tx.send(reading);
+                        }
+                        _ => {}
+                    }
+                }
+                RawServerMsg::Command(c) => {
+                    let _ = sim.send(RawSimMsg::Command(c));
+                }
+            }
+        }
+    }));
+    // The behaviours: the wired one answers every scan with a command.
+    tasks.push(tokio::spawn(async move { while wall_rx.recv().await.is_some() {} }));
+    let srv = srv_tx.clone();
+    tasks.push(tokio::spawn(async move {
+        while let Some(reading) = center_rx.recv().await {
+            if srv.send(RawServerMsg::Command(reading)).is_err() {
+                return;
+            }
+        }
+    }));
+    // The rest of the stack's tasks, idle as the master, planner and supervisor mostly are.
+    for _ in 0..5 {
+        let (keep, mut idle) = unbounded_channel::<()>();
+        tasks.push(tokio::spawn(async move {
+            let _keep = keep;
+            while idle.recv().await.is_some() {}
+        }));
+    }
+    drop((sim_tx, srv_tx));
+}
+
+/// The baseline of [`scale`]: `n` robots' skeletons (see the module docs) for `warm_s` then
+/// `measure_s` simulated seconds; only the second span is timed.
+pub(crate) fn raw_scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<RawScale> {
+    if n == 0 || !(warm_s >= 0.0 && measure_s > 0.0 && measure_s.is_finite() && warm_s.is_finite()) {
+        anyhow::bail!("raw scale: need at least one robot and a positive duration");
+    }
+    let config = Config::default();
+    let rt = paused_runtime()?;
+    let counts = Arc::new(RawCounts::default());
+    let cost = rt.block_on(async {
+        let mut tasks = Vec::with_capacity(13 * n);
+        for _ in 0..n {
+            raw_robot(&config, &counts, &mut tasks);
+        }
+        tokio::time::sleep(Duration::from_secs_f64(warm_s)).await;
+        let (wall, sim) = (Instant::now(), tokio::time::Instant::now());
+        tokio::time::sleep(Duration::from_secs_f64(measure_s)).await;
+        let (wall_s, simulated_s) = (wall.elapsed().as_secs_f64(), sim.elapsed().as_secs_f64());
+        for t in &tasks {
+            t.abort();
+        }
+        wall_s * 1e6 / (n as f64 * simulated_s)
+    });
+    drop(rt);
+    Ok(RawScale {
+        us_per_robot_sim_s: cost,
+        steps: counts.steps.load(Ordering::Relaxed),
+        commands: counts.commands.load(Ordering::Relaxed),
     })
 }
 
@@ -106,6 +280,7 @@ pub(crate) fn scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<Sca
                 _ => None,
             },
             shutdown_wall_s,
+            raw_wall_us_per_robot_sim_s: None,
         })
     })?;
     // Dropping the runtime ends whatever the shutdown left (nothing, normally).

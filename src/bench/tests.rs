@@ -31,6 +31,7 @@ fn sample_report() -> BenchReport {
         restarts: 0,
         rss_mib_per_robot: None,
         shutdown_wall_s: 0.1,
+        raw_wall_us_per_robot_sim_s: Some(cost / 10.0),
     };
     let mut r = BenchReport {
         inproc_push_p50_ns: 1200.0,
@@ -105,6 +106,8 @@ fn targets_are_judged_from_the_figures() {
     assert_eq!(get("one robot"), Some(true));
     assert_eq!(get("100 robots"), None, "not measured");
     assert_eq!(get("cost per robot"), Some(false), "3500 / 2000 > 1.5");
+    let cost = r.targets.iter().find(|t| t.target.starts_with("cost per robot")).expect("cost per robot");
+    assert!(cost.measured.ends_with("raw tokio skeleton 200.0 to 350.0 us (1.75x)"), "{cost:?}");
     assert_eq!(get("zenoh push p50"), None, "the cross-process bench did not run");
 }
 
@@ -168,6 +171,18 @@ fn two_robots_step_through_every_simulated_step() {
     assert_eq!(row.restarts, 0);
     assert!(sim::scale(0, 0.5, 1.0).is_err());
     assert!(sim::scale(1, 0.5, f64::NAN).is_err());
+}
+
+#[test]
+fn the_raw_skeleton_steps_and_carries_commands_like_the_stack() {
+    // Two robots for 1.5 simulated s: a step every 10 ms from t = 0 (151 each), and a command
+    // for every infrared scan (every 40 ms: 38) and sonar scan (every 64 ms: 24).
+    let raw = sim::raw_scale(2, 0.5, 1.0).expect("two skeletons");
+    assert!((300..=304).contains(&raw.steps), "{raw:?}");
+    assert!((120..=124).contains(&raw.commands), "{raw:?}");
+    assert!(raw.us_per_robot_sim_s.is_finite() && raw.us_per_robot_sim_s > 0.0, "{raw:?}");
+    assert!(sim::raw_scale(0, 0.5, 1.0).is_err());
+    assert!(sim::raw_scale(1, f64::INFINITY, 1.0).is_err());
 }
 
 #[test]
