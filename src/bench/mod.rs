@@ -13,8 +13,8 @@
 //! | in process | push publish to the subscriber component's handler; query round trip; back-to-back, at 25 Hz, and throughput | raw ractor cast / call, raw tokio channel, between the same two tasks on the same runtime |
 //! | fan-out | one push server to 1..1000 subscriber components | a loop of ractor casts to as many plain actors |
 //! | sense to act | sensor update to the motor board, through the wired behaviour, in real time | the 200 µs target |
-//! | across processes | push over zenoh between two processes on loopback, back-to-back and at 25 Hz; sense to act with the behaviours in the other process | raw zenoh publish/subscribe of the same payload, same sessions |
-//! | simulation | `orsa run`'s real-time factor; N whole stacks in one process | one robot |
+//! | across processes | push over zenoh between two processes on loopback, back-to-back and at 25 Hz; sense to act with the behaviours in the other process | raw zenoh publish/subscribe of the same payload, same sessions: to a callback, and from a callback to a tokio task or a ractor actor |
+//! | simulation | `orsa run`'s real-time factor; N whole stacks in one process | one robot; N raw tokio skeletons of the stack (its tasks, timers and message flow, none of its work) |
 //!
 //! The benches on tokio's running clock go first: once any runtime in a process has paused its
 //! clock, every later read of tokio's clock takes a slower path (tokio's `test-util`), which
