@@ -839,9 +839,7 @@ mod tests {
         let mut r: Ranges = [Some(0.3); RING_SIZE];
         r[4] = None;
         r[6] = Some(2.0);
-        for i in 7..=9 {
-            r[i] = Some(3.0);
-        }
+        r[7..=9].fill(Some(3.0));
         u.note_position(&p, 1.0, 1.0, 0);
         // Creeping 1 cm a second is no progress.
         for k in 0..5 {
@@ -875,9 +873,7 @@ mod tests {
         // Stuck with somebody right behind (sensor 7) and the right side open (sensors 11-13).
         r = [Some(0.3); RING_SIZE];
         r[7] = Some(0.1);
-        for i in 11..=13 {
-            r[i] = Some(2.0);
-        }
+        r[11..=13].fill(Some(2.0));
         let mut u = Unstick::default();
         u.note_position(&p, 0.0, 0.0, 0);
         assert_eq!(u.step(&p, &r, w, 5 * S), Some((0.0, -w)), "no backing into the person: turn right");
