@@ -20,10 +20,8 @@
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::{CascadeParams, check_positive};
-use crate::ring::{
-    AngleEstimator, DeadEnd, Ranges, RingGeometry, Side, Unstick, UnstickParams, Wedge, front_min, fuse,
-    wall_in,
-};
+use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, fuse, wall_in};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};

@@ -7,7 +7,7 @@
 //! the State pattern. It asks the robot for its geometry (`robotparams`) when it starts, so no
 //! robot dimension is hard-coded, and publishes what it saw and decided on `status`. It also
 //! follows the robot's odometry (`basestate`), only to notice when it has stopped making
-//! progress (see [`crate::ring::UnstickParams`]).
+//! progress (see [`crate::manoeuvres::UnstickParams`]).
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
 use crate::ring::{Ranges, RingGeometry, ranges};

@@ -15,6 +15,7 @@
 pub mod cascade;
 pub mod centerfollow;
 pub mod components;
+pub mod manoeuvres;
 pub mod ring;
 pub mod wallfollow;
 

@@ -18,9 +18,8 @@
 //!   front of it.
 
 use crate::cascade::{CascadeParams, check_positive};
-use crate::ring::{
-    AngleEstimator, Ranges, RingGeometry, Side, Unstick, UnstickParams, Wedge, front_min, side_min, wall,
-};
+use crate::manoeuvres::{Unstick, UnstickParams, Wedge};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
