@@ -153,13 +153,7 @@ impl PlanTargets {
             "master".into(),
             "planner".into(),
         ];
-        let mut services: Vec<ServiceAddr> =
-            ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
-                .iter()
-                .map(|s| ServiceAddr::new(robot, *s))
-                .collect();
-        services.push(ServiceAddr::new("wallfollow", "status"));
-        services.push(ServiceAddr::new("centerfollow", "status"));
+        let mut services = robot_and_behaviour_services(robot);
         services.push(ServiceAddr::new("master", "driving"));
         PlanTargets { components, services, processes: false }
     }
@@ -169,15 +163,22 @@ impl PlanTargets {
     pub fn for_robot(config: &crate::config::Config) -> Self {
         let robot = config.robot.name.as_str();
         let components = vec![robot.to_string(), "wallfollow".into(), "centerfollow".into()];
-        let mut services: Vec<ServiceAddr> =
-            ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
-                .iter()
-                .map(|s| ServiceAddr::new(robot, *s))
-                .collect();
-        services.push(ServiceAddr::new("wallfollow", "status"));
-        services.push(ServiceAddr::new("centerfollow", "status"));
+        let services = robot_and_behaviour_services(robot);
         PlanTargets { components, services, processes: true }
     }
+}
+
+/// The robot server's Send and push services and the behaviours' status pushes, which every
+/// process that runs them offers to a plan.
+fn robot_and_behaviour_services(robot: &str) -> Vec<ServiceAddr> {
+    let mut services: Vec<ServiceAddr> =
+        ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
+            .iter()
+            .map(|s| ServiceAddr::new(robot, *s))
+            .collect();
+    services.push(ServiceAddr::new("wallfollow", "status"));
+    services.push(ServiceAddr::new("centerfollow", "status"));
+    services
 }
 
 /// A plan that cannot be used.
