@@ -241,6 +241,20 @@ mod tests {
     }
 
     #[test]
+    fn the_held_walls_file_only_turns_the_held_direction_on() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let c = Config::load(&root.join("config/centerfollow-walls.toml")).expect("parses");
+        assert!(c.centerfollow.walls.enabled && !Config::default().centerfollow.walls.enabled);
+        let mut same = c.clone();
+        same.centerfollow.walls.enabled = false;
+        assert_eq!(same, Config::default(), "nothing else differs");
+        let e = Config::from_toml("[centerfollow.walls]\nnear = 0.4\n", "w.toml").expect_err("unknown key");
+        assert!(e.to_string().starts_with("w.toml:2:1:") && e.to_string().contains("near"), "{e}");
+        let e = Config::from_toml("[centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");
+        assert_eq!(e.to_string(), "w.toml: centerfollow.walls.hold_s: must be a positive number");
+    }
+
+    #[test]
     fn errors_name_the_place_and_the_key() {
         let e = Config::from_toml("[wallfollow]\ntarget_m = 0.2\nk_dd = 3.0\n", "my.toml")
             .expect_err("unknown key");

@@ -16,12 +16,16 @@
 //! the side whose angle window sees the nearer wall. With equal windows this is exactly the
 //! thesis' single-window controller.
 //!
+//! The wall angle can also be held through odometry where the ring sees no flat wall (beside a
+//! person, a recess), `[centerfollow.walls]`, off by default: see [`crate::walldir`].
+//!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
 
 use crate::cascade::{CascadeParams, check_positive};
 use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, fuse, wall_in};
+use crate::walldir::{WallDirParams, WallDirection};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
 use serde::{Deserialize, Serialize};
@@ -77,6 +81,8 @@ pub struct CenterFollowParams {
     pub loops: CascadeParams,
     /// Backing out of a deadlock (`[...unstick]`).
     pub unstick: UnstickParams,
+    /// Holding the walls' direction through odometry (`[...walls]`).
+    pub walls: WallDirParams,
 }
 
 impl Default for CenterFollowParams {
@@ -100,6 +106,7 @@ impl Default for CenterFollowParams {
             angle_right_sensors: [11, 15],
             loops: CascadeParams { k_d: 7.0, k_alpha: -2.0, alpha_max_deg: 45.0, omega_max_deg_s: 45.0 },
             unstick: UnstickParams::default(),
+            walls: WallDirParams::default(),
         }
     }
 }
@@ -143,6 +150,7 @@ impl CenterFollowParams {
             }
         }
         self.unstick.validate("centerfollow")?;
+        self.walls.validate("centerfollow")?;
         self.loops.validate("centerfollow")
     }
 }
@@ -157,6 +165,8 @@ pub struct CenterFollower {
     dead_end: DeadEnd,
     /// Backing out of a deadlock.
     unstick: Unstick,
+    /// The walls' direction, held through odometry.
+    walls: WallDirection,
     radius_m: f64,
     ir_half_beam_rad: f64,
     sonar_half_beam_rad: f64,
@@ -181,6 +191,7 @@ impl CenterFollower {
             wedge: Wedge::default(),
             dead_end: DeadEnd::default(),
             unstick: Unstick::default(),
+            walls: WallDirection::default(),
             params,
             radius_m,
             ir_half_beam_rad: ir_beam_rad / 2.0,
@@ -188,9 +199,18 @@ impl CenterFollower {
         }
     }
 
-    /// The robot's odometry: where it is at `stamp` (for getting out of deadlocks).
-    pub fn note_position(&mut self, x_m: f64, y_m: f64, stamp: Timestamp) {
+    /// The robot's odometry at `stamp`: where it is (for getting out of deadlocks), where it
+    /// heads and how fast it turns (for holding the walls' direction).
+    pub fn note_odometry(
+        &mut self,
+        x_m: f64,
+        y_m: f64,
+        heading_rad: f64,
+        omega_rad_s: f64,
+        stamp: Timestamp,
+    ) {
         self.unstick.note_position(&self.params.unstick, x_m, y_m, stamp.0);
+        self.walls.note_heading(heading_rad, omega_rad_s, stamp.0);
     }
 
     /// The parameters.
@@ -214,13 +234,24 @@ impl CenterFollower {
         let [b0, b1] = p.angle_right_sensors;
         let angle_left = wall_in(&r, Side::Left, a0..=a1, p.estimator, &ring, p.l_m);
         let angle_right = wall_in(&r, Side::Right, b0..=b1, p.estimator, &ring, p.l_m);
-        let angle = match (angle_left, angle_right) {
-            (Some(l), Some(rt)) => {
-                Some(if l.distance_m <= rt.distance_m { l.alpha_rad } else { rt.alpha_rad })
-            }
-            (Some(w), None) | (None, Some(w)) => Some(w.alpha_rad),
-            (None, None) => None,
+        // The angle the ring alone gives (the nearer side's), and its flat walls nearest first.
+        let (near, far) = match (angle_left, angle_right) {
+            (Some(l), Some(rt)) if rt.distance_m < l.distance_m => (Some(rt), Some(l)),
+            (l, rt) => (l.or(rt), l.and(rt)),
         };
+        let mut fits = [0.0; 2];
+        let mut n = 0;
+        for w in [near, far].into_iter().flatten().filter(|w| w.fitted) {
+            fits[n] = w.alpha_rad;
+            n += 1;
+        }
+        let angle = self.walls.alpha(
+            &p.walls,
+            &fits[..n],
+            near.map(|w| w.alpha_rad),
+            near.map(|w| w.distance_m),
+            stamp.0,
+        );
         let (error_left, alpha, offset) = match (left, right) {
             (Some(l), Some(rt)) => {
                 let e = (l.distance_m - rt.distance_m) / 2.0;
@@ -265,6 +296,7 @@ impl CenterFollower {
 mod tests {
     use super::*;
     use crate::ring::synthetic::corridor;
+    use std::f64::consts::PI;
 
     /// Infrared (0.6 m) and sonar (0.3..6 m) views of a corridor `width` wide, robot `y` above
     /// its centre (positive: nearer the left wall when heading along +x), heading `theta`.
@@ -329,6 +361,29 @@ mod tests {
         assert!(s.offset_m.is_some_and(|o| o.abs() < 1e-9) && s.cmd.omega_rad_s.abs() < 1e-9);
         let bad = CenterFollowParams { angle_right_sensors: [8, 15], ..Default::default() };
         assert!(bad.validate().expect_err("8 is the back").starts_with("centerfollow.angle_right_sensors"));
+    }
+
+    #[test]
+    fn beside_a_person_the_held_wall_direction_steers() {
+        // Heading 30 degrees left of the corridor, a person 0.6 m away at the left (sensor 3
+        // only): the ring's nearer side is the person, with the coarse angle of sensor 3.
+        let theta = 30f64.to_radians();
+        let (mut ir, mut so) = views(2.4, 0.0, theta);
+        ir[3] = None;
+        so[3] = Some(0.6);
+        let walls = WallDirParams { enabled: true, ..Default::default() };
+        let mut c = CenterFollower::new(CenterFollowParams { walls, ..Default::default() }, 0.25, 0.0, 0.0);
+        // Odometry says the robot heads 1.0 rad; a moment earlier it saw the walls flat.
+        c.note_odometry(0.0, 0.0, 1.0, 0.0, Timestamp(0));
+        let (ir0, so0) = views(2.4, 0.0, theta);
+        assert!((c.step(&ir0, &so0, Timestamp(0)).alpha_rad + theta).abs() < 0.02, "walls fitted");
+        let s = c.step(&ir, &so, Timestamp(40_000_000));
+        assert!((s.alpha_rad + theta).abs() < 0.02, "held: {}", s.alpha_rad.to_degrees());
+        // Without the held direction the ring's coarse angle of the person is used.
+        let mut plain = CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0);
+        plain.note_odometry(0.0, 0.0, 1.0, 0.0, Timestamp(0));
+        let s = plain.step(&ir, &so, Timestamp(40_000_000));
+        assert!((s.alpha_rad + PI / 8.0).abs() < 1e-9, "coarse pi/8 (3 - 4): {}", s.alpha_rad.to_degrees());
     }
 
     #[test]

@@ -200,7 +200,7 @@ impl Component for CenterFollow {
             CenterFollowMsg::Ir(s) => st.ir = Some((s.stamp, ranges(&s))),
             CenterFollowMsg::Sonar(s) => st.sonar = Some((s.stamp, ranges(&s))),
             CenterFollowMsg::Base(b) => {
-                st.ctl.note_position(b.x_m, b.y_m, b.stamp);
+                st.ctl.note_odometry(b.x_m, b.y_m, b.heading_rad, b.omega_rad_s, b.stamp);
                 return Ok(());
             }
         }

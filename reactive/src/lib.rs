@@ -7,6 +7,7 @@
 //!
 //! Modules:
 //! - [`ring`]: fused ring readings and the wall estimate per side (sign conventions live here).
+//! - [`walldir`]: the walls' direction, held through odometry where no wall is seen flat.
 //! - [`cascade`]: the two cascaded proportional loops both behaviours use.
 //! - [`wallfollow`]: hold a distance from the left wall (infrared).
 //! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
@@ -17,6 +18,7 @@ pub mod centerfollow;
 pub mod components;
 pub mod manoeuvres;
 pub mod ring;
+pub mod walldir;
 pub mod wallfollow;
 
 pub use components::{BehaviourStatus, CenterFollow, WallFollow};

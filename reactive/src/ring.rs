@@ -139,6 +139,9 @@ pub struct WallEstimate {
     pub alpha_rad: f64,
     /// The side sensor with the smallest reading.
     pub nearest: usize,
+    /// Whether the angle comes from a flat wall seen by the nearest sensor's neighbours
+    /// (otherwise it is the coarse `pi/8 (m - c)`).
+    pub fitted: bool,
 }
 
 /// The minimum valid reading on `side` and the sensor that gave it.
@@ -191,7 +194,7 @@ pub fn wall_in(
 ) -> Option<WallEstimate> {
     let (m, d_min) = window_min(r, window)?;
     let coarse = PI / 8.0 * (m as f64 - side.middle() as f64);
-    let fallback = WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m };
+    let fallback = WallEstimate { distance_m: d_min, alpha_rad: coarse, nearest: m, fitted: false };
     let in_side = |i: usize| side.sensors().contains(&i);
     match how {
         AngleEstimator::Original => {
@@ -199,10 +202,15 @@ pub fn wall_in(
             let neighbour =
                 |i: Option<usize>| i.filter(|&i| in_side(i)).and_then(|i| r.get(i).copied().flatten());
             let fine = match (neighbour(m.checked_sub(1)), neighbour(Some(m + 1))) {
-                (Some(a), Some(b)) => ((a - b) / l_m).clamp(-1.0, 1.0).asin(),
-                _ => 0.0,
+                (Some(a), Some(b)) => Some(((a - b) / l_m).clamp(-1.0, 1.0).asin()),
+                _ => None,
             };
-            Some(WallEstimate { distance_m: d_min, alpha_rad: coarse + fine, nearest: m })
+            Some(WallEstimate {
+                distance_m: d_min,
+                alpha_rad: coarse + fine.unwrap_or(0.0),
+                nearest: m,
+                fitted: fine.is_some(),
+            })
         }
         AngleEstimator::LineFit => {
             let before = (m + RING_SIZE - 1) % RING_SIZE;
@@ -224,7 +232,7 @@ pub fn wall_in(
             if (d - d_min).abs() > 0.03 + 0.05 * d_min {
                 return Some(fallback);
             }
-            Some(WallEstimate { distance_m: d.min(d_min), alpha_rad: alpha, nearest: m })
+            Some(WallEstimate { distance_m: d.min(d_min), alpha_rad: alpha, nearest: m, fitted: true })
         }
     }
 }
