@@ -79,6 +79,14 @@ impl NetOptions {
             // once (its TCP link closes).
             set(&mut config, "transport/link/tx/lease", "1000".into())?;
             set(&mut config, "transport/link/tx/keep_alive", "4".into())?;
+            // Room for a burst: zenoh sends each express message in a batch of its own and
+            // drops a droppable one when no batch frees up within 1 ms. With its default of two
+            // batches, a loaded machine (the link task not scheduled for a millisecond) lost
+            // the first Sends and pushes after discovery (net/tests/patterns.rs, 3 runs in 40
+            // under load); sixteen, the most zenoh allows, absorb the bursts a robot sends (a
+            // tick's scans, a push to every-n-th streams) while a link that really cannot keep
+            // up still drops, newest first kept.
+            set(&mut config, "transport/link/tx/queue/size/data", "16".into())?;
         }
         if !self.listen.is_empty() {
             set(&mut config, "listen/endpoints", serde_json::to_string(&self.listen).unwrap_or_default())?;
