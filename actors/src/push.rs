@@ -80,6 +80,52 @@ struct Board<T> {
     /// Copy-on-write: a publisher clones the `Arc` and delivers with no lock held, so a sink may
     /// subscribe, unsubscribe or publish without deadlocking.
     subs: Subscribers<T>,
+    /// The newest-value cells of local clients subscribed at `every = 1`, kept here so that a
+    /// publication updates them under the lock it takes anyway (see [`Cell`]).
+    cells: Vec<Cell<T>>,
+}
+
+/// A local client's newest-value cell, kept by the server for a subscription at `every = 1`.
+///
+/// Such a subscriber receives every publication the faults let through, so its newest value is
+/// nearly always the server's own newest one: the cell then holds only its sequence number and
+/// costs a publication no reference count and no lock of its own. When a publication does not
+/// reach it (a lost or late message), or the subscription ends, the cell keeps the value it had.
+struct Cell<T> {
+    /// The subscriber's id.
+    id: u64,
+    /// The sequence number of the newest update received (0: none).
+    seq: u64,
+    /// That update, when it is not `Board::latest` (always, once `detached`).
+    own: Option<Update<T>>,
+    /// Whether the subscription ended at the server (a closed sink): publications pass it by.
+    detached: bool,
+}
+
+impl<T> Cell<T> {
+    /// The newest update received, given the server's newest.
+    fn newest(&self, latest: Option<&Update<T>>) -> Option<Update<T>> {
+        match (&self.own, latest) {
+            (Some(u), _) => Some(Arc::clone(u)),
+            (None, Some(l)) if self.seq > 0 && l.seq == self.seq => Some(Arc::clone(l)),
+            _ => None,
+        }
+    }
+
+    /// Keeps the value the cell refers to before `latest` moves on without it.
+    fn keep(&mut self, latest: Option<&Update<T>>) {
+        if self.own.is_none() {
+            self.own = self.newest(latest);
+        }
+    }
+
+    /// Takes `u` as received (unless it is older than what the cell has).
+    fn receive(&mut self, u: &Update<T>) {
+        if u.seq > self.seq {
+            self.seq = u.seq;
+            self.own = Some(Arc::clone(u));
+        }
+    }
 }
 
 type Subscribers<T> = Arc<[Arc<Subscriber<T>>]>;
@@ -108,6 +154,11 @@ impl<T> PushEndpoint<T> {
         if !board.subs.iter().any(|s| ids.contains(&s.id)) {
             return false;
         }
+        let Board { latest, cells, .. } = &mut *board;
+        for c in cells.iter_mut().filter(|c| ids.contains(&c.id)) {
+            c.keep(latest.as_ref());
+            c.detached = true;
+        }
         let kept: Subscribers<T> = board.subs.iter().filter(|s| !ids.contains(&s.id)).cloned().collect();
         // The old list is dropped after the lock (a sink's drop may do anything).
         let old = std::mem::replace(&mut board.subs, kept);
@@ -118,6 +169,21 @@ impl<T> PushEndpoint<T> {
 
     pub(crate) fn unsubscribe(&self, id: u64) -> bool {
         self.remove_subscribers(&[id])
+    }
+
+    /// Ends subscription `id`, which has a cell here; returns the newest update it received.
+    fn unsubscribe_cell(&self, id: u64) -> Option<Update<T>> {
+        self.remove_subscribers(&[id]);
+        let mut board = self.board.lock();
+        let i = board.cells.iter().position(|c| c.id == id)?;
+        board.cells.swap_remove(i).own
+    }
+
+    /// The newest update received by subscription `id`, which has a cell here (`None` if it
+    /// has none).
+    fn cell_newest(&self, id: u64) -> Option<Option<Update<T>>> {
+        let board = self.board.lock();
+        board.cells.iter().find(|c| c.id == id).map(|c| c.newest(board.latest.as_ref()))
     }
 }
 
@@ -135,7 +201,7 @@ impl<T: CommObject> PushEndpoint<T> {
             addr: addr.clone(),
             faults: registry.faults(),
             clock: registry.clock(),
-            board: Mutex::new(Board { seq: 0, latest: None, subs: Arc::new([]) }),
+            board: Mutex::new(Board { seq: 0, latest: None, subs: Arc::new([]), cells: Vec::new() }),
             next_id: AtomicU64::new(1),
             delivered: AtomicU64::new(0),
             failed: AtomicU64::new(0),
@@ -153,35 +219,57 @@ impl<T: CommObject> PushEndpoint<T> {
     /// only ever moves forward in sequence number.
     pub(crate) fn put(&self, value: T) -> usize {
         let stamp = self.clock.now();
-        // One lock per publication: the number, the newest value and the subscribers to hand
-        // it to are taken together (so "newest" follows the numbers even with concurrent
-        // publishers).
-        let (update, subs) = {
+        let verdict = self.faults.verdict(&self.addr);
+        let later = match verdict {
+            Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
+                (Ok(rt), Some(me)) => Some((d, rt, me)),
+                _ => None,
+            },
+            _ => None,
+        };
+        // Whether the subscribers at `every = 1` receive it now (so their cells follow).
+        let now = later.is_none() && !matches!(verdict, Verdict::Drop);
+        // One lock per publication: the number, the newest value, the cells and the
+        // subscribers to hand it to are taken together (so "newest" follows the numbers even
+        // with concurrent publishers).
+        let (update, subs, previous) = {
             let mut board = self.board.lock();
             board.seq += 1;
             let update = Arc::new(Stamped { seq: board.seq, stamp, value });
-            board.latest = Some(Arc::clone(&update));
-            (update, Arc::clone(&board.subs))
+            let previous = board.latest.replace(Arc::clone(&update));
+            for c in board.cells.iter_mut().filter(|c| !c.detached) {
+                if now {
+                    c.seq = update.seq;
+                    c.own = None;
+                } else {
+                    c.keep(previous.as_ref());
+                }
+            }
+            (update, Arc::clone(&board.subs), previous)
         };
+        drop(previous);
         self.tap.record(&self.topic, T::ID, update.stamp, &*update);
-        let hand = match self.faults.verdict(&self.addr) {
-            Verdict::Deliver => Hand::Copies(1),
+        let hand = match verdict {
             Verdict::Drop => Hand::Drop,
             Verdict::Duplicate => Hand::Copies(2),
-            Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
-                (Ok(rt), Some(me)) => {
-                    drop(subs);
-                    rt.spawn(async move {
-                        tokio::time::sleep(d).await;
-                        // Whoever subscribes by then receives it.
-                        let subs = Arc::clone(&me.board.lock().subs);
-                        me.deliver(&subs, update, Hand::Copies(1));
-                    });
-                    return 0;
-                }
-                _ => Hand::Copies(1),
-            },
+            Verdict::Deliver | Verdict::Delay(_) => Hand::Copies(1),
         };
+        if let Some((d, rt, me)) = later {
+            drop(subs);
+            rt.spawn(async move {
+                tokio::time::sleep(d).await;
+                // Whoever subscribes by then receives it.
+                let subs = {
+                    let mut board = me.board.lock();
+                    for c in board.cells.iter_mut().filter(|c| !c.detached) {
+                        c.receive(&update);
+                    }
+                    Arc::clone(&board.subs)
+                };
+                me.deliver(&subs, update, Hand::Copies(1));
+            });
+            return 0;
+        }
         self.deliver(&subs, update, hand)
     }
 
@@ -244,6 +332,16 @@ impl<T: CommObject> PushEndpoint<T> {
     }
 
     pub(crate) fn subscribe(&self, every: NonZeroU32, sink: Sink<Update<T>>) -> u64 {
+        self.subscribe_as(every, sink, None)
+    }
+
+    /// Subscribes at `every = 1` with a newest-value cell kept here, starting at `seed` (the
+    /// client's newest value so far).
+    fn subscribe_with_cell(&self, sink: Sink<Update<T>>, seed: Option<Update<T>>) -> u64 {
+        self.subscribe_as(NonZeroU32::MIN, sink, Some(seed))
+    }
+
+    fn subscribe_as(&self, every: NonZeroU32, sink: Sink<Update<T>>, cell: Option<Option<Update<T>>>) -> u64 {
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
         let sub = Arc::new(Subscriber {
             id,
@@ -253,6 +351,14 @@ impl<T: CommObject> PushEndpoint<T> {
             stream: Arc::new(Stream::default()),
         });
         let mut board = self.board.lock();
+        if let Some(seed) = cell {
+            board.cells.push(Cell {
+                id,
+                seq: seed.as_ref().map_or(0, |u| u.seq),
+                own: seed,
+                detached: false,
+            });
+        }
         let next: Subscribers<T> = board.subs.iter().cloned().chain(std::iter::once(sub)).collect();
         board.subs = next;
         id
@@ -310,6 +416,8 @@ enum Via<T> {
 
 enum SubHandle {
     Local(u64),
+    /// A local subscription whose newest-value cell the server keeps (see [`Cell`]).
+    Cell(u64),
     Remote(#[allow(dead_code)] Subscription),
 }
 
@@ -321,7 +429,8 @@ pub(crate) struct PushClientCore<T> {
     active: watch::Receiver<bool>,
     sub: Mutex<Option<SubHandle>>,
     /// The newest update received, and the subscription generation (bumped on every subscribe
-    /// and unsubscribe, so a waiter learns that its subscription ended).
+    /// and unsubscribe, so a waiter learns that its subscription ended). While the server keeps
+    /// the cell ([`SubHandle::Cell`]), `newest` is written only for waiters.
     newest: Arc<watch::Sender<Option<Update<T>>>>,
     generation: watch::Sender<u64>,
     forward: Option<Sink<Update<T>>>,
@@ -363,19 +472,31 @@ impl<T: CommObject> PushClientCore<T> {
         let every = NonZeroU32::new(every).ok_or_else(|| {
             PatternError::InvalidArgument("subscribe(every): every must be at least 1".into())
         })?;
+        // Publishers hold no lock while they deliver, so holding ours here cannot deadlock
+        // with a sink; the old subscription ends before the new one starts (no duplicate).
+        let mut sub = self.sub.lock();
+        if let Some(old) = sub.take() {
+            self.end(old);
+        }
+        // A local subscriber at every = 1 has its cell kept by the server, which updates it under
+        // the lock a publication takes anyway; here it only wakes waiters.
+        let cell = matches!(self.via, Via::Local(_)) && every == NonZeroU32::MIN;
         let newest = Arc::clone(&self.newest);
         let forward = self.forward.clone();
         let sink = Sink::with_receipts(move |u: Update<T>, receipt| {
-            newest.send_if_modified(|cur| {
-                let newer = cur.as_ref().is_none_or(|c| c.seq < u.seq);
-                if newer {
-                    *cur = Some(Arc::clone(&u));
-                }
-                // Waking receivers costs eight mutexes (tokio's watch); only `get_update_wait`
-                // makes receivers, so with none alive the value changes silently. A waiter
-                // that subscribes meanwhile judges by sequence number (see there).
-                newer && newest.receiver_count() > 0
-            });
+            if !cell || newest.receiver_count() > 0 {
+                newest.send_if_modified(|cur| {
+                    let newer = cur.as_ref().is_none_or(|c| c.seq < u.seq);
+                    if newer {
+                        *cur = Some(Arc::clone(&u));
+                    }
+                    // Waking receivers costs eight mutexes (tokio's watch); only
+                    // `get_update_wait` makes receivers, so with none alive the value changes
+                    // silently. A waiter that subscribes meanwhile judges by sequence number
+                    // (see there).
+                    newer && newest.receiver_count() > 0
+                });
+            }
             match &forward {
                 Some(f) => f.deliver_with(u, receipt),
                 None => {
@@ -384,13 +505,10 @@ impl<T: CommObject> PushClientCore<T> {
                 }
             }
         });
-        // Publishers hold no lock while they deliver, so holding ours here cannot deadlock
-        // with a sink; the old subscription ends before the new one starts (no duplicate).
-        let mut sub = self.sub.lock();
-        if let Some(old) = sub.take() {
-            self.end(old);
-        }
         *sub = Some(match &self.via {
+            Via::Local(e) if cell => {
+                SubHandle::Cell(e.subscribe_with_cell(sink, self.newest.borrow().clone()))
+            }
             Via::Local(e) => SubHandle::Local(e.subscribe(every, sink)),
             Via::Remote(r) => {
                 let clock = r.registry.clock();
@@ -423,6 +541,18 @@ impl<T: CommObject> PushClientCore<T> {
             (SubHandle::Local(id), Via::Local(e)) => {
                 e.unsubscribe(id);
             }
+            (SubHandle::Cell(id), Via::Local(e)) => {
+                // The client keeps the cell's value (silently: the generation tells waiters).
+                let kept = e.unsubscribe_cell(id);
+                self.newest.send_if_modified(|cur| {
+                    if let Some(u) = kept
+                        && cur.as_ref().is_none_or(|c| c.seq < u.seq)
+                    {
+                        *cur = Some(u);
+                    }
+                    false
+                });
+            }
             (other, _) => drop(other),
         }
     }
@@ -432,10 +562,12 @@ impl<T: CommObject> PushClientCore<T> {
     }
 
     pub(crate) fn get_update(&self) -> PatternResult<Update<T>> {
-        if !self.is_subscribed() {
-            return Err(self.not_subscribed());
-        }
-        self.newest.borrow().clone().ok_or(PatternError::NoData)
+        let from_server = match (&*self.sub.lock(), &self.via) {
+            (None, _) => return Err(self.not_subscribed()),
+            (Some(SubHandle::Cell(id)), Via::Local(e)) => e.cell_newest(*id),
+            _ => None,
+        };
+        from_server.unwrap_or_else(|| self.newest.borrow().clone()).ok_or(PatternError::NoData)
     }
 
     /// Waits for an update newer than the newest one now; ends with `NotActive` when the server
@@ -450,9 +582,11 @@ impl<T: CommObject> PushClientCore<T> {
         }
         let addr = self.addr.clone();
         let mut newest = self.newest.subscribe();
-        // What "now" is: values are also stored silently while nobody waits, so compare
-        // sequence numbers rather than trusting the version alone.
-        let seen = newest.borrow_and_update().as_ref().map_or(0, |u| u.seq);
+        // What "now" is: values are also stored silently while nobody waits (or kept by the
+        // server), so compare sequence numbers rather than trusting the version alone. The
+        // receiver exists before the newest value is read, so nothing newer goes unnoticed.
+        let watched = newest.borrow_and_update().as_ref().map_or(0, |u| u.seq);
+        let seen = self.get_update().map_or(0, |u| u.seq).max(watched);
         let mut active = self.active.clone();
         let mut generation = self.generation.subscribe();
         generation.borrow_and_update();
@@ -495,8 +629,14 @@ impl<T: CommObject> PushClientCore<T> {
 
 impl<T> Drop for PushClientCore<T> {
     fn drop(&mut self) {
-        if let (Some(SubHandle::Local(id)), Via::Local(e)) = (self.sub.get_mut().take(), &self.via) {
-            e.unsubscribe(id);
+        match (self.sub.get_mut().take(), &self.via) {
+            (Some(SubHandle::Local(id)), Via::Local(e)) => {
+                e.unsubscribe(id);
+            }
+            (Some(SubHandle::Cell(id)), Via::Local(e)) => {
+                e.unsubscribe_cell(id);
+            }
+            _ => {}
         }
     }
 }

@@ -9,7 +9,7 @@ use orsa_actors::send::{SendClient, SendServer};
 use orsa_actors::supervision::{
     Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorRef, SupervisorSpec,
 };
-use orsa_actors::{Component, ComponentError, Ctx, Registry, ServiceAddr, Sink, Stamped};
+use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, ServiceAddr, Sink, Stamped};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
@@ -165,4 +165,52 @@ async fn fault_messages_are_dropped_delayed_and_duplicated_exactly_while_set() {
     let got: Vec<u64> = std::iter::from_fn(|| urx.try_recv().ok()).map(|u| u.value).collect();
     assert_eq!(got, vec![2, 2, 3]);
     assert_eq!(push.latest().map(|u| u.value), Some(3));
+}
+
+#[tokio::test(start_paused = true)]
+async fn fault_a_client_newest_value_skips_lost_updates_and_survives_its_subscription() {
+    let registry = Registry::new();
+    let faults = registry.faults();
+    let push = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("push");
+    let client = PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("client");
+    let ticks: ServiceAddr = "odo/ticks".parse().expect("addr");
+    client.subscribe().expect("subscribe");
+    push.put(1);
+    assert_eq!(client.get_update().expect("update").value, 1);
+    // A lost update is not the client's newest, although it is the server's.
+    faults.set_message_fault(&ticks, Some(MessageFault::Drop));
+    push.put(2);
+    push.put(3);
+    assert_eq!(push.latest().map(|u| u.value), Some(3));
+    assert_eq!(client.get_update().expect("update").value, 1);
+    // A late one becomes the newest when it arrives, unless a newer one came first.
+    faults.set_message_fault(&ticks, Some(MessageFault::Delay(Duration::from_millis(50))));
+    push.put(4);
+    faults.set_message_fault(&ticks, None);
+    assert_eq!(client.get_update().expect("update").value, 1);
+    tokio::time::sleep(Duration::from_millis(60)).await;
+    assert_eq!(client.get_update().expect("update").seq, 4);
+    push.put(5);
+    faults.set_message_fault(&ticks, Some(MessageFault::Delay(Duration::from_millis(50))));
+    push.put(6);
+    faults.set_message_fault(&ticks, None);
+    push.put(7);
+    tokio::time::sleep(Duration::from_millis(60)).await;
+    assert_eq!(client.get_update().expect("update").value, 7, "a late 6 does not replace 7");
+    // Unsubscribed, the client answers nothing; subscribed again, it still has its newest
+    // value until the next update arrives.
+    client.unsubscribe().expect("unsubscribe");
+    push.put(8);
+    assert!(matches!(client.get_update(), Err(PatternError::NotActive(_))));
+    client.subscribe().expect("subscribe again");
+    assert_eq!(client.get_update().expect("update").value, 7);
+    push.put(9);
+    assert_eq!(client.get_update().expect("update").value, 9);
+    // Waiting: the next update, not the one already there.
+    let waiter = async { client.get_update_wait().await.expect("update").value };
+    let (got, ()) = tokio::join!(waiter, async {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        push.put(10);
+    });
+    assert_eq!(got, 10);
 }
