@@ -47,6 +47,8 @@ impl<T> Subscriber<T> {
 /// What handing one publication over came to.
 struct Outcome {
     delivered: usize,
+    /// Deliveries not counted in advance (see `Board::counted`).
+    uncounted: u64,
     closed: Vec<u64>,
 }
 
@@ -83,6 +85,12 @@ struct Board<T> {
     /// The newest-value cells of local clients subscribed at `every = 1`, kept here so that a
     /// publication updates them under the lock it takes anyway (see [`Cell`]).
     cells: Vec<Cell<T>>,
+    /// How many subscribers are at `every = 1`.
+    ones: u64,
+    /// Deliveries counted in advance, under the lock: a publication handed over at once counts
+    /// one for each subscriber at `every = 1`, which spares it an atomic counter; a hand-over
+    /// that then fails takes its count back (`PushEndpoint::taken_back`).
+    counted: u64,
 }
 
 /// A local client's newest-value cell, kept by the server for a subscription at `every = 1`.
@@ -141,7 +149,10 @@ pub(crate) struct PushEndpoint<T> {
     /// publication takes it once.
     board: Mutex<Board<T>>,
     next_id: AtomicU64,
+    /// Deliveries not counted in advance (every > 1, late ones).
     delivered: AtomicU64,
+    /// Deliveries counted in advance that failed.
+    taken_back: AtomicU64,
     failed: AtomicU64,
     account: Account,
     /// Whether the server produces (always true for push newest).
@@ -160,6 +171,7 @@ impl<T> PushEndpoint<T> {
             c.detached = true;
         }
         let kept: Subscribers<T> = board.subs.iter().filter(|s| !ids.contains(&s.id)).cloned().collect();
+        board.ones = kept.iter().filter(|s| s.every == 1).count() as u64;
         // The old list is dropped after the lock (a sink's drop may do anything).
         let old = std::mem::replace(&mut board.subs, kept);
         drop(board);
@@ -201,9 +213,17 @@ impl<T: CommObject> PushEndpoint<T> {
             addr: addr.clone(),
             faults: registry.faults(),
             clock: registry.clock(),
-            board: Mutex::new(Board { seq: 0, latest: None, subs: Arc::new([]), cells: Vec::new() }),
+            board: Mutex::new(Board {
+                seq: 0,
+                latest: None,
+                subs: Arc::new([]),
+                cells: Vec::new(),
+                ones: 0,
+                counted: 0,
+            }),
             next_id: AtomicU64::new(1),
             delivered: AtomicU64::new(0),
+            taken_back: AtomicU64::new(0),
             failed: AtomicU64::new(0),
             account: registry.account(&addr, kind),
             active: watch::Sender::new(active),
@@ -245,6 +265,9 @@ impl<T: CommObject> PushEndpoint<T> {
                     c.keep(previous.as_ref());
                 }
             }
+            if now {
+                board.counted += board.ones;
+            }
             (update, Arc::clone(&board.subs), previous)
         };
         drop(previous);
@@ -266,15 +289,16 @@ impl<T: CommObject> PushEndpoint<T> {
                     }
                     Arc::clone(&board.subs)
                 };
-                me.deliver(&subs, update, Hand::Copies(1));
+                me.deliver(&subs, update, Hand::Copies(1), false);
             });
             return 0;
         }
-        self.deliver(&subs, update, hand)
+        self.deliver(&subs, update, hand, now)
     }
 
-    /// Hands `update` to every subscriber whose turn it is.
-    fn deliver(&self, subs: &[Arc<Subscriber<T>>], update: Update<T>, hand: Hand) -> usize {
+    /// Hands `update` to every subscriber whose turn it is; `counted`: its deliveries to the
+    /// subscribers at `every = 1` were counted in advance.
+    fn deliver(&self, subs: &[Arc<Subscriber<T>>], update: Update<T>, hand: Hand, counted: bool) -> usize {
         let copies = match hand {
             Hand::Copies(c) => c,
             Hand::Drop => {
@@ -286,7 +310,7 @@ impl<T: CommObject> PushEndpoint<T> {
                 return 0;
             }
         };
-        let mut outcome = Outcome { delivered: 0, closed: Vec::new() };
+        let mut outcome = Outcome { delivered: 0, uncounted: 0, closed: Vec::new() };
         // The last subscriber gets the update itself, the others a clone: one reference count
         // less per publication.
         let mut pending: Option<&Subscriber<T>> = None;
@@ -295,21 +319,30 @@ impl<T: CommObject> PushEndpoint<T> {
                 continue;
             }
             if let Some(p) = pending.replace(s) {
-                self.hand_to(p, Arc::clone(&update), copies, &mut outcome);
+                self.hand_to(p, Arc::clone(&update), copies, counted && p.every == 1, &mut outcome);
             }
         }
         if let Some(p) = pending {
-            self.hand_to(p, update, copies, &mut outcome);
+            self.hand_to(p, update, copies, counted && p.every == 1, &mut outcome);
         }
         if !outcome.closed.is_empty() {
             self.remove_subscribers(&outcome.closed);
         }
-        self.delivered.fetch_add(outcome.delivered as u64, Ordering::Relaxed);
+        if outcome.uncounted > 0 {
+            self.delivered.fetch_add(outcome.uncounted, Ordering::Relaxed);
+        }
         outcome.delivered
     }
 
-    /// Hands `copies` copies of `update` to `s`.
-    fn hand_to(&self, s: &Subscriber<T>, update: Update<T>, copies: usize, outcome: &mut Outcome) {
+    /// Hands `copies` copies of `update` to `s`; `counted`: counted in advance as delivered.
+    fn hand_to(
+        &self,
+        s: &Subscriber<T>,
+        update: Update<T>,
+        copies: usize,
+        counted: bool,
+        outcome: &mut Outcome,
+    ) {
         let seq = update.seq;
         let result = if copies > 1 {
             let mut r = s.sink.deliver_with(Arc::clone(&update), self.account.offer(Some(&s.stream), seq));
@@ -322,8 +355,14 @@ impl<T: CommObject> PushEndpoint<T> {
         } else {
             s.sink.deliver_with(update, self.account.offer(Some(&s.stream), seq))
         };
+        if counted && result.is_err() {
+            self.taken_back.fetch_add(1, Ordering::Relaxed);
+        }
         match result {
-            Ok(()) => outcome.delivered += 1,
+            Ok(()) => {
+                outcome.delivered += 1;
+                outcome.uncounted += u64::from(!counted);
+            }
             Err(Undeliverable::Unavailable) => {
                 self.failed.fetch_add(1, Ordering::Relaxed);
             }
@@ -359,6 +398,7 @@ impl<T: CommObject> PushEndpoint<T> {
                 detached: false,
             });
         }
+        board.ones += u64::from(sub.every == 1);
         let next: Subscribers<T> = board.subs.iter().cloned().chain(std::iter::once(sub)).collect();
         board.subs = next;
         id
@@ -373,13 +413,14 @@ impl<T: CommObject> PushEndpoint<T> {
     }
 
     pub(crate) fn stats(&self) -> PushStats {
-        let (published, subscribers) = {
+        let (published, subscribers, counted) = {
             let board = self.board.lock();
-            (board.seq, board.subs.len())
+            (board.seq, board.subs.len(), board.counted)
         };
+        let delivered = counted + self.delivered.load(Ordering::Relaxed);
         PushStats {
             published,
-            delivered: self.delivered.load(Ordering::Relaxed),
+            delivered: delivered.saturating_sub(self.taken_back.load(Ordering::Relaxed)),
             failed: self.failed.load(Ordering::Relaxed),
             subscribers,
         }

@@ -157,3 +157,29 @@ async fn push_newest_newest_only_moves_forward_under_concurrent_publishers() {
     assert_eq!(client.get_update().expect("update").seq, 20_000);
     assert_eq!(server.latest().expect("latest").seq, 20_000);
 }
+
+#[tokio::test(start_paused = true)]
+async fn push_newest_stats_count_what_reached_each_subscriber() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let (tx, mut rx) = mpsc::unbounded_channel::<Update<u64>>();
+    let open = PushNewestClient::connect_to(&registry, "odo/ticks", Sink::channel(tx)).expect("connect");
+    open.subscribe().expect("subscribe");
+    let (tx, rx_closed) = mpsc::unbounded_channel::<Update<u64>>();
+    let closing = PushNewestClient::connect_to(&registry, "odo/ticks", Sink::channel(tx)).expect("connect");
+    closing.subscribe().expect("subscribe");
+    let refusing = PushNewestClient::connect_to(
+        &registry,
+        "odo/ticks",
+        Sink::from_fn(|_: Update<u64>| Err(orsa_actors::Undeliverable::Unavailable)),
+    )
+    .expect("connect");
+    refusing.subscribe().expect("subscribe");
+    assert_eq!(server.put(1), 2);
+    drop(rx_closed);
+    assert_eq!(server.put(2), 1, "the closed one is dropped, the refusing one fails");
+    assert_eq!(server.put(3), 1);
+    let stats = server.stats();
+    assert_eq!((stats.published, stats.delivered, stats.failed, stats.subscribers), (3, 4, 3, 2));
+    assert_eq!(std::iter::from_fn(|| rx.try_recv().ok()).count(), 3);
+}
