@@ -126,6 +126,7 @@ impl Clock {
     }
 
     /// The current robot time.
+    #[inline]
     pub fn now(&self) -> Timestamp {
         self.stamp_of(Instant::now())
     }
@@ -136,6 +137,7 @@ impl Clock {
     }
 
     /// The timestamp of a tokio instant (zero before the epoch).
+    #[inline]
     pub fn stamp_of(&self, at: Instant) -> Timestamp {
         let d = at.saturating_duration_since(self.epoch);
         Timestamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
