@@ -228,8 +228,19 @@ pub fn wall_in(
             let Some((alpha, dist_centre)) = line_fit(&[p, q]) else { return Some(fallback) };
             let d = dist_centre - ring.radius_m;
             // The nearest reading lies on the same wall when the neighbours do: it sees the
-            // wall's closest point from a face at most the ring's radius from the centre.
-            if (d - d_min).abs() > 0.03 + 0.05 * d_min {
+            // wall's closest point from a face at most the ring's radius from the centre, and
+            // its echo, placed on the beam edge nearest the wall's normal, is on the line. (Two
+            // neighbours can see different surfaces whose line happens to pass at the right
+            // distance: the wall ahead and the back of a door recess beside it gave a line
+            // 160 degrees off, and wall following turned into the wall.)
+            let tolerance = 0.03 + 0.05 * d_min;
+            let normal = match side {
+                Side::Left => alpha + PI / 2.0,
+                Side::Right => alpha - PI / 2.0,
+            };
+            if (d - d_min).abs() > tolerance
+                || (projected(m, d_min, normal, ring) - dist_centre).abs() > tolerance
+            {
                 return Some(fallback);
             }
             Some(WallEstimate { distance_m: d.min(d_min), alpha_rad: alpha, nearest: m, fitted: true })
