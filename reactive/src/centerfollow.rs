@@ -24,7 +24,7 @@
 
 use crate::cascade::{CascadeParams, check_positive};
 use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
-use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, fuse, wall_in};
+use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, WallEstimate, front_min, fuse, wall_in};
 use crate::walldir::{WallDirParams, WallDirection};
 use orsa_actors::Timestamp;
 use orsa_hardware::comm::NavigationVelocity;
@@ -228,12 +228,14 @@ impl CenterFollower {
         let ring = RingGeometry { radius_m: self.radius_m, half_beam_rad };
         let [l0, l1] = p.left_sensors;
         let [r0, r1] = p.right_sensors;
-        let left = wall_in(&r, Side::Left, l0..=l1, p.estimator, &ring, p.l_m);
-        let right = wall_in(&r, Side::Right, r0..=r1, p.estimator, &ring, p.l_m);
+        let left = wall_in(&r, Side::Left, l0..=l1, p.estimator, &ring, p.l_m).map(WallEstimate::as_line);
+        let right = wall_in(&r, Side::Right, r0..=r1, p.estimator, &ring, p.l_m).map(WallEstimate::as_line);
         let [a0, a1] = p.angle_left_sensors;
         let [b0, b1] = p.angle_right_sensors;
-        let angle_left = wall_in(&r, Side::Left, a0..=a1, p.estimator, &ring, p.l_m);
-        let angle_right = wall_in(&r, Side::Right, b0..=b1, p.estimator, &ring, p.l_m);
+        let angle_left =
+            wall_in(&r, Side::Left, a0..=a1, p.estimator, &ring, p.l_m).map(WallEstimate::as_line);
+        let angle_right =
+            wall_in(&r, Side::Right, b0..=b1, p.estimator, &ring, p.l_m).map(WallEstimate::as_line);
         // The angle the ring alone gives (the nearer side's), and its flat walls nearest first.
         let (near, far) = match (angle_left, angle_right) {
             (Some(l), Some(rt)) if rt.distance_m < l.distance_m => (Some(rt), Some(l)),

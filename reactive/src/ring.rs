@@ -144,6 +144,21 @@ pub struct WallEstimate {
     pub fitted: bool,
 }
 
+impl WallEstimate {
+    /// The estimate with its angle folded into (-pi/2, pi/2], as the wall's line gives it
+    /// without regard to the side: the smaller turn to parallel either way, for a behaviour to
+    /// which both directions along a wall are the same (center following).
+    pub fn as_line(self) -> Self {
+        let mut a = wrap(self.alpha_rad);
+        if a > PI / 2.0 {
+            a -= PI;
+        } else if a <= -PI / 2.0 {
+            a += PI;
+        }
+        WallEstimate { alpha_rad: a, ..self }
+    }
+}
+
 /// The minimum valid reading on `side` and the sensor that gave it.
 pub fn side_min(r: &Ranges, side: Side) -> Option<(usize, f64)> {
     window_min(r, side.sensors())
@@ -225,7 +240,8 @@ pub fn wall_in(
                 ))
             };
             let (Some(p), Some(q)) = (echo(before, 1.0), echo(after, -1.0)) else { return Some(fallback) };
-            let Some((alpha, dist_centre)) = line_fit(&[p, q]) else { return Some(fallback) };
+            let Some((dir, dist_centre)) = line_fit(&[p, q]) else { return Some(fallback) };
+            let alpha = side_angle(dir, p, side);
             let d = dist_centre - ring.radius_m;
             // The nearest reading lies on the same wall when the neighbours do: it sees the
             // wall's closest point from a face at most the ring's radius from the centre, and
@@ -245,6 +261,29 @@ pub fn wall_in(
             }
             Some(WallEstimate { distance_m: d.min(d_min), alpha_rad: alpha, nearest: m, fitted: true })
         }
+    }
+}
+
+/// The wall angle (see the module docs) of a line with direction `dir` through `point`, for a
+/// wall on `side`. A line's direction alone is ambiguous by half a turn, and folding it into
+/// (-pi/2, pi/2] flips its sign where the wall is square to the heading: a wall ahead would
+/// read now as "heading into it" (turn away), now as "heading away from it" (turn toward it),
+/// and a behaviour flips between the two from one scan to the next. The side resolves it:
+/// the perpendicular from the robot's centre meets a wall on the left at `phi = alpha + pi/2`
+/// (on the right at `alpha - pi/2`), so `alpha` is taken from that foot's direction. A wall
+/// ahead then reads as a little past or short of `-pi/2` on the left (turn right, keeping it
+/// on the left) and of `+pi/2` on the right, continuously.
+fn side_angle(dir: f64, point: (f64, f64), side: Side) -> f64 {
+    let (ux, uy) = (dir.cos(), dir.sin());
+    let along = point.0 * ux + point.1 * uy;
+    let foot = (point.0 - along * ux, point.1 - along * uy);
+    if foot.0.hypot(foot.1) < 1e-9 {
+        return dir;
+    }
+    let phi = foot.1.atan2(foot.0);
+    match side {
+        Side::Left => wrap(phi - PI / 2.0),
+        Side::Right => wrap(phi + PI / 2.0),
     }
 }
 
@@ -363,6 +402,7 @@ pub(crate) mod synthetic {
 mod tests {
     use super::synthetic::corridor;
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     #[test]
     fn line_fit_recovers_distance_and_angle_of_a_flat_wall() {
@@ -373,6 +413,38 @@ mod tests {
                 .expect("wall seen");
             assert!((w.alpha_rad + theta).abs() < 1e-9, "theta {theta_deg}: alpha {}", w.alpha_rad);
             assert!((w.distance_m - 0.20).abs() < 1e-9, "theta {theta_deg}: d {}", w.distance_m);
+        }
+    }
+
+    #[test]
+    fn a_wall_square_ahead_reads_continuously_as_heading_into_it() {
+        // Turned 80 to 90 degrees into the left wall: a line's direction alone, folded into
+        // (-90, 90], flips from -89.5 to +90 degrees; the side keeps it -80 .. -90 (turn right,
+        // wall on the left). Past 90 the wall's nearest point is in sensor 0's sector, outside
+        // the side: wall following reads sensor 0 as a wall ahead then.
+        let ring = RingGeometry::uniform(0.25, 0.0);
+        for theta_deg in [80.0f64, 86.0, 89.0, 89.5, 90.0] {
+            let theta = theta_deg.to_radians();
+            let r = corridor(Some(0.25 + 0.35), None, theta, 0.25, 0.8);
+            let w = wall(&r, Side::Left, AngleEstimator::LineFit, &ring, 0.17).expect("wall");
+            assert!(w.fitted, "theta {theta_deg}");
+            assert!(
+                (w.alpha_rad + theta).abs() < 1e-6,
+                "theta {theta_deg}: alpha {}",
+                w.alpha_rad.to_degrees()
+            );
+            // The same wall as a line: the smaller turn to parallel.
+            let folded = w.as_line().alpha_rad;
+            assert!(folded > -FRAC_PI_2 && folded <= FRAC_PI_2);
+            assert!((wrap(folded - w.alpha_rad).abs() % PI) < 1e-9, "a line's direction: {folded}");
+            // Mirrored: turned into the right wall reads as +theta.
+            let r = corridor(None, Some(0.25 + 0.35), -theta, 0.25, 0.8);
+            let w = wall(&r, Side::Right, AngleEstimator::LineFit, &ring, 0.17).expect("wall");
+            assert!(
+                (w.alpha_rad - theta).abs() < 1e-6,
+                "right, theta {theta_deg}: {}",
+                w.alpha_rad.to_degrees()
+            );
         }
     }
 
