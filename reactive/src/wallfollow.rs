@@ -10,6 +10,14 @@
 //! of the front (sensors 14 to 2) stops forward motion, and the robot turns in place (a
 //! cylinder turning in place moves into nothing), instead of creeping into it at `v_slow`.
 //!
+//! It adds a second: heading into the wall at `theta = -alpha`, the robot goes no faster than
+//! `omega_max (d - target) / (1 - cos theta)`, the speed at which turning parallel at the top
+//! turn rate ends exactly at the set distance. The original's speed law (free space seen by
+//! sensor 1) knows nothing of the heading, so a robot that meets a wall square on drove into
+//! it while it turned, and ended its turn 5 to 10 cm from the wall instead of 20. Parallel to
+//! the wall or heading away from it the limit is infinite; `limit_approach = false` turns it
+//! off.
+//!
 //! Where the original is silent or fragile orsa does the sound thing:
 //! - with no wall in infrared range on the left, the robot is told the wall is at the end of the
 //!   range, so it arcs left to find it (the original read out-of-range as its maximum too);
@@ -52,6 +60,9 @@ pub struct WallFollowParams {
     pub l_m: f64,
     /// How the wall angle is estimated.
     pub estimator: AngleEstimator,
+    /// Heading into the wall, never go faster than turning parallel at the top turn rate
+    /// allows without closing in past `target_m` (an orsa addition, see the module docs).
+    pub limit_approach: bool,
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
     /// Backing out of a deadlock (`[...unstick]`).
@@ -72,6 +83,7 @@ impl Default for WallFollowParams {
             ir_range_m: 0.60,
             l_m: 0.17,
             estimator: AngleEstimator::default(),
+            limit_approach: true,
             loops: CascadeParams { k_d: 5.0, alpha_max_deg: 45.0, ..CascadeParams::default() },
             unstick: UnstickParams::default(),
         }
@@ -169,6 +181,9 @@ impl WallFollower {
         } else {
             ir[1].map_or(p.v_max_m_s, |d1| (p.k_v * d1).min(p.v_max_m_s))
         };
+        if p.limit_approach {
+            v = v.min(approach_limit(d - p.target_m, alpha, p.loops.omega_max_deg_s.to_radians()));
+        }
         if let Some(cmd) = self.unstick.step(&p.unstick, ir, p.loops.omega_max_deg_s.to_radians(), stamp.0) {
             (v, omega) = cmd;
         }
@@ -183,6 +198,17 @@ impl WallFollower {
     pub fn nearest_left(ir: &Ranges) -> Option<(usize, f64)> {
         side_min(ir, Side::Left)
     }
+}
+
+/// The fastest the robot may go while heading into the wall at `-alpha` with `margin_m` to
+/// spare before the set distance, if it turns parallel at `omega_max`: turning from `theta`
+/// to 0 at rate `omega` and speed `v` closes in by `(v / omega) (1 - cos theta)`.
+fn approach_limit(margin_m: f64, alpha: f64, omega_max: f64) -> f64 {
+    if alpha >= 0.0 {
+        return f64::INFINITY;
+    }
+    let closing = 1.0 - (-alpha).min(std::f64::consts::PI).cos();
+    if closing <= 0.0 { f64::INFINITY } else { omega_max * margin_m.max(0.0) / closing }
 }
 
 #[cfg(test)]
@@ -215,13 +241,17 @@ mod tests {
     }
 
     #[test]
-    fn no_wall_arcs_left_and_a_wall_ahead_turns_right_slowly() {
+    fn no_wall_arcs_left_and_a_wall_ahead_turns_right() {
         let mut none = [None; 16];
         assert!(ctl().step(&none, Timestamp(0)).cmd.omega_rad_s > 0.0);
         none[0] = Some(0.15);
         let s = ctl().step(&none, Timestamp(0));
         assert!(s.cmd.omega_rad_s < 0.0);
-        assert_eq!(s.cmd.v_m_s, 0.07);
+        assert_eq!(s.cmd.v_m_s, 0.0, "inside the set distance, square on: turn in place");
+        let original = WallFollowParams { limit_approach: false, ..Default::default() };
+        let s = WallFollower::new(original, RingGeometry::uniform(0.25, 0.0)).step(&none, Timestamp(0));
+        assert!(s.cmd.omega_rad_s < 0.0);
+        assert_eq!(s.cmd.v_m_s, 0.07, "the original creeps on at v_slow");
     }
 
     #[test]
@@ -240,6 +270,51 @@ mod tests {
         assert!((ctl().step(&r, Timestamp(0)).cmd.v_m_s - 0.18).abs() < 1e-9);
         r[1] = Some(0.55);
         assert_eq!(ctl().step(&r, Timestamp(0)).cmd.v_m_s, 0.25);
+    }
+
+    /// Runs the controller on an ideal straight left wall from `edge` (m, edge to wall) and
+    /// heading `theta` (into the wall positive) for `secs`; gives the closest it came and where
+    /// it ended.
+    fn drive(params: WallFollowParams, mut edge: f64, mut theta: f64, secs: f64) -> (f64, f64, f64) {
+        let mut c = WallFollower::new(params, RingGeometry::uniform(0.25, 0.0));
+        let dt = 0.04;
+        let mut closest = edge;
+        for _ in 0..(secs / dt) as usize {
+            let cmd = c.step(&scan(edge, theta), Timestamp(0)).cmd;
+            edge += -cmd.v_m_s * theta.sin() * dt;
+            theta += cmd.omega_rad_s * dt;
+            closest = closest.min(edge);
+        }
+        (closest, edge, theta)
+    }
+
+    /// Meeting a wall 0.35 m away at 60 to 90 degrees: the original speed law (free space at
+    /// sensor 1) drives on while the robot turns and ends inside the set distance (down to
+    /// 0.13 m square on); the approach limit turns it parallel without closing in past the
+    /// target, then holds it.
+    #[test]
+    fn meeting_a_wall_steeply_turns_parallel_without_closing_in_past_the_target() {
+        for theta_deg in [60.0f64, 80.0, 90.0] {
+            let theta = theta_deg.to_radians();
+            let original = WallFollowParams { limit_approach: false, ..Default::default() };
+            let (closest, _, _) = drive(original, 0.35, theta, 8.0);
+            assert!(closest < 0.19, "{theta_deg} deg, original speed law: closest {closest}");
+            let (closest, edge, heading) = drive(WallFollowParams::default(), 0.35, theta, 15.0);
+            assert!(closest > 0.199, "{theta_deg} deg, limited: closest {closest}");
+            assert!((edge - 0.20).abs() < 0.001, "{theta_deg} deg: settled at {edge}");
+            assert!(heading.abs() < 0.01, "{theta_deg} deg: heading {heading}");
+        }
+    }
+
+    #[test]
+    fn the_approach_limit_binds_only_heading_into_the_wall() {
+        let w = 45f64.to_radians();
+        assert_eq!(approach_limit(0.1, 0.0, w), f64::INFINITY);
+        assert_eq!(approach_limit(0.1, 0.3, w), f64::INFINITY, "heading away");
+        assert_eq!(approach_limit(-0.05, -0.3, w), 0.0, "inside the target: turn in place");
+        // Square on with 0.2 m to spare: turning a quarter turn at 45 deg/s takes 2 s.
+        assert!((approach_limit(0.2, -FRAC_PI_2, w) - 0.2 * w).abs() < 1e-12);
+        assert!(approach_limit(0.2, -0.1, w) > 10.0, "nearly parallel: no limit in practice");
     }
 
     /// Closed loop on an ideal straight wall: from 0.35 m and 10 degrees off, the controller
