@@ -241,13 +241,14 @@ mod tests {
     }
 
     #[test]
-    fn the_held_walls_file_only_turns_the_held_direction_on() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let c = Config::load(&root.join("config/centerfollow-walls.toml")).expect("parses");
-        assert!(c.centerfollow.walls.enabled && !Config::default().centerfollow.walls.enabled);
+    fn the_held_walls_and_the_approach_limit_are_on_by_default_and_checked() {
+        assert!(Config::default().centerfollow.walls.enabled && Config::default().wallfollow.limit_approach);
+        let c = Config::from_toml("[centerfollow.walls]\nenabled = false\n", "w.toml").expect("parses");
         let mut same = c.clone();
-        same.centerfollow.walls.enabled = false;
-        assert_eq!(same, Config::default(), "nothing else differs");
+        same.centerfollow.walls.enabled = true;
+        assert_eq!(same, Config::default(), "only the one key differs");
+        let e = Config::from_toml("[wallfollow]\nlimit_approach = 1\n", "w.toml").expect_err("not a bool");
+        assert!(e.to_string().starts_with("w.toml:2:") && e.to_string().contains("bool"), "{e}");
         let e = Config::from_toml("[centerfollow.walls]\nnear = 0.4\n", "w.toml").expect_err("unknown key");
         assert!(e.to_string().starts_with("w.toml:2:1:") && e.to_string().contains("near"), "{e}");
         let e = Config::from_toml("[centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");

@@ -17,7 +17,7 @@
 //! thesis' single-window controller.
 //!
 //! The wall angle can also be held through odometry where the ring sees no flat wall (beside a
-//! person, a recess), `[centerfollow.walls]`, off by default: see [`crate::walldir`].
+//! person, a recess), `[centerfollow.walls]`, on by default: see [`crate::walldir`].
 //!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
@@ -373,8 +373,8 @@ mod tests {
         let (mut ir, mut so) = views(2.4, 0.0, theta);
         ir[3] = None;
         so[3] = Some(0.6);
-        let walls = WallDirParams { enabled: true, ..Default::default() };
-        let mut c = CenterFollower::new(CenterFollowParams { walls, ..Default::default() }, 0.25, 0.0, 0.0);
+        assert!(CenterFollowParams::default().walls.enabled, "on by default");
+        let mut c = CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0);
         // Odometry says the robot heads 1.0 rad; a moment earlier it saw the walls flat.
         c.note_odometry(0.0, 0.0, 1.0, 0.0, Timestamp(0));
         let (ir0, so0) = views(2.4, 0.0, theta);
@@ -382,7 +382,9 @@ mod tests {
         let s = c.step(&ir, &so, Timestamp(40_000_000));
         assert!((s.alpha_rad + theta).abs() < 0.02, "held: {}", s.alpha_rad.to_degrees());
         // Without the held direction the ring's coarse angle of the person is used.
-        let mut plain = CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0);
+        let walls = WallDirParams { enabled: false, ..Default::default() };
+        let mut plain =
+            CenterFollower::new(CenterFollowParams { walls, ..Default::default() }, 0.25, 0.0, 0.0);
         plain.note_odometry(0.0, 0.0, 1.0, 0.0, Timestamp(0));
         let s = plain.step(&ir, &so, Timestamp(40_000_000));
         assert!((s.alpha_rad + PI / 8.0).abs() < 1e-9, "coarse pi/8 (3 - 4): {}", s.alpha_rad.to_degrees());

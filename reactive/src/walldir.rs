@@ -17,7 +17,7 @@
 //! - With anything nearer than `near_m` on the sides, the ring's own angle decides: close to
 //!   a person, keeping parallel to what is near is what keeps the robot off it (with the held
 //!   direction alone the reference corridor had bumps and deadlocks; EXPERIMENTS.md).
-//! - Without odometry (or with it stale), or with `enabled = false` (the default), nothing is
+//! - Without odometry (or with it stale), or with `enabled = false`, nothing is
 //!   held and the behaviour uses the ring's angle alone, exactly as without this module.
 
 use serde::{Deserialize, Serialize};
@@ -39,7 +39,7 @@ pub struct WallDirParams {
 
 impl Default for WallDirParams {
     fn default() -> Self {
-        WallDirParams { enabled: false, agree_deg: 8.0, hold_s: 3.0, near_m: 0.45 }
+        WallDirParams { enabled: true, agree_deg: 8.0, hold_s: 3.0, near_m: 0.45 }
     }
 }
 
@@ -153,9 +153,8 @@ mod tests {
         w.note_heading(0.0, 0.0, 0);
         assert_eq!(w.alpha(&p, &[0.2], Some(0.2), None, 0), Some(0.2));
         assert_eq!(w.alpha(&p, &[], Some(0.7), None, S), Some(0.7), "odometry a second old is not used");
-        // Disabled (the default): the ring's angle even when a held direction would differ.
-        let off = WallDirParams::default();
-        assert!(!off.enabled);
+        // Disabled: the ring's angle even when a held direction would differ.
+        let off = WallDirParams { enabled: false, ..Default::default() };
         let mut w = WallDirection::default();
         w.note_heading(0.0, 0.0, 0);
         assert_eq!(w.alpha(&off, &[0.0], Some(0.0), None, 0), Some(0.0));
