@@ -5,6 +5,7 @@
 
 use crate::geometry::{self, Aabb, Circle, Point, Ray, Shape, Vector};
 use crate::world::World;
+use nalgebra::Unit;
 
 /// The most rays one fan may have (the configuration allows up to 64 per sensor).
 pub(crate) const MAX_RAYS: usize = 64;
@@ -28,6 +29,11 @@ impl Scene {
 
     /// The nearest distance at which any ray from `origin` at `axis + offsets[k]` meets a
     /// shape, if one is met within `max`. (At most [`MAX_RAYS`] offsets are used.)
+    ///
+    /// The answer is the smallest hit over every shape and ray, so skipping a shape that no ray
+    /// can meet changes nothing: shapes whose box is farther than the nearest hit so far, and
+    /// shapes whose box lies wholly outside the fan (a sensor's fan covers a few tens of degrees,
+    /// so most shapes near the robot are beside or behind it).
     pub(crate) fn ray_fan(
         &self,
         movers: &[Circle],
@@ -36,14 +42,20 @@ impl Scene {
         offsets: &[f64],
         max: f64,
     ) -> Option<f64> {
-        let rays: Vec<Ray> = offsets.iter().take(MAX_RAYS).map(|o| Ray::at_angle(origin, axis + o)).collect();
+        let offsets = &offsets[..offsets.len().min(MAX_RAYS)];
+        let mut rays = [Ray { origin, dir: Unit::new_unchecked(Vector::x()) }; MAX_RAYS];
+        for (ray, o) in rays.iter_mut().zip(offsets) {
+            *ray = Ray::at_angle(origin, axis + o);
+        }
+        let rays = &rays[..offsets.len()];
+        let fan = Fan::of(rays, offsets);
         let mut reach = max;
         let mut best = None;
         for (shape, bounds) in self.shapes(movers) {
-            if bounds.distance(&origin) > reach {
+            if bounds.distance(&origin) > reach || fan.is_some_and(|f| f.misses(&origin, &bounds)) {
                 continue;
             }
-            for ray in &rays {
+            for ray in rays {
                 if let Some(t) = shape.ray_hit(ray)
                     && t <= reach
                 {
@@ -93,6 +105,45 @@ impl Scene {
     }
 }
 
+/// The two outermost rays of a fan narrower than half a turn, for culling whole shapes.
+#[derive(Debug, Clone, Copy)]
+struct Fan {
+    /// The most clockwise ray's direction.
+    right: Vector,
+    /// The most counter-clockwise ray's direction.
+    left: Vector,
+}
+
+impl Fan {
+    /// A shape this far (m) outside an edge ray's line is culled: far beyond the rounding of a
+    /// ray hit, so culling never drops a hit the rays would report.
+    const MARGIN_M: f64 = 1e-9;
+
+    /// The fan of `rays` cast at `offsets` (None when it spans half a turn or more, or is empty).
+    fn of(rays: &[Ray], offsets: &[f64]) -> Option<Fan> {
+        let lo = (0..offsets.len()).min_by(|&a, &b| offsets[a].total_cmp(&offsets[b]))?;
+        let hi = (0..offsets.len()).max_by(|&a, &b| offsets[a].total_cmp(&offsets[b]))?;
+        (offsets[hi] - offsets[lo] < std::f64::consts::PI)
+            .then(|| Fan { right: rays[lo].dir.into_inner(), left: rays[hi].dir.into_inner() })
+    }
+
+    /// Whether no ray of the fan from `origin` can meet anything inside `bounds`. Every point of
+    /// every ray lies on the counter-clockwise side of the right edge's line and on the
+    /// clockwise side of the left edge's line; a box with all four corners beyond one of those
+    /// lines is out of reach.
+    fn misses(&self, origin: &Point, bounds: &Aabb) -> bool {
+        let corners = [
+            (bounds.min.x, bounds.min.y),
+            (bounds.max.x, bounds.min.y),
+            (bounds.min.x, bounds.max.y),
+            (bounds.max.x, bounds.max.y),
+        ];
+        let cross = |u: &Vector, (x, y): (f64, f64)| u.x * (y - origin.y) - u.y * (x - origin.x);
+        corners.iter().all(|&c| cross(&self.right, c) < -Self::MARGIN_M)
+            || corners.iter().all(|&c| cross(&self.left, c) > Self::MARGIN_M)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -110,6 +161,55 @@ mod tests {
             discs: vec![],
             movers: vec![],
         }
+    }
+
+    /// The culled fan gives exactly what casting every ray at every shape gives.
+    #[test]
+    fn culling_by_the_fan_changes_no_answer() {
+        use rand::{Rng, SeedableRng};
+        let world = World::palazzina().expect("world");
+        let scene = Scene::new(&world);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let origin = Point::new(rng.random_range(0.3..39.7), rng.random_range(0.1..2.3));
+            let axis = rng.random_range(-4.0..4.0);
+            let width: f64 = [0.0, 0.1, 0.44, 1.5, 3.1][rng.random_range(0..5)];
+            let n = if width == 0.0 { 1 } else { rng.random_range(2..MAX_RAYS) };
+            let offsets: Vec<f64> = (0..n)
+                .map(|k| if n == 1 { 0.0 } else { -width / 2.0 + width * k as f64 / (n - 1) as f64 })
+                .collect();
+            let movers = [Circle::new(Point::new(origin.x + rng.random_range(-1.0..1.0), 1.2), 0.2)];
+            let max = rng.random_range(0.3..6.0);
+            let brute = scene
+                .shapes(&movers)
+                .flat_map(|(shape, _)| {
+                    offsets.iter().filter_map(move |o| shape.ray_hit(&Ray::at_angle(origin, axis + o)))
+                })
+                .filter(|t| *t <= max)
+                .min_by(f64::total_cmp);
+            assert_eq!(
+                scene.ray_fan(&movers, origin, axis, &offsets, max),
+                brute,
+                "at {origin:?}, axis {axis}"
+            );
+            hits += usize::from(brute.is_some());
+        }
+        assert!(hits > 1000, "the sample must hit things: {hits}");
+    }
+
+    #[test]
+    fn a_fan_culls_only_boxes_wholly_outside_it() {
+        let o = Point::new(0.0, 0.0);
+        let rays = [Ray::at_angle(o, -0.2), Ray::at_angle(o, 0.2)];
+        let fan = Fan::of(&rays, &[-0.2, 0.2]).expect("narrow fan");
+        let b = |x0: f64, y0: f64, x1: f64, y1: f64| Aabb::new(Point::new(x0, y0), Point::new(x1, y1));
+        assert!(!fan.misses(&o, &b(1.0, -0.1, 2.0, 0.1)), "straight ahead");
+        assert!(!fan.misses(&o, &b(1.0, 0.1, 2.0, 5.0)), "straddles the left edge");
+        assert!(fan.misses(&o, &b(1.0, 1.0, 2.0, 5.0)), "left of the fan");
+        assert!(fan.misses(&o, &b(0.5, -3.0, 2.0, -0.5)), "right of the fan");
+        assert!(!fan.misses(&o, &b(-1.0, -1.0, 1.0, 1.0)), "around the origin");
+        assert!(Fan::of(&rays, &[-2.0, 2.0]).is_none(), "half a turn or more: no culling");
     }
 
     #[test]
