@@ -4,6 +4,7 @@
 use super::SimNomad200;
 use super::movers::{MoverState, MoverTruth};
 use super::odometry::wrap_angle;
+use super::scene::MAX_RAYS;
 use crate::comm::{PushPeriods, RobotParams};
 use crate::geometry::{Ray, unit_at};
 use orsa_actors::Timestamp;
@@ -88,13 +89,14 @@ impl SimNomad200 {
     pub fn truth_side_nearest(&self, side: Side) -> Option<f64> {
         let sign = if side == Side::Left { 1.0 } else { -1.0 };
         let movers: Vec<_> = self.movers.iter().map(MoverState::circle).collect();
-        // Each ray only looks as far as the nearest hit so far: shapes beyond it cannot lower
-        // the minimum, and the scene skips them by their bounds.
+        let offsets: [f64; 179] = std::array::from_fn(|k| sign * f64::from(k as u32 + 1).to_radians());
+        // Cast as fans of at most MAX_RAYS rays, each looking only as far as the nearest hit so
+        // far: shapes beyond it cannot lower the minimum, and the scene skips them by their
+        // bounds (and shapes wholly outside a fan by its edges).
         let mut nearest: Option<f64> = None;
-        for deg in 1..180 {
-            let angle = self.steer + sign * f64::from(deg).to_radians();
+        for fan in offsets.chunks(MAX_RAYS) {
             let reach = nearest.unwrap_or(f64::INFINITY);
-            if let Some(d) = self.scene.ray_cast(&movers, &Ray::at_angle(self.position, angle), reach) {
+            if let Some(d) = self.scene.ray_fan(&movers, self.position, self.steer, fan, reach) {
                 nearest = Some(nearest.map_or(d, |n| n.min(d)));
             }
         }
