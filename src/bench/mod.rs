@@ -276,6 +276,9 @@ pub struct ScaleRow {
     /// The baseline: the same number of robots as raw tokio skeletons (the stack's tasks,
     /// timers and message flow, none of its work), wall µs per robot per simulated second.
     pub raw_wall_us_per_robot_sim_s: Option<f64>,
+    /// The real-time factor of every run of this row, in the order run; the row is the median
+    /// run (one run for the largest rows).
+    pub rtf_runs: Vec<f64>,
 }
 
 /// One target of the issue, judged.
@@ -376,6 +379,11 @@ struct Plan {
     /// Simulated seconds measured for N robots: this over N, at least `scale_min_s`.
     scale_robot_s: f64,
     scale_min_s: f64,
+    /// Rows of up to this many robots are run `scale_repeats` times and the median reported:
+    /// each is about a second of wall time, which moves by a fifth between runs on a shared
+    /// machine.
+    scale_repeat_up_to: usize,
+    scale_repeats: usize,
 }
 
 impl Plan {
@@ -404,6 +412,8 @@ impl Plan {
                 scale_warm_s: 2.0,
                 scale_robot_s: 60.0,
                 scale_min_s: 2.0,
+                scale_repeat_up_to: 100,
+                scale_repeats: 3,
             }
         } else {
             Plan {
@@ -429,6 +439,8 @@ impl Plan {
                 scale_warm_s: 2.0,
                 scale_robot_s: 300.0,
                 scale_min_s: 10.0,
+                scale_repeat_up_to: 100,
+                scale_repeats: 3,
             }
         }
     }
@@ -487,14 +499,24 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let mut scale = Vec::new();
     for &n in &plan.scale {
         let measure = (plan.scale_robot_s / n as f64).max(plan.scale_min_s);
-        say(format!("simulation: {n} robots, {measure:.0} simulated s measured"));
-        let mut row = sim::scale(n, plan.scale_warm_s, measure)?;
-        let raw = sim::raw_scale(n, plan.scale_warm_s, measure)?;
-        anyhow::ensure!(
-            raw.steps > 0 && raw.commands > 0,
-            "the raw skeleton of {n} robots did not run: {raw:?}"
-        );
-        row.raw_wall_us_per_robot_sim_s = Some(raw.us_per_robot_sim_s);
+        let repeats = if n <= plan.scale_repeat_up_to { plan.scale_repeats.max(1) } else { 1 };
+        say(format!("simulation: {n} robots, {measure:.0} simulated s measured, {repeats} run(s)"));
+        let (mut rows, mut raws) = (Vec::with_capacity(repeats), Vec::with_capacity(repeats));
+        for _ in 0..repeats {
+            rows.push(sim::scale(n, plan.scale_warm_s, measure)?);
+            let raw = sim::raw_scale(n, plan.scale_warm_s, measure)?;
+            anyhow::ensure!(
+                raw.steps > 0 && raw.commands > 0,
+                "the raw skeleton of {n} robots did not run: {raw:?}"
+            );
+            raws.push(raw.us_per_robot_sim_s);
+        }
+        let rtf_runs: Vec<f64> = rows.iter().map(|r| r.rtf).collect();
+        rows.sort_by(|a, b| a.rtf.total_cmp(&b.rtf));
+        raws.sort_by(f64::total_cmp);
+        let mut row = rows.swap_remove(rows.len() / 2);
+        row.raw_wall_us_per_robot_sim_s = Some(raws[raws.len() / 2]);
+        row.rtf_runs = rtf_runs;
         say(format!(
             "  {n} robots: {:.1}x real time, {:.0} wall us per robot per simulated s (raw skeleton {:.0})",
             row.rtf,

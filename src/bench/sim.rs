@@ -281,6 +281,7 @@ pub(crate) fn scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<Sca
             },
             shutdown_wall_s,
             raw_wall_us_per_robot_sim_s: None,
+            rtf_runs: Vec::new(),
         })
     })?;
     // Dropping the runtime ends whatever the shutdown left (nothing, normally).

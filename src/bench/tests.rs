@@ -32,6 +32,7 @@ fn sample_report() -> BenchReport {
         rss_mib_per_robot: None,
         shutdown_wall_s: 0.1,
         raw_wall_us_per_robot_sim_s: Some(cost / 10.0),
+        rtf_runs: vec![9.0, 10.0, 11.0],
     };
     let mut r = BenchReport {
         inproc_push_p50_ns: 1200.0,
@@ -121,6 +122,7 @@ fn markdown_has_every_table_and_survives_missing_figures() {
     assert!(text.contains("| current-thread | back-to-back | orsa push newest -> component |"));
     assert!(text.contains("1.20x"));
     assert!(text.contains("not measured"));
+    assert!(text.contains("| 10.0x (runs 9.0, 10.0, 11.0) |"), "every run of a repeated row:\n{text}");
 }
 
 #[test]
