@@ -30,9 +30,11 @@
 //! A process may also publish a heartbeat ([`NetOptions::heartbeat`], [`ZenohTransport::on_heartbeat`])
 //! so that a peer notices a silent link faster than zenoh's lease.
 
+mod heartbeat;
 mod keys;
 mod options;
 
+pub use heartbeat::{Heartbeat, HeartbeatWatch};
 pub use keys::{Announced, Keys, Process, pattern_name};
 pub use options::{NetError, NetOptions};
 
@@ -142,16 +144,6 @@ pub struct NetStats {
     pub received: u64,
     /// Messages from peers that failed to decode (dropped, counted, logged).
     pub decode_errors: u64,
-}
-
-/// What a process publishes on `orsa/v1/heartbeat/<zid>/<role>` every period (see
-/// [`NetOptions::heartbeat`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Heartbeat {
-    /// Counts from 0 at the session's start.
-    pub seq: u64,
-    /// The period the sender publishes at, ms.
-    pub period_ms: u64,
 }
 
 /// What a link cut (see [`ZenohTransport::cut_link`]) kept from crossing.
@@ -505,41 +497,6 @@ impl ZenohTransport {
         }
     }
 
-    /// Calls `f(zid, heartbeat)` for every heartbeat of a process of `role` (see
-    /// [`NetOptions::heartbeat`]), except from processes whose link is cut. Keep the returned
-    /// value: dropping it stops the calls.
-    pub async fn on_heartbeat(
-        &self,
-        role: &str,
-        f: impl Fn(&str, &Heartbeat) + Send + Sync + 'static,
-    ) -> Result<HeartbeatWatch, NetError> {
-        let weak = Arc::downgrade(&self.inner);
-        let sub = self
-            .inner
-            .session
-            .declare_subscriber(self.inner.keys.heartbeats(role))
-            .callback(move |sample| {
-                let Some(inner) = weak.upgrade() else { return };
-                let key = sample.key_expr().as_str();
-                let Some((zid, _)) = inner.keys.parse_heartbeat(key) else {
-                    tracing::warn!("ignoring a heartbeat on a malformed key '{key}'");
-                    return;
-                };
-                if inner.is_cut(&zid) {
-                    inner.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
-                    return;
-                }
-                inner.received.fetch_add(1, Ordering::Relaxed);
-                match decode::<Heartbeat>(&sample.payload().to_bytes(), "orsa.Heartbeat/1") {
-                    Ok(h) => f(&zid, &h),
-                    Err(e) => inner.bad(key, &e),
-                }
-            })
-            .await
-            .map_err(|e| NetError::Open(e.to_string()))?;
-        Ok(HeartbeatWatch { _sub: sub })
-    }
-
     /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
     pub async fn wait_gone(&self, addr: &ServiceAddr, timeout: Duration) -> bool {
         let mut changes = self.inner.discovery.subscribe();
@@ -671,48 +628,6 @@ impl Inner {
             return true;
         }
         false
-    }
-
-    /// Publishes a heartbeat on this process's key every `period`, until the transport is
-    /// dropped or the session closed.
-    async fn start_heartbeat(
-        self: &Arc<Self>,
-        role: &str,
-        period: std::time::Duration,
-    ) -> Result<Entity, NetError> {
-        if period.is_zero() || period > Duration::from_secs(60) {
-            return Err(NetError::Config(format!(
-                "heartbeat period {period:?}: must be more than 0 and at most 60 s"
-            )));
-        }
-        let publisher = self
-            .session
-            .declare_publisher(self.keys.heartbeat(&self.zid, role))
-            .express(true)
-            .congestion_control(CongestionControl::Drop)
-            .await
-            .map_err(|e| NetError::Open(e.to_string()))?;
-        let publisher = Arc::new(publisher);
-        let weak = Arc::downgrade(self);
-        let beat = Arc::clone(&publisher);
-        let period_ms = u64::try_from(period.as_millis()).unwrap_or(u64::MAX);
-        let task = self.runtime.spawn(async move {
-            let mut tick = tokio::time::interval(period);
-            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-            for seq in 0u64.. {
-                tick.tick().await;
-                let Some(inner) = weak.upgrade() else { return };
-                let bytes = encode(&Heartbeat { seq, period_ms });
-                if let Err(e) = beat.put(bytes).attachment(inner.me.clone()).await {
-                    tracing::debug!("heartbeat: {e}");
-                    if inner.session.is_closed() {
-                        return;
-                    }
-                }
-                inner.published.fetch_add(1, Ordering::Relaxed);
-            }
-        });
-        Ok(Box::new(HeartbeatTask { task, _publisher: publisher }))
     }
 
     fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
@@ -1119,29 +1034,6 @@ type Entity = Box<dyn std::any::Any + Send + Sync>;
 enum Audience {
     Clients(Clients),
     Client(String),
-}
-
-/// The heartbeat task: ends when dropped.
-struct HeartbeatTask {
-    task: tokio::task::JoinHandle<()>,
-    _publisher: Arc<zenoh::pubsub::Publisher<'static>>,
-}
-
-impl Drop for HeartbeatTask {
-    fn drop(&mut self) {
-        self.task.abort();
-    }
-}
-
-/// Heartbeats being watched (see [`ZenohTransport::on_heartbeat`]); dropping it stops the watch.
-pub struct HeartbeatWatch {
-    _sub: zenoh::pubsub::Subscriber<()>,
-}
-
-impl std::fmt::Debug for HeartbeatWatch {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("HeartbeatWatch").finish_non_exhaustive()
-    }
 }
 
 /// A declared publisher, and whether zenoh has matched it with a subscriber yet.
