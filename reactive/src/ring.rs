@@ -149,13 +149,7 @@ impl WallEstimate {
     /// without regard to the side: the smaller turn to parallel either way, for a behaviour to
     /// which both directions along a wall are the same (center following).
     pub fn as_line(self) -> Self {
-        let mut a = wrap(self.alpha_rad);
-        if a > PI / 2.0 {
-            a -= PI;
-        } else if a <= -PI / 2.0 {
-            a += PI;
-        }
-        WallEstimate { alpha_rad: a, ..self }
+        WallEstimate { alpha_rad: fold_line(wrap(self.alpha_rad)), ..self }
     }
 }
 
@@ -287,6 +281,17 @@ fn side_angle(dir: f64, point: (f64, f64), side: Side) -> f64 {
     }
 }
 
+/// An angle in [-pi, pi] folded into (-pi/2, pi/2], as a line's direction.
+fn fold_line(a: f64) -> f64 {
+    if a > PI / 2.0 {
+        a - PI
+    } else if a <= -PI / 2.0 {
+        a + PI
+    } else {
+        a
+    }
+}
+
 /// The principal line through `pts` (at least two distinct points): its direction folded into
 /// (-pi/2, pi/2] and its distance from the origin.
 fn line_fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
@@ -304,12 +309,7 @@ fn line_fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
     if sxx + syy < 1e-12 {
         return None;
     }
-    let mut dir = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-    if dir > PI / 2.0 {
-        dir -= PI;
-    } else if dir <= -PI / 2.0 {
-        dir += PI;
-    }
+    let dir = fold_line(0.5 * (2.0 * sxy).atan2(sxx - syy));
     // Distance from the origin to the line through (mx, my) with direction dir.
     let dist = (mx * dir.sin() - my * dir.cos()).abs();
     Some((dir, dist))

@@ -48,11 +48,22 @@ impl Scene {
             *ray = Ray::at_angle(origin, axis + o);
         }
         let rays = &rays[..offsets.len()];
-        let fan = Fan::of(rays, offsets);
+        self.first_hit(movers, &origin, rays, Fan::of(rays, offsets), max)
+    }
+
+    /// The nearest hit of any of `rays` (all from `origin`, within `fan` if given) within `max`.
+    fn first_hit(
+        &self,
+        movers: &[Circle],
+        origin: &Point,
+        rays: &[Ray],
+        fan: Option<Fan>,
+        max: f64,
+    ) -> Option<f64> {
         let mut reach = max;
         let mut best = None;
         for (shape, bounds) in self.shapes(movers) {
-            if bounds.distance(&origin) > reach || fan.is_some_and(|f| f.misses(&origin, &bounds)) {
+            if bounds.distance(origin) > reach || fan.is_some_and(|f| f.misses(origin, &bounds)) {
                 continue;
             }
             for ray in rays {
@@ -69,8 +80,14 @@ impl Scene {
 
     /// The distance along `ray` to the first shape it meets, if any is met within `max`.
     pub(crate) fn ray_cast(&self, movers: &[Circle], ray: &Ray, max: f64) -> Option<f64> {
-        let axis = ray.dir.y.atan2(ray.dir.x);
-        self.ray_fan(movers, ray.origin, axis, &[0.0], max)
+        let dir = ray.dir.into_inner();
+        self.first_hit(
+            movers,
+            &ray.origin,
+            std::slice::from_ref(ray),
+            Some(Fan { right: dir, left: dir }),
+            max,
+        )
     }
 
     /// The distance from `p` to the nearest shape, if there is any shape.
