@@ -234,6 +234,7 @@ mod tests {
         assert_ne!(c.centerfollow, Config::default().centerfollow);
         assert_ne!(c.wallfollow, Config::default().wallfollow);
         assert!(!c.centerfollow.dead_end_turn && Config::default().centerfollow.dead_end_turn);
+        assert!(!c.wallfollow.share_gaps && !c.wallfollow.limit_approach);
         let mut same = c.clone();
         same.centerfollow = Config::default().centerfollow;
         same.wallfollow = Config::default().wallfollow;
@@ -242,7 +243,10 @@ mod tests {
 
     #[test]
     fn the_held_walls_and_the_approach_limit_are_on_by_default_and_checked() {
-        assert!(Config::default().centerfollow.walls.enabled && Config::default().wallfollow.limit_approach);
+        let d = Config::default();
+        assert!(d.centerfollow.walls.enabled && d.wallfollow.limit_approach && d.wallfollow.share_gaps);
+        let e = Config::from_toml("[wallfollow]\nshare_gaps = \"yes\"\n", "w.toml").expect_err("not a bool");
+        assert!(e.to_string().starts_with("w.toml:2:") && e.to_string().contains("bool"), "{e}");
         let c = Config::from_toml("[centerfollow.walls]\nenabled = false\n", "w.toml").expect("parses");
         let mut same = c.clone();
         same.centerfollow.walls.enabled = true;

@@ -12,6 +12,7 @@
 //! | `navigationvelocity` | send | [`NavigationVelocity`] | drive (v, omega), clamped to the limits |
 //! | `teleop` | send | [`NavigationVelocity`] | drive by hand: takes priority over `navigationvelocity` |
 //! | `robotparams` | query | [`Empty`] -> [`RobotParams`] | geometry, limits, sensor layout |
+//! | `contact` | event | [`Empty`] -> [`ContactScan`] | fires with every bumper reading in which a bumper is pressed |
 //!
 //! `omega` is applied to steer and turret together, as the original did, so the sensor rings
 //! keep facing the direction of travel.
@@ -33,6 +34,7 @@
 
 use crate::board::{AxisVelocities, MotorBoard, SensorBoard};
 use crate::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams};
+use orsa_actors::event::EventServer;
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::query::QueryRequest;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp, comm_object};
@@ -184,6 +186,8 @@ pub struct Nomad200State {
     ir: PushTimedServer<DistanceScan>,
     sonar: PushTimedServer<DistanceScan>,
     bumpers: PushTimedServer<ContactScan>,
+    /// Fires to every activation while something presses the bumpers.
+    contact: EventServer<Empty, ContactScan, ContactScan>,
     base: PushTimedServer<BaseState>,
     deadline: watch::Sender<Option<Timestamp>>,
     last_applied: Option<Timestamp>,
@@ -285,6 +289,8 @@ where
         ctx.send_server::<NavigationVelocity>("teleop", Nomad200Msg::Teleop)?;
         ctx.query_server::<Empty, RobotParams>("robotparams", Nomad200Msg::Params)?;
         ctx.query_server::<Empty, SafetyCounters>("safety", Nomad200Msg::Safety)?;
+        let contact = ctx
+            .event_server("contact", |_: &mut Empty, scan: &ContactScan| scan.any().then(|| scan.clone()))?;
         // A (re)started server does not trust whatever the motors were doing.
         self.motors.stop().await?;
         for s in [&ir, &sonar] {
@@ -306,6 +312,7 @@ where
             ir,
             sonar,
             bumpers,
+            contact,
             base,
             deadline,
             last_applied: None,
@@ -330,7 +337,9 @@ where
                 st.sonar.put(self.sensors.read_sonar().await?);
             }
             Nomad200Msg::Bumpers(_) => {
-                st.bumpers.put(self.sensors.read_bumpers().await?);
+                let scan = self.sensors.read_bumpers().await?;
+                st.contact.put(&scan);
+                st.bumpers.put(scan);
             }
             Nomad200Msg::Base(_) => {
                 let m = self.motors.read_state().await?;

@@ -213,6 +213,12 @@ impl CenterFollower {
         self.walls.note_heading(heading_rad, omega_rad_s, stamp.0);
     }
 
+    /// The bumpers report contact at `stamp`, ahead of or beside the body if `ahead` (see
+    /// [`crate::manoeuvres::contact_ahead`]): the robot backs out at once.
+    pub fn note_contact(&mut self, ahead: bool, stamp: Timestamp) {
+        self.unstick.note_contact(ahead, stamp.0);
+    }
+
     /// The parameters.
     pub fn params(&self) -> &CenterFollowParams {
         &self.params

@@ -7,16 +7,19 @@
 //! the State pattern. It asks the robot for its geometry (`robotparams`) when it starts, so no
 //! robot dimension is hard-coded, and publishes what it saw and decided on `status`. It also
 //! follows the robot's odometry (`basestate`), only to notice when it has stopped making
-//! progress (see [`crate::manoeuvres::UnstickParams`]).
+//! progress, and activates the robot's `contact` event, to back out when it touches something
+//! (see [`crate::manoeuvres::UnstickParams`]).
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
+use crate::manoeuvres::contact_ahead;
 use crate::ring::{Ranges, RingGeometry, ranges};
 use crate::wallfollow::{WallFollowParams, WallFollower};
+use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update, comm_object};
-use orsa_hardware::comm::{BaseState, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
+use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -83,11 +86,15 @@ pub enum WallFollowMsg {
     Ir(Update<DistanceScan>),
     /// New odometry.
     Base(Update<BaseState>),
+    /// The bumpers report contact.
+    Contact(Fired<ContactScan>),
 }
 
 /// The running state of [`WallFollow`].
 pub struct WallFollowState {
     ctl: WallFollower,
+    /// The direction of travel relative to the base (odometry), for where a contact is.
+    steer_rad: f64,
     vel: SendPort<NavigationVelocity>,
     status: PushNewestServer<BehaviourStatus>,
 }
@@ -104,7 +111,13 @@ impl Component for WallFollow {
         let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, WallFollowMsg::Ir)?;
         ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, WallFollowMsg::Base)?;
-        Ok(WallFollowState { ctl: WallFollower::new(self.params, ring), vel, status })
+        ctx.activate_event(
+            (self.robot.as_str(), "contact"),
+            EventMode::Continuous,
+            Empty {},
+            WallFollowMsg::Contact,
+        )?;
+        Ok(WallFollowState { ctl: WallFollower::new(self.params, ring), steer_rad: 0.0, vel, status })
     }
 
     async fn handle(
@@ -117,6 +130,13 @@ impl Component for WallFollow {
             WallFollowMsg::Ir(scan) => scan,
             WallFollowMsg::Base(b) => {
                 st.ctl.note_position(b.x_m, b.y_m, b.stamp);
+                st.steer_rad = b.steer_rad;
+                return Ok(());
+            }
+            WallFollowMsg::Contact(c) => {
+                if let Some(ahead) = contact_ahead(&c.event.value.pressed, st.steer_rad) {
+                    st.ctl.note_contact(ahead, c.event.value.stamp);
+                }
                 return Ok(());
             }
         };
@@ -153,11 +173,15 @@ pub enum CenterFollowMsg {
     Sonar(Update<DistanceScan>),
     /// New odometry.
     Base(Update<BaseState>),
+    /// The bumpers report contact.
+    Contact(Fired<ContactScan>),
 }
 
 /// The running state of [`CenterFollow`].
 pub struct CenterFollowState {
     ctl: CenterFollower,
+    /// The direction of travel relative to the base (odometry), for where a contact is.
+    steer_rad: f64,
     vel: SendPort<NavigationVelocity>,
     status: PushNewestServer<BehaviourStatus>,
     ir: Option<(Timestamp, Ranges)>,
@@ -176,6 +200,12 @@ impl Component for CenterFollow {
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, CenterFollowMsg::Ir)?;
         ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceson"), 1, CenterFollowMsg::Sonar)?;
         ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, CenterFollowMsg::Base)?;
+        ctx.activate_event(
+            (self.robot.as_str(), "contact"),
+            EventMode::Continuous,
+            Empty {},
+            CenterFollowMsg::Contact,
+        )?;
         Ok(CenterFollowState {
             ctl: CenterFollower::new(
                 self.params,
@@ -183,6 +213,7 @@ impl Component for CenterFollow {
                 robot.infrared.beam_width_rad,
                 robot.sonar.beam_width_rad,
             ),
+            steer_rad: 0.0,
             vel,
             status,
             ir: None,
@@ -201,6 +232,13 @@ impl Component for CenterFollow {
             CenterFollowMsg::Sonar(s) => st.sonar = Some((s.stamp, ranges(&s))),
             CenterFollowMsg::Base(b) => {
                 st.ctl.note_odometry(b.x_m, b.y_m, b.heading_rad, b.omega_rad_s, b.stamp);
+                st.steer_rad = b.steer_rad;
+                return Ok(());
+            }
+            CenterFollowMsg::Contact(c) => {
+                if let Some(ahead) = contact_ahead(&c.event.value.pressed, st.steer_rad) {
+                    st.ctl.note_contact(ahead, c.event.value.stamp);
+                }
                 return Ok(());
             }
         }

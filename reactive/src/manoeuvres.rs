@@ -5,7 +5,7 @@
 //! [`crate::wallfollow`] decide which they use.
 
 use crate::ring::{Ranges, RingGeometry, Side, front_min, projected, side_min, window_min, wrap};
-use orsa_hardware::comm::{RING_SIZE, ring_angle_rad};
+use orsa_hardware::comm::{RING_SIZE, bumper_angle_rad, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 
 /// Getting out of a gap barely wider than the body.
@@ -122,6 +122,13 @@ impl DeadEnd {
 /// the most open direction the ring sees (the widest opening: a sensor and both its neighbours
 /// far), and drives on from there: the person it was facing can walk on, and the robot goes the
 /// other way.
+///
+/// Contact is a deadlock at once. A robot pushing against something does not move, but its
+/// wheels slip and its odometry goes on counting the progress it does not make, so the window
+/// above never closes (wall following alone, seed 1: pinned against a waiting person for the
+/// rest of the hour). The bumpers are what tells: while they report contact ahead of or beside
+/// the body ([`Unstick::note_contact`], [`contact_ahead`]), the robot backs out at once; contact
+/// behind it while it backs ends the backing.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UnstickParams {
@@ -187,7 +194,28 @@ pub struct Unstick {
     window: Option<(u64, [f64; 2])>,
     /// The latest position (odometry), m.
     position: Option<[f64; 2]>,
+    /// The latest contact the bumpers reported: when (ns), and whether ahead or beside.
+    contact: Option<(u64, bool)>,
     recovery: Recovery,
+}
+
+/// How long a contact report counts: the bumpers report every 30 ms while pressed.
+const CONTACT_FRESH_NS: u64 = 100_000_000;
+
+/// Whether the bumpers pressed in `pressed` touch the body ahead or beside it (their mean
+/// direction within 120 degrees of the direction of travel), `steer_rad` being the direction
+/// of travel relative to the base (the bumpers are fixed to the base, which never turns, not
+/// to the wheels); `None` when none is pressed. A robot pressed sideways against a wall does
+/// not move either (the simulator does not let it slide), and backing out frees it.
+pub fn contact_ahead(pressed: &[bool], steer_rad: f64) -> Option<bool> {
+    let (mut along, mut across, mut any) = (0.0, 0.0, false);
+    for (i, _) in pressed.iter().enumerate().filter(|(_, p)| **p) {
+        let a = bumper_angle_rad(i) - steer_rad;
+        along += a.cos();
+        across += a.sin();
+        any = true;
+    }
+    any.then(|| along >= -0.5 * along.hypot(across))
 }
 
 impl Unstick {
@@ -203,6 +231,18 @@ impl Unstick {
         }
     }
 
+    /// The bumpers report contact at `now` (ns), ahead of or beside the body if `ahead` (see
+    /// [`contact_ahead`]).
+    pub fn note_contact(&mut self, ahead: bool, now: u64) {
+        self.contact = Some((now, ahead));
+    }
+
+    /// Whether a contact reported within [`CONTACT_FRESH_NS`] of `now` is ahead or beside
+    /// (`ahead`), or behind.
+    fn touching(&self, ahead: bool, now: u64) -> bool {
+        self.contact.is_some_and(|(t, a)| a == ahead && now.abs_diff(t) <= CONTACT_FRESH_NS)
+    }
+
     /// The command to give instead of the behaviour's own at `now` (ns), if it is getting out of
     /// a deadlock: `(v, omega)`.
     pub fn step(
@@ -216,15 +256,16 @@ impl Unstick {
             return None;
         }
         if self.recovery == Recovery::Watching {
-            let (since, _) = self.window?;
-            if (now.saturating_sub(since) as f64) * 1e-9 < p.after_s {
+            let stalled =
+                self.window.is_some_and(|(since, _)| (now.saturating_sub(since) as f64) * 1e-9 >= p.after_s);
+            if !stalled && !self.touching(true, now) {
                 return None;
             }
             self.recovery = Recovery::Backing { until: now + secs_ns(p.back_s) };
         }
         if let Recovery::Backing { until } = self.recovery {
             let rear_clear = (6..=10).all(|i| r[i].is_none_or(|d| d > p.rear_clear_m));
-            if now < until && rear_clear {
+            if now < until && rear_clear && !self.touching(false, now) {
                 return Some((-p.back_m_s, 0.0));
             }
             let angle = wrap(ring_angle_rad(widest_opening(r)));
@@ -398,5 +439,65 @@ mod tests {
         assert!(
             UnstickParams { back_s: 0.0, ..p }.validate("centerfollow").is_err_and(|e| e.contains("back_s"))
         );
+    }
+
+    #[test]
+    fn contact_ahead_backs_out_at_once_though_odometry_says_it_moves() {
+        let p = UnstickParams::default();
+        let w = 45f64.to_radians();
+        let mut u = Unstick::default();
+        // Open only behind (sensors 7-9).
+        let mut r: Ranges = [Some(0.3); RING_SIZE];
+        r[7..=9].fill(Some(3.0));
+        // Wheels slipping against a person: odometry counts 25 cm a second.
+        for k in 0..3 {
+            u.note_position(&p, 0.25 * k as f64, 0.0, k * S);
+            assert_eq!(u.step(&p, &r, w, k * S), None);
+        }
+        u.note_contact(true, 3 * S);
+        u.note_position(&p, 0.75, 0.0, 3 * S);
+        assert_eq!(u.step(&p, &r, w, 3 * S + 10), Some((-0.10, 0.0)), "backs out at once");
+        // Contact behind while backing ends the backing: it turns instead.
+        u.note_contact(false, 3 * S + S / 2);
+        assert_eq!(
+            u.step(&p, &r, w, 3 * S + S / 2),
+            Some((0.0, w)),
+            "turns to the open side, no more backing"
+        );
+        // A contact report goes stale after a tenth of a second; one behind never starts a
+        // recovery.
+        let mut u = Unstick::default();
+        u.note_position(&p, 0.0, 0.0, 0);
+        u.note_contact(true, 0);
+        assert_eq!(u.step(&p, &r, w, S / 5), None, "stale");
+        u.note_contact(false, S / 5);
+        assert_eq!(u.step(&p, &r, w, S / 5), None, "behind");
+        // Turned off, contact does nothing either.
+        let off = UnstickParams { enabled: false, ..p };
+        u.note_contact(true, S);
+        assert_eq!(u.step(&off, &r, w, S), None);
+    }
+
+    #[test]
+    fn contact_is_placed_relative_to_the_direction_of_travel() {
+        use orsa_hardware::comm::BUMPER_COUNT;
+        let pressed = |ids: &[usize]| {
+            let mut p = vec![false; BUMPER_COUNT];
+            for &i in ids {
+                p[i] = true;
+            }
+            p
+        };
+        assert_eq!(contact_ahead(&pressed(&[]), 0.0), None);
+        // Bumper 0 faces the base's start-up heading, bumper 5 the opposite way.
+        assert_eq!(contact_ahead(&pressed(&[0, 10]), 0.0), Some(true));
+        assert_eq!(contact_ahead(&pressed(&[5, 15]), 0.0), Some(false));
+        // The wheels have turned half round: the same bumpers are now behind and ahead.
+        assert_eq!(contact_ahead(&pressed(&[0, 10]), PI), Some(false));
+        assert_eq!(contact_ahead(&pressed(&[5, 15]), PI), Some(true));
+        // Beside (bumper 7 at 252 degrees, with the robot steering at -90): counts as ahead.
+        assert_eq!(contact_ahead(&pressed(&[7]), -FRAC_PI_2), Some(true));
+        // 144 degrees off the direction of travel: behind.
+        assert_eq!(contact_ahead(&pressed(&[4]), 0.0), Some(false));
     }
 }

@@ -18,6 +18,15 @@
 //! the wall or heading away from it the limit is infinite; `limit_approach = false` turns it
 //! off.
 //!
+//! And a third: the original looks only at the wall it follows, so it drove its right side into
+//! a person standing 70 cm from the wall, where its 50 cm body fits only with 10 cm to spare
+//! each side (following the wall alone, seed 1, then pinned there for the rest of the hour).
+//! When something seen by sensors 12 to 14 (90 to 45 degrees right) is within `share_within`
+//! (5 cm) of the right edge of the band the body sweeps, or in it, the robot holds half the gap
+//! between it and the wall instead of `target`, and passes in the middle; `share_gaps = false`
+//! turns it off. Only that close: from 20 cm it also steered the robot into door recesses,
+//! where a person waiting at the mouth trapped it (EXPERIMENTS.md).
+//!
 //! Where the original is silent or fragile orsa does the sound thing:
 //! - with no wall in infrared range on the left, the robot is told the wall is at the end of the
 //!   range, so it arcs left to find it (the original read out-of-range as its maximum too);
@@ -29,7 +38,7 @@ use crate::cascade::{CascadeParams, check_positive};
 use crate::manoeuvres::{Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
 use orsa_actors::Timestamp;
-use orsa_hardware::comm::NavigationVelocity;
+use orsa_hardware::comm::{NavigationVelocity, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
@@ -63,6 +72,12 @@ pub struct WallFollowParams {
     /// Heading into the wall, never go faster than turning parallel at the top turn rate
     /// allows without closing in past `target_m` (an orsa addition, see the module docs).
     pub limit_approach: bool,
+    /// Something on the right within `share_within_m` of the band the body sweeps: hold half
+    /// the gap between it and the wall instead of `target_m` (an orsa addition, see the module
+    /// docs).
+    pub share_gaps: bool,
+    /// See `share_gaps`, m.
+    pub share_within_m: f64,
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
     /// Backing out of a deadlock (`[...unstick]`).
@@ -84,6 +99,8 @@ impl Default for WallFollowParams {
             l_m: 0.17,
             estimator: AngleEstimator::default(),
             limit_approach: true,
+            share_gaps: true,
+            share_within_m: 0.05,
             loops: CascadeParams { k_d: 5.0, alpha_max_deg: 45.0, ..CascadeParams::default() },
             unstick: UnstickParams::default(),
         }
@@ -104,6 +121,7 @@ impl WallFollowParams {
                 ("stop_below_m", self.stop_below_m),
                 ("tight_gap_m", self.tight_gap_m),
                 ("open_front_m", self.open_front_m),
+                ("share_within_m", self.share_within_m),
                 ("ir_range_m", self.ir_range_m),
                 ("l_m", self.l_m),
             ],
@@ -150,6 +168,12 @@ impl WallFollower {
         self.unstick.note_position(&self.params.unstick, x_m, y_m, stamp.0);
     }
 
+    /// The bumpers report contact at `stamp`, ahead of or beside the body if `ahead` (see
+    /// [`crate::manoeuvres::contact_ahead`]): the robot backs out at once.
+    pub fn note_contact(&mut self, ahead: bool, stamp: Timestamp) {
+        self.unstick.note_contact(ahead, stamp.0);
+    }
+
     /// The parameters.
     pub fn params(&self) -> &WallFollowParams {
         &self.params
@@ -168,7 +192,13 @@ impl WallFollower {
             d = front;
             alpha = -FRAC_PI_2;
         }
-        let mut omega = p.loops.omega(d - p.target_m, alpha);
+        let target = match (estimate, right_of_path(ir, &self.ring)) {
+            (Some(w), Some(right)) if p.share_gaps && right < p.share_within_m => {
+                ((w.distance_m + right) / 2.0).clamp(0.0, p.target_m)
+            }
+            _ => p.target_m,
+        };
+        let mut omega = p.loops.omega(d - target, alpha);
         let wedged = self.wedge.step(ir, p.tight_gap_m, p.open_front_m, p.loops.omega_max_deg_s.to_radians());
         if let Some(turn) = wedged {
             omega = turn;
@@ -182,7 +212,7 @@ impl WallFollower {
             ir[1].map_or(p.v_max_m_s, |d1| (p.k_v * d1).min(p.v_max_m_s))
         };
         if p.limit_approach {
-            v = v.min(approach_limit(d - p.target_m, alpha, p.loops.omega_max_deg_s.to_radians()));
+            v = v.min(approach_limit(d - target, alpha, p.loops.omega_max_deg_s.to_radians()));
         }
         if let Some(cmd) = self.unstick.step(&p.unstick, ir, p.loops.omega_max_deg_s.to_radians(), stamp.0) {
             (v, omega) = cmd;
@@ -198,6 +228,18 @@ impl WallFollower {
     pub fn nearest_left(ir: &Ranges) -> Option<(usize, f64)> {
         side_min(ir, Side::Left)
     }
+}
+
+/// How far what the right-hand sensors see beside and ahead of the body (sensors 12 to 14,
+/// 90 to 45 degrees right) is from the right edge of the band the body sweeps going straight
+/// on: the smallest `(R + d) sin(-phi) - R` (negative: in the way), m.
+fn right_of_path(ir: &Ranges, ring: &RingGeometry) -> Option<f64> {
+    (12..=14)
+        .filter_map(|i| {
+            let d = ir[i]?;
+            Some((ring.radius_m + d) * (-ring_angle_rad(i)).sin() - ring.radius_m)
+        })
+        .min_by(f64::total_cmp)
 }
 
 /// The fastest the robot may go while heading into the wall at `-alpha` with `margin_m` to
@@ -252,6 +294,35 @@ mod tests {
         let s = WallFollower::new(original, RingGeometry::uniform(0.25, 0.0)).step(&none, Timestamp(0));
         assert!(s.cmd.omega_rad_s < 0.0);
         assert_eq!(s.cmd.v_m_s, 0.07, "the original creeps on at v_slow");
+    }
+
+    #[test]
+    fn something_in_the_way_on_the_right_moves_the_robot_toward_the_wall() {
+        use crate::ring::synthetic::scene;
+        let (shared, plain) = (ctl(), WallFollowParams { share_gaps: false, ..Default::default() });
+        let mut plain = WallFollower::new(plain, RingGeometry::uniform(0.25, 0.0));
+        // Parallel, 20 cm from the wall; a person (radius 0.25) beside the right front whose
+        // edge reaches 5 cm into the band the body sweeps.
+        let wall = [(FRAC_PI_2, 0.45)];
+        let r = scene(&wall, &[(0.35, -0.45, 0.25)], 0.0, 0.25, 0.6, 0.0);
+        assert!(right_of_path(&r, &shared.ring).is_some_and(|x| x < 0.0), "{r:?}");
+        let mut shared = shared;
+        let toward_wall = shared.step(&r, Timestamp(0)).cmd.omega_rad_s;
+        assert!(toward_wall > 0.3, "turns left to pass in the middle of the gap: {toward_wall}");
+        assert_eq!(plain.step(&r, Timestamp(0)).cmd.omega_rad_s, 0.0, "the original holds 20 cm");
+        // The far side of an ordinary corridor, or a wall 10 cm right of the body's path,
+        // changes nothing.
+        for right in [1.95, 0.35] {
+            let r = scene(&[(FRAC_PI_2, 0.45), (-FRAC_PI_2, right)], &[], 0.0, 0.25, 2.0, 0.0);
+            assert_eq!(shared.step(&r, Timestamp(0)).cmd, plain.step(&r, Timestamp(0)).cmd, "{right}");
+        }
+        // In a passage with 12 cm to spare on the left and 4 on the right, it moves to the
+        // middle, left, where the original turns right, toward the wall 4 cm away, to get 20 cm
+        // from the left one.
+        let r = scene(&[(FRAC_PI_2, 0.37), (-FRAC_PI_2, 0.29)], &[], 0.0, 0.25, 0.6, 0.0);
+        let (s, o) =
+            (shared.step(&r, Timestamp(0)).cmd.omega_rad_s, plain.step(&r, Timestamp(0)).cmd.omega_rad_s);
+        assert!(s > 0.05 && o < -0.05, "shared {s}, original {o}");
     }
 
     #[test]

@@ -120,10 +120,12 @@ pub(crate) trait Triggered: Component {
 impl Triggered for WallFollow {
     const NAME: &'static str = "wallfollow";
     fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
-        // Odometry never makes a step (no status follows it), so its stamps are never used.
+        // Odometry and contact never make a step (no status follows them), so their stamps are
+        // never used.
         match msg {
             WallFollowMsg::Ir(u) => (u.stamp, u.value.stamp),
             WallFollowMsg::Base(u) => (u.stamp, u.value.stamp),
+            WallFollowMsg::Contact(c) => (c.event.stamp, c.event.value.stamp),
         }
     }
 }
@@ -134,6 +136,7 @@ impl Triggered for CenterFollow {
         match msg {
             CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.stamp, u.value.stamp),
             CenterFollowMsg::Base(u) => (u.stamp, u.value.stamp),
+            CenterFollowMsg::Contact(c) => (c.event.stamp, c.event.value.stamp),
         }
     }
 }
@@ -372,7 +375,7 @@ impl PeerBehaviours {
         robot: &str,
     ) -> anyhow::Result<PeerBehaviours> {
         let needed: Vec<orsa_actors::ServiceAddr> =
-            ["distanceir", "distanceson", "robotparams", "navigationvelocity"]
+            ["distanceir", "distanceson", "basestate", "contact", "robotparams", "navigationvelocity"]
                 .iter()
                 .map(|s| orsa_actors::ServiceAddr::new(robot, *s))
                 .collect();
