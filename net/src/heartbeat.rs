@@ -64,8 +64,7 @@ impl ZenohTransport {
                     tracing::warn!("ignoring a heartbeat on a malformed key '{key}'");
                     return;
                 };
-                if inner.is_cut(&zid) {
-                    inner.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+                if !inner.admit_from(&zid) {
                     return;
                 }
                 inner.received.fetch_add(1, Ordering::Relaxed);

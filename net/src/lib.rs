@@ -30,15 +30,18 @@
 //! A process may also publish a heartbeat ([`NetOptions::heartbeat`], [`ZenohTransport::on_heartbeat`])
 //! so that a peer notices a silent link faster than zenoh's lease.
 
+mod gate;
 mod heartbeat;
 mod keys;
 mod options;
 
+pub use gate::LinkCutStats;
 pub use heartbeat::{Heartbeat, HeartbeatWatch};
 pub use keys::{Announced, Keys, Process, pattern_name};
 pub use options::{NetError, NetOptions};
 
 use futures::future::BoxFuture;
+use gate::Gate;
 use orsa_actors::event::EventMode;
 use orsa_actors::registry::{ServiceAddr, ServiceInfo};
 use orsa_actors::transport::{ByteSink, Served, Subscription, Transport};
@@ -144,32 +147,6 @@ pub struct NetStats {
     pub received: u64,
     /// Messages from peers that failed to decode (dropped, counted, logged).
     pub decode_errors: u64,
-}
-
-/// What a link cut (see [`ZenohTransport::cut_link`]) kept from crossing.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct LinkCutStats {
-    /// Messages, requests and heartbeats from cut processes dropped on arrival.
-    pub dropped_in: u64,
-    /// Messages, stream updates, firings and requests to cut processes not sent.
-    pub withheld_out: u64,
-}
-
-/// The most requests from cut processes held unanswered at once (beyond: answered at once
-/// with nothing, which the requester sees as a failed request).
-const MAX_HELD_QUERIES: usize = 1024;
-
-/// A link cut: the roles whose processes this process neither hears nor speaks to.
-#[derive(Default)]
-struct Gate {
-    /// Whether any role is cut: the one check on every message's path while nothing is.
-    active: std::sync::atomic::AtomicBool,
-    roles: RwLock<BTreeSet<String>>,
-    /// Requests from cut processes, held unanswered (as a lost request would be) until
-    /// their role's link is restored. (role, query).
-    held: Mutex<Vec<(String, zenoh::query::Query)>>,
-    dropped_in: AtomicU64,
-    withheld_out: AtomicU64,
 }
 
 type ClientKey = (String, u64);
@@ -404,8 +381,7 @@ impl ZenohTransport {
         while let Ok(reply) = replies.recv_async().await {
             let Ok(sample) = reply.result() else { continue };
             let zid = sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_string();
-            if self.inner.is_cut(&zid) {
-                self.inner.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
+            if !self.inner.admit_from(&zid) {
                 continue;
             }
             match decode::<Reply<NetStats>>(&sample.payload().to_bytes(), "orsa.NetStats/1") {
@@ -452,17 +428,13 @@ impl ZenohTransport {
     /// process's view: peers of the cut role still talk to each other.
     pub fn cut_link(&self, role: &str, cut: bool) {
         let inner = &self.inner;
-        let mut roles = inner.gate.roles.write();
-        let changed = if cut { roles.insert(role.to_string()) } else { roles.remove(role) };
-        inner.gate.active.store(!roles.is_empty(), Ordering::Release);
-        drop(roles);
-        if !changed {
+        if !inner.gate.set(role, cut) {
             return;
         }
         tracing::info!(role, cut, "link cut");
         if !cut {
             // Requests held while cut are answered with nothing: the requesters have timed out.
-            inner.gate.held.lock().retain(|(r, _)| r != role);
+            inner.gate.release(role);
             // Subscriptions and activations held at that role's services are asked for again.
             let hosts: BTreeSet<String> = inner
                 .processes
@@ -486,15 +458,12 @@ impl ZenohTransport {
 
     /// The roles whose link is cut now.
     pub fn cut_roles(&self) -> Vec<String> {
-        self.inner.gate.roles.read().iter().cloned().collect()
+        self.inner.gate.roles()
     }
 
     /// What link cuts kept from crossing so far.
     pub fn link_cut_stats(&self) -> LinkCutStats {
-        LinkCutStats {
-            dropped_in: self.inner.gate.dropped_in.load(Ordering::Relaxed),
-            withheld_out: self.inner.gate.withheld_out.load(Ordering::Relaxed),
-        }
+        self.inner.gate.stats()
     }
 
     /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
@@ -563,73 +532,6 @@ impl ZenohTransport {
 }
 
 impl Inner {
-    /// The role of process `zid` if its link is cut.
-    fn cut_role_of(&self, zid: &str) -> Option<String> {
-        if !self.gate.active.load(Ordering::Acquire) {
-            return None;
-        }
-        let role = self.processes.read().get(zid)?.clone();
-        self.gate.roles.read().contains(&role).then_some(role)
-    }
-
-    /// Whether the link to process `zid` is cut.
-    fn is_cut(&self, zid: &str) -> bool {
-        self.cut_role_of(zid).is_some()
-    }
-
-    /// The role of the sender of a message with this attachment, if its link is cut.
-    fn cut_sender(&self, attachment: Option<&zenoh::bytes::ZBytes>) -> Option<String> {
-        if !self.gate.active.load(Ordering::Acquire) {
-            return None;
-        }
-        let bytes = attachment?.to_bytes();
-        self.cut_role_of(std::str::from_utf8(&bytes).ok()?)
-    }
-
-    /// Whether a message with this attachment may be delivered (its sender is not cut off);
-    /// counts it if not.
-    fn admit(&self, attachment: Option<&zenoh::bytes::ZBytes>) -> bool {
-        if self.cut_sender(attachment).is_some() {
-            self.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
-            return false;
-        }
-        true
-    }
-
-    /// The query, if its sender is not cut off; otherwise it is held unanswered.
-    fn admit_query(&self, query: zenoh::query::Query) -> Option<zenoh::query::Query> {
-        match self.cut_sender(query.attachment()) {
-            None => Some(query),
-            Some(role) => {
-                self.gate.dropped_in.fetch_add(1, Ordering::Relaxed);
-                self.park(role, query);
-                None
-            }
-        }
-    }
-
-    /// Holds a query of a cut process unanswered until its role's link is restored (dropping
-    /// a query answers it with nothing at once, which a lost request would not do).
-    fn park(&self, role: String, query: zenoh::query::Query) {
-        let mut held = self.gate.held.lock();
-        if held.len() < MAX_HELD_QUERIES {
-            held.push((role, query));
-        }
-    }
-
-    /// Whether the process hosting `addr` is cut off; counts a withheld message if so.
-    fn withhold_to(&self, addr: &ServiceAddr) -> bool {
-        if !self.gate.active.load(Ordering::Acquire) {
-            return false;
-        }
-        let host = self.remote.read().get(addr).map(|a| a.host.clone());
-        if host.is_some_and(|h| self.is_cut(&h)) {
-            self.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
-            return true;
-        }
-        false
-    }
-
     fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
         self.decode_errors.fetch_add(1, Ordering::Relaxed);
         tracing::warn!("dropped an undecodable message on {from}: {e}");
@@ -832,11 +734,7 @@ impl Inner {
                                 inner.bad(&topic, &f.message);
                             }
                             // Cut off while the request was being served: the answer is lost.
-                            if let Some(role) = inner.cut_sender(query.attachment()) {
-                                inner.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
-                                inner.park(role, query);
-                                return;
-                            }
+                            let Some(query) = inner.answerable(query) else { return };
                             if let Err(e) = query.reply(query.key_expr().clone(), reply).await {
                                 tracing::debug!("{topic}: cannot reply: {e}");
                             }
@@ -930,18 +828,8 @@ impl Inner {
         let weak = Arc::downgrade(self);
         Arc::new(move |bytes: &[u8]| {
             let Some(inner) = weak.upgrade() else { return false };
-            if inner.gate.active.load(Ordering::Acquire) {
-                let all_cut = match &audience {
-                    Audience::Clients(c) => {
-                        let c = c.lock();
-                        !c.is_empty() && c.iter().all(|(zid, _)| inner.is_cut(zid))
-                    }
-                    Audience::Client(zid) => inner.is_cut(zid),
-                };
-                if all_cut {
-                    inner.gate.withheld_out.fetch_add(1, Ordering::Relaxed);
-                    return true;
-                }
+            if inner.withhold_to_audience(&audience) {
+                return true;
             }
             match publisher.put(&inner.session, bytes.to_vec(), &inner.me) {
                 Ok(()) => {
