@@ -1,0 +1,258 @@
+//! The processes of a distributed orsa system and the tools to look inside it, over zenoh:
+//! `orsa robot`, `orsa executive`, `orsa teleop`, `orsa list`, `orsa echo`, `orsa wire`,
+//! `orsa state`.
+//!
+//! ```text
+//!   orsa robot                        orsa executive             orsa teleop
+//!   ├── nomad200 (sim, real time)     ├── master  ── wiring, state, distanceir/10 ──▶ robot
+//!   ├── wallfollow                    └── planner                ── nomad200/teleop ──▶ robot
+//!   └── centerfollow
+//! ```
+//! The robot watches the executive's liveliness and its heartbeat: when its token disappears
+//! (within zenoh's lease, 1 s by default) or no heartbeat came for the lease (`[link]`, 0.3 s by
+//! default, at most the velocity timeout), the robot unwires every behaviour and stops its
+//! motors at once, keeps its behaviours computing, and, if `--fallback MODE` is given, drives
+//! that mode with a local master until an executive is back. An executive heard again after a
+//! lost heartbeat (a link that was cut while its session stayed up) gets back the behaviour it
+//! had wired.
+
+mod robot;
+mod tools;
+
+pub use robot::{FALLBACK, RobotArgs, RobotReport, robot};
+pub use tools::{EchoArgs, ListArgs, StateArgs, WireArgs, echo, list, state, wire};
+
+use crate::config::Config;
+use anyhow::{Context as _, bail};
+use orsa_actors::component::ComponentHandle;
+use orsa_actors::send::SendClient;
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
+use orsa_actors::{Clock, Registry, ServiceAddr};
+use orsa_executive::Master;
+use orsa_hardware::comm::NavigationVelocity;
+use orsa_net::{NetOptions, ZenohTransport};
+use orsa_planner::Planner;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// How a process joins the network (shared by every networked subcommand).
+#[derive(Debug, Clone, clap::Args)]
+pub struct NetArgs {
+    /// zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh endpoint of a peer to connect to, e.g. `tcp/robot.local:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// zenoh configuration file (JSON5): TLS, user/password, everything else (see docs/security.md).
+    #[arg(long, value_name = "PATH")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Key prefix: systems with different prefixes do not see each other.
+    #[arg(long, value_name = "PREFIX", default_value = "orsa")]
+    pub prefix: String,
+}
+
+impl NetArgs {
+    fn options(&self, heartbeat: Option<Duration>) -> NetOptions {
+        NetOptions {
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            config_file: self.zenoh_config.clone(),
+            prefix: self.prefix.clone(),
+            heartbeat,
+        }
+    }
+}
+
+/// Arguments of `orsa executive`.
+#[derive(Debug, clap::Args)]
+pub struct ExecutiveArgs {
+    /// Configuration file (see config/orsa.toml): modes, rules, the planner's mission.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// Seconds of the default mission (patrol) and of the process (default: 3600).
+    #[arg(long, value_name = "SECS", default_value_t = 3600.0)]
+    pub duration: f64,
+    /// How long to wait for the robot's services to appear.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa teleop`.
+#[derive(Debug, clap::Args)]
+pub struct TeleopArgs {
+    /// The robot component.
+    #[arg(long, default_value = "nomad200")]
+    pub robot: String,
+    /// Scripted: send this velocity (m/s, rad/s) instead of reading the keyboard.
+    #[arg(long, value_name = "V,OMEGA", value_parser = parse_velocity, allow_hyphen_values = true)]
+    pub send: Option<(f64, f64)>,
+    /// Scripted: for this many seconds, then stop and quit.
+    #[arg(long = "for", value_name = "SECS", default_value_t = 1.0)]
+    pub for_s: f64,
+    /// Commands per second.
+    #[arg(long, value_name = "HZ", default_value_t = 10.0)]
+    pub rate: f64,
+    /// How long to wait for the robot.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+fn parse_velocity(s: &str) -> Result<(f64, f64), String> {
+    let (v, w) = s.split_once(',').ok_or_else(|| format!("'{s}' is not V,OMEGA (e.g. 0.1,0.0)"))?;
+    let num = |t: &str, what: &str| -> Result<f64, String> {
+        t.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{what} '{t}' is not a number"))
+    };
+    Ok((num(v, "V")?, num(w, "OMEGA")?))
+}
+
+fn secs(s: f64, flag: &str) -> anyhow::Result<Duration> {
+    if s.is_finite() && (0.0..=1e7).contains(&s) {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        bail!("{flag} {s}: must be a number of seconds from 0 to 1e7")
+    }
+}
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    // zenoh needs tokio's multi-thread scheduler.
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the tokio runtime")
+}
+
+fn load_config(path: &Option<PathBuf>) -> anyhow::Result<Config> {
+    Ok(match path {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    })
+}
+
+async fn open(
+    registry: &Registry,
+    net: &NetArgs,
+    role: &str,
+    heartbeat: Option<Duration>,
+) -> anyhow::Result<ZenohTransport> {
+    Ok(ZenohTransport::open(registry, &net.options(heartbeat), role).await?)
+}
+
+async fn wait_for(t: &ZenohTransport, addrs: &[ServiceAddr], wait: Duration) -> anyhow::Result<()> {
+    if let Err(missing) = t.wait_for(addrs, wait).await {
+        let names: Vec<String> = missing.iter().map(ToString::to_string).collect();
+        bail!(
+            "no peer offers {} after {:.1} s (is the robot running, with the same --prefix?)",
+            names.join(", "),
+            wait.as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// Resolves when the process is asked to stop (Ctrl-C) or after `duration`.
+async fn until_stopped(duration: Option<Duration>) {
+    let limit = async {
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        () = limit => {}
+    }
+}
+
+/// `orsa executive`.
+pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
+    let config = load_config(&args.config)?;
+    let duration = secs(args.duration, "--duration")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let clock = Clock::start();
+        let registry = Registry::with_clock(clock);
+        // The heartbeat tells the robot this process still drives it (see [link] in the config).
+        let beat = Duration::from_secs_f64(config.link.heartbeat_period_s);
+        let transport = open(&registry, &args.net, "executive", Some(beat)).await?;
+        let mut exec = config.executive.clone();
+        exec.robot = config.robot.name.clone();
+        let mut needed = vec![
+            ServiceAddr::new(&exec.robot, "distanceir"),
+            ServiceAddr::new(&exec.robot, "navigationvelocity"),
+        ];
+        for b in exec.behaviours() {
+            needed.push(ServiceAddr::new(&b, "state"));
+            needed.push(ServiceAddr::new(&b, "wiring"));
+        }
+        wait_for(&transport, &needed, wait).await?;
+        // A robot driving its fallback mode stops it when it sees this process; two masters
+        // never wire at once.
+        if !transport.wait_gone(&ServiceAddr::new(FALLBACK, "goal"), wait).await {
+            bail!("the robot's fallback master is still running after {:.1} s", wait.as_secs_f64());
+        }
+        let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
+        let planner =
+            Planner { mission: config.planner.mission_for(args.duration), executive: "master".into() };
+        let planner = ComponentHandle::new(&registry, "planner", planner)?;
+        let spec = SupervisorSpec::new("executive", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_clock(clock)
+            .with_child(master.child_spec())
+            .with_child(planner.child_spec());
+        let supervisor =
+            Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the executive: {e}"))?;
+        eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
+        until_stopped(Some(duration)).await;
+        supervisor.shutdown().await;
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// `orsa teleop`.
+pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
+    if !(args.rate.is_finite() && (0.5..=100.0).contains(&args.rate)) {
+        bail!("--rate {}: must be from 0.5 to 100 commands per second", args.rate);
+    }
+    let run_for = secs(args.for_s, "--for")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "teleop", None).await?;
+        let addr = ServiceAddr::new(&args.robot, "teleop");
+        wait_for(&transport, std::slice::from_ref(&addr), wait).await?;
+        let client = SendClient::<NavigationVelocity>::connect(&registry, &addr)?;
+        let period = Duration::from_secs_f64(1.0 / args.rate);
+        let send = |v: f64, w: f64| {
+            client.send(NavigationVelocity { stamp: registry.now(), v_m_s: v, omega_rad_s: w })
+        };
+        match args.send {
+            Some((v, w)) => {
+                let mut tick = tokio::time::interval(period);
+                let end = tokio::time::Instant::now() + run_for;
+                while tokio::time::Instant::now() < end {
+                    tick.tick().await;
+                    send(v, w)?;
+                }
+                send(0.0, 0.0)?;
+            }
+            None => crate::keyboard::drive(period, |v, w| send(v, w).map_err(anyhow::Error::from)).await?,
+        }
+        // Let the last command leave before the session closes.
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        transport.close().await;
+        Ok(())
+    })
+}

@@ -1,0 +1,329 @@
+//! The inspection tools: `orsa list`, `orsa echo`, `orsa wire`, `orsa state`.
+
+use super::{NetArgs, open, runtime, secs, until_stopped, wait_for};
+use anyhow::{Context as _, bail};
+use orsa_actors::transport::Transport as _;
+use orsa_actors::wiring::WiringMaster;
+use orsa_actors::{PatternKind, Registry, ServiceAddr};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Arguments of `orsa list`.
+#[derive(Debug, clap::Args)]
+pub struct ListArgs {
+    /// Seconds to listen for peers before listing.
+    #[arg(long, value_name = "SECS", default_value_t = 1.0)]
+    pub wait: f64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa echo`.
+#[derive(Debug, clap::Args)]
+pub struct EchoArgs {
+    /// The push service, `component/service`.
+    pub service: ServiceAddr,
+    /// Every n-th update (counted at the source).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub every: u32,
+    /// Stop after this many updates.
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+    /// One JSON object per line.
+    #[arg(long)]
+    pub json: bool,
+    /// How long to wait for the service.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa wire`.
+#[derive(Debug, clap::Args)]
+pub struct WireArgs {
+    /// The component whose port to rewire.
+    pub component: String,
+    /// The port.
+    pub port: String,
+    /// The service to connect it to (`component/service`); omit with --disconnect.
+    pub target: Option<ServiceAddr>,
+    /// Disconnect the port instead.
+    #[arg(long, conflicts_with = "target")]
+    pub disconnect: bool,
+    /// How long to wait for the component.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// Arguments of `orsa state`.
+#[derive(Debug, clap::Args)]
+pub struct StateArgs {
+    /// The component.
+    pub component: String,
+    /// The main state to set; omit to show the state.
+    pub main: Option<String>,
+    /// How long to wait for the component.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// What `orsa list` prints as JSON.
+#[derive(Debug, serde::Serialize)]
+struct Listing {
+    processes: Vec<ListedProcess>,
+    services: Vec<ListedService>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct ListedProcess {
+    zid: String,
+    role: String,
+    stats: Option<orsa_net::NetStats>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct ListedService {
+    service: String,
+    pattern: PatternKind,
+    types: Vec<String>,
+    host: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    detail: Option<serde_json::Value>,
+}
+
+/// `orsa list`.
+pub fn list(args: ListArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool", None).await?;
+        // Discovery is asynchronous: listen for a moment, as `ros2 node list` spins.
+        tokio::time::sleep(wait).await;
+        let roles: std::collections::BTreeMap<String, String> =
+            transport.processes().into_iter().map(|p| (p.zid, p.role)).collect();
+        let mut services = Vec::new();
+        for a in transport.remote_services() {
+            let detail = match a.info.pattern {
+                PatternKind::Wiring => WiringMaster::new(&registry)
+                    .ports(&a.addr.component)
+                    .await
+                    .ok()
+                    .and_then(|p| serde_json::to_value(p).ok()),
+                PatternKind::State => {
+                    match orsa_actors::state::StateMaster::connect(&registry, &a.addr.component) {
+                        Ok(m) => m.status().await.ok().and_then(|s| serde_json::to_value(s).ok()),
+                        Err(_) => None,
+                    }
+                }
+                _ => None,
+            };
+            let host = format!("{} ({})", a.host, roles.get(&a.host).map_or("?", String::as_str));
+            services.push(ListedService {
+                service: a.addr.to_string(),
+                pattern: a.info.pattern,
+                types: a.info.types,
+                host,
+                detail,
+            });
+        }
+        let stats = transport.all_stats(Duration::from_secs(2)).await;
+        let processes = roles
+            .into_iter()
+            .filter(|(z, _)| z != transport.zid())
+            .map(|(zid, role)| ListedProcess { stats: stats.get(&zid).copied(), zid, role })
+            .collect();
+        let listing = Listing { processes, services };
+        if args.json {
+            crate::cli::say(&serde_json::to_string_pretty(&listing)?);
+        } else {
+            crate::cli::say(&render_listing(&listing));
+        }
+        transport.close().await;
+        Ok(())
+    })
+}
+
+fn render_listing(l: &Listing) -> String {
+    let mut out = String::from("processes:\n");
+    for p in &l.processes {
+        let figures = p.stats.map_or(String::new(), |s| {
+            format!("  published {} received {} undecodable {}", s.published, s.received, s.decode_errors)
+        });
+        out.push_str(&format!("  {:<10} {}  live{figures}\n", p.role, p.zid));
+    }
+    out.push_str("services:\n");
+    for s in &l.services {
+        out.push_str(&format!(
+            "  {:<32} {:<12} {}\n",
+            s.service,
+            orsa_net::pattern_name(s.pattern),
+            s.types.join(" -> ")
+        ));
+        if let Some(d) = &s.detail {
+            match s.pattern {
+                PatternKind::Wiring => {
+                    for p in d.as_array().into_iter().flatten() {
+                        let target = p.get("target").and_then(|t| t.as_object()).map_or(
+                            "(disconnected)".to_string(),
+                            |t| {
+                                format!(
+                                    "-> {}/{}",
+                                    t.get("component").and_then(|c| c.as_str()).unwrap_or("?"),
+                                    t.get("service").and_then(|c| c.as_str()).unwrap_or("?")
+                                )
+                            },
+                        );
+                        out.push_str(&format!(
+                            "      port {} {target}\n",
+                            p.get("port").and_then(|x| x.as_str()).unwrap_or("?")
+                        ));
+                    }
+                }
+                _ => {
+                    let current = d.get("current").and_then(|c| c.as_str()).unwrap_or("?");
+                    out.push_str(&format!("      state {current}\n"));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `orsa echo`.
+pub fn echo(args: EchoArgs) -> anyhow::Result<()> {
+    let every = std::num::NonZeroU32::new(args.every).context("--every must be at least 1")?;
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool", None).await?;
+        wait_for(&transport, std::slice::from_ref(&args.service), wait).await?;
+        let info = transport.lookup(&args.service).context("the service vanished")?;
+        if !matches!(info.pattern, PatternKind::PushNewest | PatternKind::PushTimed) {
+            bail!("{} is {}: echo shows push services", args.service, info.pattern);
+        }
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
+        let _sub = transport.subscribe(
+            &args.service,
+            every,
+            Arc::new(move |b: &[u8]| tx.send(b.to_vec()).is_ok()),
+        )?;
+        let mut seen = 0u64;
+        let stop = until_stopped(None);
+        tokio::pin!(stop);
+        loop {
+            tokio::select! {
+                () = &mut stop => break,
+                Some(bytes) = rx.recv() => {
+                    match orsa_actors::wire::decode::<ciborium::Value>(&bytes, &info.types.join(",")) {
+                        Ok(v) => {
+                            let json = cbor_to_json(v);
+                            if args.json {
+                                crate::cli::say(&serde_json::to_string(&json)?);
+                            } else {
+                                crate::cli::say(&format!("{}\n---", serde_json::to_string_pretty(&json)?));
+                            }
+                        }
+                        Err(e) => eprintln!("echo: {e}"),
+                    }
+                    seen += 1;
+                    if args.count.is_some_and(|c| seen >= c) {
+                        break;
+                    }
+                }
+            }
+        }
+        drop(_sub);
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// A CBOR value as JSON (byte strings as arrays of numbers, non-text keys as text).
+fn cbor_to_json(v: ciborium::Value) -> serde_json::Value {
+    use ciborium::Value as C;
+    use serde_json::Value as J;
+    match v {
+        C::Integer(i) => {
+            let i: i128 = i.into();
+            u64::try_from(i).map(J::from).or_else(|_| i64::try_from(i).map(J::from)).unwrap_or(J::Null)
+        }
+        C::Float(f) => serde_json::Number::from_f64(f).map_or(J::Null, J::Number),
+        C::Bool(b) => J::Bool(b),
+        C::Null => J::Null,
+        C::Text(t) => J::String(t),
+        C::Bytes(b) => J::Array(b.into_iter().map(J::from).collect()),
+        C::Array(a) => J::Array(a.into_iter().map(cbor_to_json).collect()),
+        C::Map(m) => J::Object(
+            m.into_iter()
+                .map(|(k, v)| {
+                    let key = match k {
+                        C::Text(t) => t,
+                        other => cbor_to_json(other).to_string(),
+                    };
+                    (key, cbor_to_json(v))
+                })
+                .collect(),
+        ),
+        C::Tag(_, inner) => cbor_to_json(*inner),
+        _ => J::Null,
+    }
+}
+
+/// `orsa wire`.
+pub fn wire(args: WireArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    if args.target.is_none() && !args.disconnect {
+        bail!("give a TARGET service (component/service) or --disconnect");
+    }
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool", None).await?;
+        wait_for(&transport, &[ServiceAddr::new(&args.component, "wiring")], wait).await?;
+        let master = WiringMaster::new(&registry);
+        match &args.target {
+            Some(t) => master.connect(&args.component, &args.port, t).await?,
+            None => master.disconnect(&args.component, &args.port).await?,
+        }
+        for p in master.ports(&args.component).await? {
+            let target = p.target.map_or("(disconnected)".to_string(), |t| t.to_string());
+            crate::cli::say(&format!("{}.{} -> {target}", args.component, p.port));
+        }
+        transport.close().await;
+        Ok(())
+    })
+}
+
+/// `orsa state`.
+pub fn state(args: StateArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool", None).await?;
+        wait_for(&transport, &[ServiceAddr::new(&args.component, "state")], wait).await?;
+        let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
+        if let Some(main) = &args.main {
+            master.set_state(main).await?;
+        }
+        let s = master.status().await?;
+        crate::cli::say(&format!(
+            "{}: {}{}",
+            args.component,
+            s.current,
+            s.pending.map(|p| format!(" (changing to {p})")).unwrap_or_default()
+        ));
+        transport.close().await;
+        Ok(())
+    })
+}
