@@ -213,10 +213,11 @@ impl CenterFollower {
         self.walls.note_heading(heading_rad, omega_rad_s, stamp.0);
     }
 
-    /// The bumpers report contact at `stamp`, ahead of or beside the body if `ahead` (see
-    /// [`crate::manoeuvres::contact_ahead`]): the robot backs out at once.
-    pub fn note_contact(&mut self, ahead: bool, stamp: Timestamp) {
-        self.unstick.note_contact(ahead, stamp.0);
+    /// The bumpers report contact at `stamp` in `direction_rad` from the direction of travel
+    /// (see [`crate::manoeuvres::contact_direction`]): ahead of or beside the body, the robot
+    /// backs out at once.
+    pub fn note_contact(&mut self, direction_rad: f64, stamp: Timestamp) {
+        self.unstick.note_contact(direction_rad, stamp.0);
     }
 
     /// The parameters.

@@ -11,7 +11,7 @@
 //! (see [`crate::manoeuvres::UnstickParams`]).
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
-use crate::manoeuvres::contact_ahead;
+use crate::manoeuvres::contact_direction;
 use crate::ring::{Ranges, RingGeometry, ranges};
 use crate::wallfollow::{WallFollowParams, WallFollower};
 use orsa_actors::event::{EventMode, Fired};
@@ -134,8 +134,8 @@ impl Component for WallFollow {
                 return Ok(());
             }
             WallFollowMsg::Contact(c) => {
-                if let Some(ahead) = contact_ahead(&c.event.value.pressed, st.steer_rad) {
-                    st.ctl.note_contact(ahead, c.event.value.stamp);
+                if let Some(direction) = contact_direction(&c.event.value.pressed, st.steer_rad) {
+                    st.ctl.note_contact(direction, c.event.value.stamp);
                 }
                 return Ok(());
             }
@@ -236,8 +236,8 @@ impl Component for CenterFollow {
                 return Ok(());
             }
             CenterFollowMsg::Contact(c) => {
-                if let Some(ahead) = contact_ahead(&c.event.value.pressed, st.steer_rad) {
-                    st.ctl.note_contact(ahead, c.event.value.stamp);
+                if let Some(direction) = contact_direction(&c.event.value.pressed, st.steer_rad) {
+                    st.ctl.note_contact(direction, c.event.value.stamp);
                 }
                 return Ok(());
             }

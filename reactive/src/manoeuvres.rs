@@ -127,8 +127,10 @@ impl DeadEnd {
 /// wheels slip and its odometry goes on counting the progress it does not make, so the window
 /// above never closes (wall following alone, seed 1: pinned against a waiting person for the
 /// rest of the hour). The bumpers are what tells: while they report contact ahead of or beside
-/// the body ([`Unstick::note_contact`], [`contact_ahead`]), the robot backs out at once; contact
-/// behind it while it backs ends the backing.
+/// the body ([`Unstick::note_contact`], [`contact_direction`]), the robot backs out at once;
+/// contact behind it while it backs ends the backing. If it cannot back out and still touches
+/// something beside it, it turns toward the widest opening on the other side: straight on would
+/// push it against what it touches again.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UnstickParams {
@@ -194,20 +196,20 @@ pub struct Unstick {
     window: Option<(u64, [f64; 2])>,
     /// The latest position (odometry), m.
     position: Option<[f64; 2]>,
-    /// The latest contact the bumpers reported: when (ns), and whether ahead or beside.
-    contact: Option<(u64, bool)>,
+    /// The latest contact the bumpers reported: when (ns), and its direction from the
+    /// direction of travel (rad, counter-clockwise).
+    contact: Option<(u64, f64)>,
     recovery: Recovery,
 }
 
 /// How long a contact report counts: the bumpers report every 30 ms while pressed.
 const CONTACT_FRESH_NS: u64 = 100_000_000;
 
-/// Whether the bumpers pressed in `pressed` touch the body ahead or beside it (their mean
-/// direction within 120 degrees of the direction of travel), `steer_rad` being the direction
-/// of travel relative to the base (the bumpers are fixed to the base, which never turns, not
-/// to the wheels); `None` when none is pressed. A robot pressed sideways against a wall does
-/// not move either (the simulator does not let it slide), and backing out frees it.
-pub fn contact_ahead(pressed: &[bool], steer_rad: f64) -> Option<bool> {
+/// Where the bumpers pressed in `pressed` touch the body: the direction of their mean, from
+/// the direction of travel (rad, counter-clockwise, in (-pi, pi]), `steer_rad` being the
+/// direction of travel relative to the base (the bumpers are fixed to the base, which never
+/// turns, not to the wheels); `None` when none is pressed.
+pub fn contact_direction(pressed: &[bool], steer_rad: f64) -> Option<f64> {
     let (mut along, mut across, mut any) = (0.0, 0.0, false);
     for (i, _) in pressed.iter().enumerate().filter(|(_, p)| **p) {
         let a = bumper_angle_rad(i) - steer_rad;
@@ -215,7 +217,14 @@ pub fn contact_ahead(pressed: &[bool], steer_rad: f64) -> Option<bool> {
         across += a.sin();
         any = true;
     }
-    any.then(|| along >= -0.5 * along.hypot(across))
+    any.then(|| across.atan2(along))
+}
+
+/// Whether a contact in direction `a` (from the direction of travel) is ahead of or beside the
+/// body: within 120 degrees of the direction of travel. A robot pressed sideways against a
+/// wall does not move either (the simulator does not let it slide), and backing out frees it.
+fn ahead_or_beside(a: f64) -> bool {
+    a.cos() >= -0.5
 }
 
 impl Unstick {
@@ -231,16 +240,23 @@ impl Unstick {
         }
     }
 
-    /// The bumpers report contact at `now` (ns), ahead of or beside the body if `ahead` (see
-    /// [`contact_ahead`]).
-    pub fn note_contact(&mut self, ahead: bool, now: u64) {
-        self.contact = Some((now, ahead));
+    /// The bumpers report contact at `now` (ns) in `direction_rad` from the direction of
+    /// travel (see [`contact_direction`]).
+    pub fn note_contact(&mut self, direction_rad: f64, now: u64) {
+        if direction_rad.is_finite() {
+            self.contact = Some((now, direction_rad));
+        }
+    }
+
+    /// The direction of a contact reported within [`CONTACT_FRESH_NS`] of `now`.
+    fn touching_at(&self, now: u64) -> Option<f64> {
+        self.contact.filter(|(t, _)| now.abs_diff(*t) <= CONTACT_FRESH_NS).map(|(_, a)| a)
     }
 
     /// Whether a contact reported within [`CONTACT_FRESH_NS`] of `now` is ahead or beside
     /// (`ahead`), or behind.
     fn touching(&self, ahead: bool, now: u64) -> bool {
-        self.contact.is_some_and(|(t, a)| a == ahead && now.abs_diff(t) <= CONTACT_FRESH_NS)
+        self.touching_at(now).is_some_and(|a| ahead_or_beside(a) == ahead)
     }
 
     /// The command to give instead of the behaviour's own at `now` (ns), if it is getting out of
@@ -268,7 +284,10 @@ impl Unstick {
             if now < until && rear_clear && !self.touching(false, now) {
                 return Some((-p.back_m_s, 0.0));
             }
-            let angle = wrap(ring_angle_rad(widest_opening(r)));
+            // Still touching something beside it (it could not back away): not straight on,
+            // into it again, but to the other side.
+            let away = self.touching_at(now).filter(|a| ahead_or_beside(*a) && a.sin().abs() > 0.5);
+            let angle = wrap(ring_angle_rad(widest_opening(r, away.map(|a| -a.sin().signum()))));
             // Steering takes about half a second to reach full rate.
             let until = now + secs_ns(angle.abs() / omega_max_rad_s + 0.5);
             let omega = if angle >= 0.0 { omega_max_rad_s } else { -omega_max_rad_s };
@@ -296,11 +315,17 @@ fn secs_ns(s: f64) -> u64 {
 }
 
 /// The sensor facing the widest opening: the one whose reading and both neighbours' are
-/// farthest (an opening, not a gap beside a person), the smallest turn first among equals.
-fn widest_opening(r: &Ranges) -> usize {
+/// farthest (an opening, not a gap beside a person), the smallest turn first among equals;
+/// with `side` (1: left, -1: right), only among the sensors on that side (1-7 or 9-15).
+fn widest_opening(r: &Ranges, side: Option<f64>) -> usize {
     let far = |i: usize| r[i % RING_SIZE].unwrap_or(f64::INFINITY);
     let mut best = (0usize, f64::NEG_INFINITY);
-    for i in [0, 1, 15, 2, 14, 3, 13, 4, 12, 5, 11, 6, 10, 7, 9, 8] {
+    let on_side = |i: usize| match side {
+        Some(s) if s > 0.0 => (1..=7).contains(&i),
+        Some(_) => (9..=15).contains(&i),
+        None => true,
+    };
+    for i in [0, 1, 15, 2, 14, 3, 13, 4, 12, 5, 11, 6, 10, 7, 9, 8].into_iter().filter(|&i| on_side(i)) {
         let d = far(i + RING_SIZE - 1).min(far(i)).min(far(i + 1));
         if d > best.1 {
             best = (i, d);
@@ -454,11 +479,11 @@ mod tests {
             u.note_position(&p, 0.25 * k as f64, 0.0, k * S);
             assert_eq!(u.step(&p, &r, w, k * S), None);
         }
-        u.note_contact(true, 3 * S);
+        u.note_contact(0.0, 3 * S);
         u.note_position(&p, 0.75, 0.0, 3 * S);
         assert_eq!(u.step(&p, &r, w, 3 * S + 10), Some((-0.10, 0.0)), "backs out at once");
         // Contact behind while backing ends the backing: it turns instead.
-        u.note_contact(false, 3 * S + S / 2);
+        u.note_contact(PI, 3 * S + S / 2);
         assert_eq!(
             u.step(&p, &r, w, 3 * S + S / 2),
             Some((0.0, w)),
@@ -468,13 +493,13 @@ mod tests {
         // recovery.
         let mut u = Unstick::default();
         u.note_position(&p, 0.0, 0.0, 0);
-        u.note_contact(true, 0);
+        u.note_contact(0.0, 0);
         assert_eq!(u.step(&p, &r, w, S / 5), None, "stale");
-        u.note_contact(false, S / 5);
+        u.note_contact(PI, S / 5);
         assert_eq!(u.step(&p, &r, w, S / 5), None, "behind");
         // Turned off, contact does nothing either.
         let off = UnstickParams { enabled: false, ..p };
-        u.note_contact(true, S);
+        u.note_contact(0.0, S);
         assert_eq!(u.step(&off, &r, w, S), None);
     }
 
@@ -488,16 +513,40 @@ mod tests {
             }
             p
         };
-        assert_eq!(contact_ahead(&pressed(&[]), 0.0), None);
+        let ahead = |ids: &[usize], steer: f64| contact_direction(&pressed(ids), steer).map(ahead_or_beside);
+        assert_eq!(contact_direction(&pressed(&[]), 0.0), None);
         // Bumper 0 faces the base's start-up heading, bumper 5 the opposite way.
-        assert_eq!(contact_ahead(&pressed(&[0, 10]), 0.0), Some(true));
-        assert_eq!(contact_ahead(&pressed(&[5, 15]), 0.0), Some(false));
+        assert_eq!(ahead(&[0, 10], 0.0), Some(true));
+        assert_eq!(ahead(&[5, 15], 0.0), Some(false));
         // The wheels have turned half round: the same bumpers are now behind and ahead.
-        assert_eq!(contact_ahead(&pressed(&[0, 10]), PI), Some(false));
-        assert_eq!(contact_ahead(&pressed(&[5, 15]), PI), Some(true));
+        assert_eq!(ahead(&[0, 10], PI), Some(false));
+        assert_eq!(ahead(&[5, 15], PI), Some(true));
         // Beside (bumper 7 at 252 degrees, with the robot steering at -90): counts as ahead.
-        assert_eq!(contact_ahead(&pressed(&[7]), -FRAC_PI_2), Some(true));
+        let beside = contact_direction(&pressed(&[7]), -FRAC_PI_2).expect("pressed");
+        assert!((beside - (-18f64).to_radians()).abs() < 1e-9, "{beside}");
         // 144 degrees off the direction of travel: behind.
-        assert_eq!(contact_ahead(&pressed(&[4]), 0.0), Some(false));
+        assert_eq!(ahead(&[4], 0.0), Some(false));
+    }
+
+    #[test]
+    fn pressed_sideways_with_no_room_behind_it_turns_away_from_what_it_touches() {
+        let p = UnstickParams::default();
+        let w = 45f64.to_radians();
+        // A wall close on the right and behind; open straight ahead, less so to the left.
+        let mut r: Ranges = [None; RING_SIZE];
+        r[7..=14].fill(Some(0.05));
+        r[2..=6].fill(Some(0.4));
+        let mut u = Unstick::default();
+        u.note_position(&p, 0.0, 0.0, 0);
+        u.note_contact(-FRAC_PI_2, S);
+        // It cannot back out; straight on is the widest opening, but that pushes it into the
+        // wall again: it turns left, toward the widest opening on that side (sensor 1).
+        let (v, omega) = u.step(&p, &r, w, S).expect("recovering");
+        assert_eq!((v, omega), (0.0, w));
+        // Touching ahead (not beside), it may go straight on after all: nothing to turn away from.
+        let mut u = Unstick::default();
+        u.note_position(&p, 0.0, 0.0, 0);
+        u.note_contact(0.2, S);
+        assert_eq!(u.step(&p, &r, w, S), None, "the widest opening is straight ahead");
     }
 }
