@@ -159,3 +159,28 @@ async fn following_the_wall_alone_it_holds_twenty_centimetres_and_touches_nobody
     assert!((clearance - 0.20).abs() < 0.02, "{clearance} m");
     assert!(out.report.distance_m > 250.0, "{} m", out.report.distance_m);
 }
+
+/// The bumpers' `contact` event reaches the behaviours across the stack and they back out on
+/// it. With the gap sharing off, following the wall alone on seed 1 drives the robot's right
+/// side into the waiting crossing person at t = 1376 s. Odometry keeps counting there (the
+/// wheels slip), so only contact can tell: with the recovery off the robot pushes on for good
+/// (one contact, stalled minutes); with it on every contact backs it out, and it comes back
+/// and touches again (a new contact onset each time) until the person walks on, without a
+/// stalled minute.
+#[tokio::test(start_paused = true)]
+async fn touching_something_the_behaviour_backs_out_on_the_contact_event() {
+    let run = |recovery: bool| {
+        let toml = format!(
+            "[wallfollow]\nshare_gaps = false\n[wallfollow.unstick]\nenabled = {recovery}\n\
+             [planner]\nmission = [{{ mode = \"follow_left_wall\", for_s = 1800 }}]\n"
+        );
+        let config = Config::from_toml(&toml, "contact.toml").expect("config");
+        mission::run(RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, 1800.0))
+    };
+    let pushed_on = run(false).await.expect("run");
+    assert_eq!(pushed_on.report.bumps, 1);
+    assert!(pushed_on.report.stalls >= 5, "{} stalled minutes", pushed_on.report.stalls);
+    let backed_out = run(true).await.expect("run");
+    assert!(backed_out.report.bumps >= 2, "{} contacts", backed_out.report.bumps);
+    assert_eq!(backed_out.report.stalls, 0);
+}
