@@ -193,12 +193,11 @@ impl WallFollower {
             d = front;
             alpha = -FRAC_PI_2;
         }
-        let target = match (estimate, right_of_path(ir, &self.ring)) {
-            (Some(w), Some(right)) if p.share_gaps && right < p.share_within_m => {
-                ((w.distance_m + right) / 2.0).clamp(0.0, p.target_m)
-            }
-            _ => p.target_m,
-        };
+        let shared = estimate.filter(|_| p.share_gaps).and_then(|w| {
+            let right = right_of_path(ir, &self.ring).filter(|r| *r < p.share_within_m)?;
+            Some(((w.distance_m + right) / 2.0).clamp(0.0, p.target_m))
+        });
+        let target = shared.unwrap_or(p.target_m);
         let mut omega = p.loops.omega(d - target, alpha);
         let wedged = self.wedge.step(ir, p.tight_gap_m, p.open_front_m, p.loops.omega_max_deg_s.to_radians());
         if let Some(turn) = wedged {
