@@ -2,10 +2,17 @@
 //!
 //! Movers change every step (and sensors see them where they were at the instant of firing),
 //! so every query takes them as a separate slice of circles.
+//!
+//! The static shapes never change, and every query reads all of their bounding boxes. Simulators
+//! of the same world therefore share one copy: a thousand robots in one process read the same
+//! few kilobytes, which stay in cache, instead of a thousand copies that evict each other. The
+//! sharing is by content, bit for bit, so it can change no answer.
 
 use crate::geometry::{self, Aabb, Circle, Point, Ray, Shape, Vector};
 use crate::world::World;
 use nalgebra::Unit;
+use parking_lot::Mutex;
+use std::sync::{Arc, Weak};
 
 /// The most rays one fan may have (the configuration allows up to 64 per sensor).
 pub(crate) const MAX_RAYS: usize = 64;
@@ -14,12 +21,29 @@ pub(crate) const MAX_RAYS: usize = 64;
 /// skips every shape whose box is out of its reach.
 #[derive(Debug, Clone)]
 pub(crate) struct Scene {
-    statics: Vec<(Shape, Aabb)>,
+    statics: Arc<Statics>,
 }
 
+/// Static shapes, each with its bounding box.
+type Statics = [(Shape, Aabb)];
+
+/// The static shapes of every scene alive in this process, for [`Scene::new`] to share.
+static STATICS: Mutex<Vec<Weak<Statics>>> = Mutex::new(Vec::new());
+
 impl Scene {
+    /// The scene of `world`'s static shapes, shared with every live scene whose shapes are the
+    /// same bit for bit.
     pub(crate) fn new(world: &World) -> Self {
-        Scene { statics: world.static_shapes().into_iter().map(|s| (s, s.bounds())).collect() }
+        let statics: Vec<(Shape, Aabb)> =
+            world.static_shapes().into_iter().map(|s| (s, s.bounds())).collect();
+        let mut alive = STATICS.lock();
+        alive.retain(|w| w.strong_count() > 0);
+        if let Some(same) = alive.iter().filter_map(Weak::upgrade).find(|s| same_bits(s, &statics)) {
+            return Scene { statics: same };
+        }
+        let statics: Arc<Statics> = statics.into();
+        alive.push(Arc::downgrade(&statics));
+        Scene { statics }
     }
 
     /// Every shape with its bounds: the static ones, then the movers.
@@ -120,6 +144,24 @@ impl Scene {
             .filter(|q| geometry::norm2(q.x - p.x, q.y - p.y) < within)
             .collect()
     }
+}
+
+/// Whether two lists of shapes are the same bit for bit (`==` would take 0.0 for -0.0).
+fn same_bits(a: &[(Shape, Aabb)], b: &[(Shape, Aabb)]) -> bool {
+    fn bits((shape, bounds): &(Shape, Aabb)) -> [u64; 9] {
+        let (tag, f) = match *shape {
+            Shape::Segment(s) => (0, [s.a.x, s.a.y, s.b.x, s.b.y]),
+            Shape::Circle(c) => (1, [c.center.x, c.center.y, c.radius, 0.0]),
+            Shape::Aabb(b) => (2, [b.min.x, b.min.y, b.max.x, b.max.y]),
+        };
+        let g = [bounds.min.x, bounds.min.y, bounds.max.x, bounds.max.y];
+        let mut out = [tag; 9];
+        for (o, v) in out[1..].iter_mut().zip(f.iter().chain(&g)) {
+            *o = v.to_bits();
+        }
+        out
+    }
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| bits(x) == bits(y))
 }
 
 /// The two outermost rays of a fan narrower than half a turn, for culling whole shapes.
@@ -243,5 +285,27 @@ mod tests {
         let f = scene.max_travel_fraction(&person, &p, &Vector::new(4.0, 0.0), 0.25);
         assert!((f - 2.25 / 4.0).abs() < 1e-12, "{f}");
         assert_eq!(scene.touching(&[], &Point::new(1.0, 0.3), 0.31), vec![Point::new(1.0, 0.0)]);
+    }
+
+    /// Scenes of the same world share one copy of its shapes; a world that differs in any bit
+    /// (a shape moved, or 0.0 written -0.0) gets its own, and the copy lives only as long as a
+    /// scene uses it.
+    #[test]
+    fn scenes_of_the_same_world_share_their_shapes() {
+        let a = Scene::new(&corridor());
+        let b = Scene::new(&corridor());
+        assert!(Arc::ptr_eq(&a.statics, &b.statics));
+        let mut moved = corridor();
+        moved.walls[0].points[1] = [10.5, 0.0];
+        let c = Scene::new(&moved);
+        assert!(!Arc::ptr_eq(&a.statics, &c.statics));
+        assert_eq!(c.ray_cast(&[], &Ray::at_angle(Point::new(1.0, 1.0), 0.0), 20.0), Some(9.25)); // the east wall now slants through (10.25, 1)
+        let mut signed = corridor();
+        signed.walls[0].points[0] = [-0.0, 0.0];
+        let d = Scene::new(&signed);
+        assert!(!Arc::ptr_eq(&a.statics, &d.statics));
+        let weak = Arc::downgrade(&c.statics);
+        drop(c);
+        assert!(weak.upgrade().is_none(), "the last scene of a world frees its shapes");
     }
 }
