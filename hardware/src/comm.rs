@@ -61,7 +61,7 @@ pub struct DistanceReading {
 }
 
 /// The latest reading of every sensor of a ring.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct DistanceScan {
     /// The newest reading's stamp (each reading has its own).
     pub stamp: Timestamp,
@@ -72,6 +72,19 @@ pub struct DistanceScan {
 }
 comm_object!(DistanceScan, "orsa.nomad200.DistanceScan/1");
 
+impl Clone for DistanceScan {
+    fn clone(&self) -> Self {
+        DistanceScan { stamp: self.stamp, ring: self.ring, readings: self.readings.clone() }
+    }
+
+    /// Reuses `self`'s buffer of readings (a derived `Clone` would allocate a new one).
+    fn clone_from(&mut self, source: &Self) {
+        self.stamp = source.stamp;
+        self.ring = source.ring;
+        self.readings.clone_from(&source.readings);
+    }
+}
+
 impl DistanceScan {
     /// Sensor `id`'s distance, if its reading is valid.
     pub fn valid_distance_m(&self, id: usize) -> Option<f64> {
@@ -80,7 +93,7 @@ impl DistanceScan {
 }
 
 /// The bumper ring's contact state.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ContactScan {
     /// When it was read.
     pub stamp: Timestamp,
@@ -88,6 +101,18 @@ pub struct ContactScan {
     pub pressed: Vec<bool>,
 }
 comm_object!(ContactScan, "orsa.nomad200.ContactScan/1");
+
+impl Clone for ContactScan {
+    fn clone(&self) -> Self {
+        ContactScan { stamp: self.stamp, pressed: self.pressed.clone() }
+    }
+
+    /// Reuses `self`'s buffer (a derived `Clone` would allocate a new one).
+    fn clone_from(&mut self, source: &Self) {
+        self.stamp = source.stamp;
+        self.pressed.clone_from(&source.pressed);
+    }
+}
 
 impl ContactScan {
     /// Whether any bumper is pressed.
@@ -251,6 +276,37 @@ mod tests {
             max_range_m: 6.0,
             fire_period_s: 0.004,
         }
+    }
+
+    /// `clone_from` gives an equal scan in the buffer the target already had.
+    #[test]
+    fn scans_clone_into_the_buffer_they_have() {
+        let reading = |i: u8, d: f64| DistanceReading {
+            sensor_id: i,
+            stamp: Timestamp(7),
+            valid: i != 3,
+            distance_m: d,
+        };
+        let mut last = DistanceScan {
+            stamp: Timestamp(1),
+            ring: Ring::Sonar,
+            readings: (0..16).map(|i| reading(i, 1.0)).collect(),
+        };
+        let next = DistanceScan {
+            stamp: Timestamp(2),
+            ring: Ring::Infrared,
+            readings: (0..16).map(|i| reading(i, 0.5)).collect(),
+        };
+        let buffer = last.readings.as_ptr();
+        last.clone_from(&next);
+        assert_eq!(last, next);
+        assert_eq!(last.readings.as_ptr(), buffer);
+        let mut pressed = ContactScan { stamp: Timestamp(1), pressed: vec![false; 20] };
+        let contact = ContactScan { stamp: Timestamp(2), pressed: (0..20).map(|i| i == 4).collect() };
+        let buffer = pressed.pressed.as_ptr();
+        pressed.clone_from(&contact);
+        assert_eq!(pressed, contact);
+        assert_eq!(pressed.pressed.as_ptr(), buffer);
     }
 
     #[test]

@@ -138,7 +138,11 @@ impl BoardFaults {
             _ => (s.infrared, &mut s.last_infrared),
         };
         match fault {
-            None => *last = Some(scan.clone()),
+            // Kept in place: the buffer of the scan before is reused, not reallocated.
+            None => match last {
+                Some(last) => last.clone_from(&scan),
+                None => *last = Some(scan.clone()),
+            },
             Some(SensorFault::Stuck) => {
                 if let Some(old) = last {
                     for (r, o) in scan.readings.iter_mut().zip(&old.readings) {
@@ -167,7 +171,10 @@ impl BoardFaults {
     fn contacts(&self, mut scan: ContactScan) -> ContactScan {
         let mut s = self.0.lock();
         match s.bumpers {
-            None => s.last_bumpers = Some(scan.clone()),
+            None => match &mut s.last_bumpers {
+                Some(last) => last.clone_from(&scan),
+                None => s.last_bumpers = Some(scan.clone()),
+            },
             Some(SensorFault::Stuck) => {
                 if let Some(old) = &s.last_bumpers {
                     scan.pressed.clone_from(&old.pressed);
