@@ -134,7 +134,9 @@ struct Inner {
     spec: StateSpec,
     current: String,
     pending: Option<String>,
-    held: BTreeMap<String, usize>,
+    /// How many activities hold each substate. An entry stays at zero once released, so that
+    /// holding a substate again, once per message in a behaviour, allocates nothing.
+    held: BTreeMap<Arc<str>, usize>,
 }
 
 impl Inner {
@@ -147,8 +149,8 @@ impl Inner {
         let allowed = self.spec.main.get(target);
         self.held
             .iter()
-            .filter(|(sub, n)| **n > 0 && !allowed.is_some_and(|a| a.contains(*sub)))
-            .map(|(sub, _)| sub.clone())
+            .filter(|(sub, n)| **n > 0 && !allowed.is_some_and(|a| a.contains(&***sub)))
+            .map(|(sub, _)| sub.to_string())
             .collect()
     }
 
@@ -173,7 +175,7 @@ pub struct StateSlave {
 #[must_use = "the substate is released when the guard is dropped"]
 pub struct SubstateGuard {
     slave: Arc<StateSlave>,
-    sub: String,
+    sub: Arc<str>,
 }
 
 impl std::fmt::Debug for SubstateGuard {
@@ -184,16 +186,22 @@ impl std::fmt::Debug for SubstateGuard {
 
 impl Drop for SubstateGuard {
     fn drop(&mut self) {
-        {
+        // Only a main-state change waiting for substates to be released needs to hear of it;
+        // it set `pending` under the same lock before it looked at what is held.
+        let released_for_change = {
             let mut inner = self.slave.inner.lock();
-            if let Some(n) = inner.held.get_mut(&self.sub) {
-                *n = n.saturating_sub(1);
-                if *n == 0 {
-                    inner.held.remove(&self.sub);
+            let last = match inner.held.get_mut(&*self.sub) {
+                Some(n) => {
+                    *n = n.saturating_sub(1);
+                    *n == 0
                 }
-            }
+                None => false,
+            };
+            last && inner.pending.is_some()
+        };
+        if released_for_change {
+            self.slave.bump();
         }
-        self.slave.bump();
     }
 }
 
@@ -265,7 +273,7 @@ impl StateSlave {
         StateStatus {
             current: inner.current.clone(),
             pending: inner.pending.clone(),
-            held: inner.held.clone(),
+            held: inner.held.iter().filter(|(_, n)| **n > 0).map(|(s, n)| (s.to_string(), *n)).collect(),
             main_states: inner.spec.main.clone(),
         }
     }
@@ -388,8 +396,12 @@ impl StateHandle {
         if !inner.allows(substate) {
             return Ok(None);
         }
-        *inner.held.entry(substate.to_string()).or_insert(0) += 1;
-        Ok(Some(SubstateGuard { slave: Arc::clone(&self.slave), sub: substate.to_string() }))
+        let sub: Arc<str> = match inner.held.get_key_value(substate) {
+            Some((sub, _)) => Arc::clone(sub),
+            None => substate.into(),
+        };
+        *inner.held.entry(Arc::clone(&sub)).or_insert(0) += 1;
+        Ok(Some(SubstateGuard { slave: Arc::clone(&self.slave), sub }))
     }
 
     /// The current main state.

@@ -63,6 +63,33 @@ async fn state_pending_change_blocks_new_acquires_of_excluded_substates() {
     assert_eq!(master.status().await.expect("status").current, "neutral");
 }
 
+/// A substate held by two activities stays held until both let go, however often it was held
+/// and released before; the status lists only what is held now.
+#[tokio::test(start_paused = true)]
+async fn state_a_substate_is_held_until_its_last_holder_releases_it() {
+    let registry = Registry::new();
+    let slave = slave(&registry);
+    let master = StateMaster::connect(&registry, "wallfollow").expect("master");
+    master.set_state("active").await.expect("set");
+    for _ in 0..3 {
+        drop(slave.handle().try_acquire("drive").expect("acquire"));
+    }
+    assert!(master.status().await.expect("status").held.is_empty(), "released is not held");
+    let first = slave.handle().try_acquire("drive").expect("acquire");
+    let second = slave.handle().try_acquire("drive").expect("acquire");
+    assert_eq!(master.status().await.expect("status").held.get("drive"), Some(&2));
+    let m = master.clone();
+    let change = tokio::spawn(async move { m.set_state("sensing").await });
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    drop(first);
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    assert!(!change.is_finished(), "one holder of drive is left");
+    drop(second);
+    assert_eq!(change.await.expect("task"), Ok(()));
+    let status = master.status().await.expect("status");
+    assert_eq!((status.current.as_str(), status.held.len()), ("sensing", 0));
+}
+
 #[tokio::test(start_paused = true)]
 async fn state_try_set_answers_busy_with_the_held_substates() {
     let registry = Registry::new();
