@@ -134,28 +134,66 @@ struct Inner {
     spec: StateSpec,
     current: String,
     pending: Option<String>,
-    /// How many activities hold each substate. An entry stays at zero once released, so that
-    /// holding a substate again, once per message in a behaviour, allocates nothing.
-    held: BTreeMap<Arc<str>, usize>,
+    /// Every substate the spec declares (and any it no longer declares that is still held),
+    /// with what `spec`, `current` and `pending` make of it; [`Inner::refresh`] keeps it in step
+    /// with them. Holding a substate, which a behaviour does for every message, reads this
+    /// short list and allocates nothing, instead of walking the spec's maps of names.
+    subs: Vec<Sub>,
+}
+
+/// A substate as [`Inner::subs`] keeps it.
+struct Sub {
+    name: Arc<str>,
+    /// How many activities hold it.
+    held: usize,
+    /// Whether the spec declares it.
+    known: bool,
+    /// Whether it may be held now (see [`Inner::allows`]).
+    allowed: bool,
 }
 
 impl Inner {
+    fn new(spec: StateSpec) -> Inner {
+        let mut inner = Inner { current: spec.initial.clone(), spec, pending: None, subs: Vec::new() };
+        inner.refresh();
+        inner
+    }
+
+    /// Whether `sub` may be held now: the current main state contains it, and so does the one
+    /// a pending change goes to.
     fn allows(&self, sub: &str) -> bool {
         let contains = |m: &str| self.spec.main.get(m).is_some_and(|s| s.contains(sub));
         contains(&self.current) && self.pending.as_deref().is_none_or(contains)
     }
 
-    fn blocking(&self, target: &str) -> Vec<String> {
-        let allowed = self.spec.main.get(target);
-        self.held
-            .iter()
-            .filter(|(sub, n)| **n > 0 && !allowed.is_some_and(|a| a.contains(&***sub)))
-            .map(|(sub, _)| sub.to_string())
-            .collect()
+    /// Brings `subs` in step with `spec`, `current` and `pending`; called after every change
+    /// of one of them.
+    fn refresh(&mut self) {
+        for name in self.spec.main.values().flatten() {
+            if !self.subs.iter().any(|s| &*s.name == name.as_str()) {
+                self.subs.push(Sub { name: name.as_str().into(), held: 0, known: true, allowed: false });
+            }
+        }
+        let mut subs = std::mem::take(&mut self.subs);
+        subs.retain_mut(|s| {
+            s.known = self.spec.main.values().any(|set| set.contains(&*s.name));
+            s.allowed = s.known && self.allows(&s.name);
+            s.known || s.held > 0
+        });
+        self.subs = subs;
     }
 
-    fn known_substate(&self, sub: &str) -> bool {
-        self.spec.main.values().any(|s| s.contains(sub))
+    /// The held substates that `target` does not contain, in name order.
+    fn blocking(&self, target: &str) -> Vec<String> {
+        let allowed = self.spec.main.get(target);
+        let mut blocking: Vec<String> = self
+            .subs
+            .iter()
+            .filter(|s| s.held > 0 && !allowed.is_some_and(|a| a.contains(&*s.name)))
+            .map(|s| s.name.to_string())
+            .collect();
+        blocking.sort_unstable();
+        blocking
     }
 }
 
@@ -190,13 +228,15 @@ impl Drop for SubstateGuard {
         // it set `pending` under the same lock before it looked at what is held.
         let released_for_change = {
             let mut inner = self.slave.inner.lock();
-            let last = match inner.held.get_mut(&*self.sub) {
-                Some(n) => {
-                    *n = n.saturating_sub(1);
-                    *n == 0
+            let mut last = false;
+            if let Some(i) = inner.subs.iter().position(|s| Arc::ptr_eq(&s.name, &self.sub)) {
+                let sub = &mut inner.subs[i];
+                sub.held = sub.held.saturating_sub(1);
+                last = sub.held == 0;
+                if last && !sub.known {
+                    inner.subs.swap_remove(i); // declared no more, and now released
                 }
-                None => false,
-            };
+            }
             last && inner.pending.is_some()
         };
         if released_for_change {
@@ -220,12 +260,7 @@ impl StateSlave {
             tap: registry.tap_slot(),
             clock: registry.clock(),
             addr: addr.clone(),
-            inner: Mutex::new(Inner {
-                current: spec.initial.clone(),
-                spec,
-                pending: None,
-                held: BTreeMap::new(),
-            }),
+            inner: Mutex::new(Inner::new(spec)),
             version: watch::Sender::new(0),
             cancel: watch::Sender::new(0),
             change: tokio::sync::Mutex::new(()),
@@ -243,6 +278,7 @@ impl StateSlave {
             inner.current = spec.initial.clone();
         }
         inner.spec = spec;
+        inner.refresh();
         drop(inner);
         self.bump();
         Ok(())
@@ -273,7 +309,7 @@ impl StateSlave {
         StateStatus {
             current: inner.current.clone(),
             pending: inner.pending.clone(),
-            held: inner.held.iter().filter(|(_, n)| **n > 0).map(|(s, n)| (s.to_string(), *n)).collect(),
+            held: inner.subs.iter().filter(|s| s.held > 0).map(|s| (s.name.to_string(), s.held)).collect(),
             main_states: inner.spec.main.clone(),
         }
     }
@@ -292,7 +328,11 @@ impl StateSlave {
     async fn set(&self, main: &str) -> PatternResult<()> {
         self.check_main(main)?;
         let _one_change_at_a_time = self.change.lock().await;
-        self.inner.lock().pending = Some(main.to_string());
+        {
+            let mut inner = self.inner.lock();
+            inner.pending = Some(main.to_string());
+            inner.refresh();
+        }
         self.bump();
         // If the master stops waiting (timeout, select, abort), the change is withdrawn, so
         // substates it would have excluded can be acquired again.
@@ -304,6 +344,7 @@ impl StateSlave {
                 if inner.blocking(main).is_empty() {
                     inner.current = main.to_string();
                     inner.pending = None;
+                    inner.refresh();
                     drop(inner);
                     withdraw.armed = false;
                     self.bump();
@@ -328,6 +369,7 @@ impl StateSlave {
             return Err(PatternError::Busy(blocking));
         }
         inner.current = main.to_string();
+        inner.refresh();
         drop(inner);
         self.bump();
         self.record();
@@ -349,7 +391,10 @@ struct Withdraw<'a> {
 impl Drop for Withdraw<'_> {
     fn drop(&mut self) {
         if self.armed {
-            self.slave.inner.lock().pending = None;
+            let mut inner = self.slave.inner.lock();
+            inner.pending = None;
+            inner.refresh();
+            drop(inner);
             self.slave.bump();
         }
     }
@@ -390,18 +435,14 @@ impl StateHandle {
 
     fn grab(&self, substate: &str) -> PatternResult<Option<SubstateGuard>> {
         let mut inner = self.slave.inner.lock();
-        if !inner.known_substate(substate) {
+        let Some(sub) = inner.subs.iter_mut().find(|s| s.known && &*s.name == substate) else {
             return Err(PatternError::Unknown { kind: "substate", name: substate.to_string() });
-        }
-        if !inner.allows(substate) {
+        };
+        if !sub.allowed {
             return Ok(None);
         }
-        let sub: Arc<str> = match inner.held.get_key_value(substate) {
-            Some((sub, _)) => Arc::clone(sub),
-            None => substate.into(),
-        };
-        *inner.held.entry(Arc::clone(&sub)).or_insert(0) += 1;
-        Ok(Some(SubstateGuard { slave: Arc::clone(&self.slave), sub }))
+        sub.held += 1;
+        Ok(Some(SubstateGuard { slave: Arc::clone(&self.slave), sub: Arc::clone(&sub.name) }))
     }
 
     /// The current main state.

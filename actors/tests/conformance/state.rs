@@ -90,6 +90,31 @@ async fn state_a_substate_is_held_until_its_last_holder_releases_it() {
     assert_eq!((status.current.as_str(), status.held.len()), ("sensing", 0));
 }
 
+/// Main states declared again (a restarted component's new spec): a substate the new spec
+/// drops is unknown to new holders but stays held, and blocks, until its holder lets go; one
+/// it adds can be held at once.
+#[tokio::test(start_paused = true)]
+async fn state_declaring_again_keeps_what_is_held_until_it_is_released() {
+    let registry = Registry::new();
+    let slave = slave(&registry);
+    let master = StateMaster::connect(&registry, "wallfollow").expect("master");
+    master.set_state("active").await.expect("set");
+    let drive = slave.handle().try_acquire("drive").expect("acquire");
+    slave
+        .declare(StateSpec::new().main_state("active", &["sense", "steer"]).main_state("sensing", &["sense"]))
+        .expect("declare");
+    assert!(matches!(slave.handle().try_acquire("drive"), Err(PatternError::Unknown { .. })));
+    let steer = slave.handle().try_acquire("steer").expect("a newly declared substate");
+    assert_eq!(
+        master.try_set_state("sensing").await,
+        Err(PatternError::Busy(vec!["drive".into(), "steer".into()]))
+    );
+    drop((drive, steer));
+    assert!(master.status().await.expect("status").held.is_empty());
+    master.try_set_state("sensing").await.expect("nothing held");
+    assert!(slave.handle().try_acquire("steer").is_err(), "sensing does not contain steer");
+}
+
 #[tokio::test(start_paused = true)]
 async fn state_try_set_answers_busy_with_the_held_substates() {
     let registry = Registry::new();
