@@ -24,8 +24,73 @@ pub(crate) struct Scene {
     statics: Arc<Statics>,
 }
 
-/// Static shapes, each with its bounding box.
-type Statics = [(Shape, Aabb)];
+/// Static shapes, each with its bounding box, and an index of them along x.
+#[derive(Debug)]
+struct Statics {
+    shapes: Vec<(Shape, Aabb)>,
+    /// `None` when there are too many shapes for a query's list of those it has seen.
+    strips: Option<Strips>,
+}
+
+/// The static shapes by strips of the world along x. A ray query visits the strips in order of
+/// their distance from its origin and stops at the first one beyond its nearest hit so far, so
+/// in a corridor it looks at the few shapes around the robot instead of all of them.
+///
+/// The answer cannot change: a shape whose box is within the query's reach lies in a strip no
+/// farther than its box, and every such strip is visited. Each shape is listed in the strips
+/// its box overlaps and in one more on each side, so rounding in placing it cannot hide it.
+#[derive(Debug)]
+struct Strips {
+    x0: f64,
+    width: f64,
+    shapes: Vec<Vec<u16>>,
+}
+
+impl Strips {
+    /// The strip width aimed at, m: about a sensor's reach in a corridor.
+    const WIDTH_M: f64 = 0.5;
+    /// At most this many strips, however large the world.
+    const MAX: usize = 4096;
+    /// At most this many shapes (a query keeps a bit per shape on its stack).
+    const MAX_SHAPES: usize = 64 * SEEN_WORDS;
+
+    fn new(shapes: &[(Shape, Aabb)]) -> Option<Strips> {
+        if shapes.is_empty() || shapes.len() > Self::MAX_SHAPES {
+            return None;
+        }
+        let x0 = shapes.iter().map(|(_, b)| b.min.x).fold(f64::INFINITY, f64::min);
+        let x1 = shapes.iter().map(|(_, b)| b.max.x).fold(f64::NEG_INFINITY, f64::max);
+        if !(x0.is_finite() && x1.is_finite()) {
+            return None;
+        }
+        let count = (((x1 - x0) / Self::WIDTH_M).ceil() as usize).clamp(1, Self::MAX);
+        let width = ((x1 - x0) / count as f64).max(f64::MIN_POSITIVE);
+        let mut strips = Strips { x0, width, shapes: vec![Vec::new(); count] };
+        for (k, (_, b)) in shapes.iter().enumerate() {
+            let (first, last) =
+                (strips.index(b.min.x).saturating_sub(1), (strips.index(b.max.x) + 1).min(count - 1));
+            for strip in &mut strips.shapes[first..=last] {
+                strip.push(u16::try_from(k).ok()?);
+            }
+        }
+        Some(strips)
+    }
+
+    /// The strip `x` falls in, clamped to the strips there are.
+    fn index(&self, x: f64) -> usize {
+        let i = ((x - self.x0) / self.width).floor();
+        if i <= 0.0 { 0 } else { (i as usize).min(self.shapes.len() - 1) }
+    }
+
+    /// How far strip `i` lies from `x` along x (0 inside it).
+    fn gap(&self, i: usize, x: f64) -> f64 {
+        let left = self.x0 + i as f64 * self.width;
+        (left - x).max(x - (left + self.width)).max(0.0)
+    }
+}
+
+/// Words of the bit set in which a strip query marks the shapes it has looked at.
+const SEEN_WORDS: usize = 16;
 
 /// The static shapes of every scene alive in this process, for [`Scene::new`] to share.
 static STATICS: Mutex<Vec<Weak<Statics>>> = Mutex::new(Vec::new());
@@ -38,17 +103,17 @@ impl Scene {
             world.static_shapes().into_iter().map(|s| (s, s.bounds())).collect();
         let mut alive = STATICS.lock();
         alive.retain(|w| w.strong_count() > 0);
-        if let Some(same) = alive.iter().filter_map(Weak::upgrade).find(|s| same_bits(s, &statics)) {
+        if let Some(same) = alive.iter().filter_map(Weak::upgrade).find(|s| same_bits(&s.shapes, &statics)) {
             return Scene { statics: same };
         }
-        let statics: Arc<Statics> = statics.into();
+        let statics = Arc::new(Statics { strips: Strips::new(&statics), shapes: statics });
         alive.push(Arc::downgrade(&statics));
         Scene { statics }
     }
 
     /// Every shape with its bounds: the static ones, then the movers.
     fn shapes<'a>(&'a self, movers: &'a [Circle]) -> impl Iterator<Item = (Shape, Aabb)> + 'a {
-        self.statics.iter().copied().chain(movers.iter().map(|c| (Shape::Circle(*c), c.bounds())))
+        self.statics.shapes.iter().copied().chain(movers.iter().map(|c| (Shape::Circle(*c), c.bounds())))
     }
 
     /// The nearest distance at which any ray from `origin` at `axis + offsets[k]` meets a
@@ -86,18 +151,60 @@ impl Scene {
     ) -> Option<f64> {
         let mut reach = max;
         let mut best = None;
-        for (shape, bounds) in self.shapes(movers) {
-            if bounds.distance(origin) > reach || fan.is_some_and(|f| f.misses(origin, &bounds)) {
-                continue;
+        let mut consider = |shape: &Shape, bounds: &Aabb, reach: &mut f64| {
+            if bounds.distance(origin) > *reach || fan.is_some_and(|f| f.misses(origin, bounds)) {
+                return;
             }
             for ray in rays {
                 if let Some(t) = shape.ray_hit(ray)
-                    && t <= reach
+                    && t <= *reach
                 {
-                    reach = t;
+                    *reach = t;
                     best = Some(t);
                 }
             }
+        };
+        match &self.statics.strips {
+            Some(strips) if origin.x.is_finite() => {
+                let mut seen = [0u64; SEEN_WORDS];
+                let home = strips.index(origin.x);
+                // The next strip to visit on the left (`None`: none left) and on the right.
+                let (mut left, mut right) = (Some(home), home + 1);
+                loop {
+                    let gap_left = left.map_or(f64::INFINITY, |i| strips.gap(i, origin.x));
+                    let gap_right =
+                        if right < strips.shapes.len() { strips.gap(right, origin.x) } else { f64::INFINITY };
+                    let (i, gap) = match left {
+                        Some(i) if gap_left <= gap_right => {
+                            left = i.checked_sub(1);
+                            (i, gap_left)
+                        }
+                        _ => {
+                            right += 1;
+                            (right - 1, gap_right)
+                        }
+                    };
+                    if gap > reach || gap == f64::INFINITY {
+                        break;
+                    }
+                    for &k in &strips.shapes[i] {
+                        let (word, bit) = (usize::from(k) / 64, 1u64 << (k % 64));
+                        if seen[word] & bit == 0 {
+                            seen[word] |= bit;
+                            let (shape, bounds) = &self.statics.shapes[usize::from(k)];
+                            consider(shape, bounds, &mut reach);
+                        }
+                    }
+                }
+            }
+            _ => {
+                for (shape, bounds) in &self.statics.shapes {
+                    consider(shape, bounds, &mut reach);
+                }
+            }
+        }
+        for c in movers {
+            consider(&Shape::Circle(*c), &c.bounds(), &mut reach);
         }
         best
     }
@@ -307,5 +414,56 @@ mod tests {
         let weak = Arc::downgrade(&c.statics);
         drop(c);
         assert!(weak.upgrade().is_none(), "the last scene of a world frees its shapes");
+    }
+
+    /// Visiting the strips nearest first gives what looking at every shape gives, bit for bit:
+    /// worlds of scattered shapes, origins inside and outside them, reaches up to infinite.
+    #[test]
+    fn the_strips_change_no_answer() {
+        use crate::world::{BoxObstacle, Disc};
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut hits = 0;
+        for world_no in 0..40 {
+            let mut world = corridor();
+            let point = |rng: &mut rand_chacha::ChaCha8Rng| {
+                [rng.random_range(-5.0..60.0), rng.random_range(-2.0..4.0)]
+            };
+            let walls = rng.random_range(1..6);
+            world.walls = (0..walls)
+                .map(|_| {
+                    let n = rng.random_range(2..8);
+                    Wall { points: (0..n).map(|_| point(&mut rng)).collect(), closed: false }
+                })
+                .collect();
+            world.boxes = (0..3)
+                .map(|_| {
+                    let [x, y] = point(&mut rng);
+                    BoxObstacle { min: [x, y], max: [x + 0.3, y + 0.2] }
+                })
+                .collect();
+            world.discs = (0..3).map(|_| Disc { center: point(&mut rng), radius: 0.2 }).collect();
+            let scene = Scene::new(&world);
+            assert!(scene.statics.strips.is_some());
+            let every =
+                Scene { statics: Arc::new(Statics { shapes: scene.statics.shapes.clone(), strips: None }) };
+            for _ in 0..300 {
+                let origin = Point::new(rng.random_range(-15.0..75.0), rng.random_range(-4.0..6.0));
+                let axis = rng.random_range(-4.0..4.0);
+                let offsets = [-0.2, -0.05, 0.0, 0.1, 0.2];
+                let max = [0.3, 2.0, 6.0, 100.0][rng.random_range(0..4)];
+                let movers = [Circle::new(Point::new(origin.x + 0.5, origin.y), 0.25)];
+                assert_eq!(
+                    scene.ray_fan(&movers, origin, axis, &offsets, max),
+                    every.ray_fan(&movers, origin, axis, &offsets, max),
+                    "world {world_no} at {origin:?}"
+                );
+                let ray = Ray::at_angle(origin, axis);
+                let cast = scene.ray_cast(&[], &ray, f64::INFINITY);
+                assert_eq!(cast, every.ray_cast(&[], &ray, f64::INFINITY), "world {world_no} at {origin:?}");
+                hits += usize::from(cast.is_some_and(|t| t > 6.0));
+            }
+        }
+        assert!(hits > 500, "the sample must hit things far away: {hits}");
     }
 }
