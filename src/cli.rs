@@ -60,8 +60,12 @@ pub struct BenchArgs {
     pub markdown: Option<PathBuf>,
     /// Internal: run as the peer process of the cross-process bench, connecting to this
     /// endpoint (`orsa bench` starts it by itself).
-    #[arg(long, hide = true, value_name = "ENDPOINT")]
+    #[arg(long, hide = true, value_name = "ENDPOINT", conflicts_with = "sim_part")]
     pub peer: Option<String>,
+    /// Internal: run one simulation part of the bench in this process and print its figures
+    /// (`orsa bench` starts one process per part by itself).
+    #[arg(long, hide = true, value_name = "SPEC")]
+    pub sim_part: Option<String>,
 }
 
 /// Arguments of `orsa run`.
@@ -219,6 +223,9 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
 fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
     if let Some(endpoint) = &args.peer {
         return crate::bench::serve_peer(endpoint);
+    }
+    if let Some(spec) = &args.sim_part {
+        return crate::bench::serve_sim_part(spec);
     }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
         ensure_parent(p)?;

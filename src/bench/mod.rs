@@ -18,11 +18,13 @@
 //!
 //! The benches on tokio's running clock go first: once any runtime in a process has paused its
 //! clock, every later read of tokio's clock takes a slower path (tokio's `test-util`), which
-//! would tax orsa's stamps and not the raw baselines.
+//! would tax orsa's stamps and not the raw baselines. The simulation parts, which pause it, each
+//! run in a fresh process of their own (see `part`), as a user's program would.
 
 mod fanout;
 mod inproc;
 mod net;
+mod part;
 mod peer;
 mod probe;
 mod render;
@@ -40,6 +42,13 @@ use std::time::Instant;
 /// `orsa bench` starts by itself) until the bench process tells it to leave or goes away.
 pub fn serve_peer(endpoint: &str) -> anyhow::Result<()> {
     peer::run(endpoint)
+}
+
+/// Runs one simulation part of the bench in this process and prints its figures
+/// (`orsa bench --sim-part SPEC`, which `orsa bench` starts by itself: each simulation part
+/// runs in a fresh process).
+pub fn serve_sim_part(spec: &str) -> anyhow::Result<()> {
+    part::serve(spec)
 }
 
 /// What to run.
@@ -230,7 +239,7 @@ pub struct SenseLeg {
 }
 
 /// `orsa run`'s speed: the corridor mission on a paused clock, start-up and shutdown included.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct MissionRtf {
     /// Simulated seconds.
     pub simulated_s: f64,
@@ -245,7 +254,7 @@ pub struct MissionRtf {
 }
 
 /// N whole stacks in one process on one paused clock.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct ScaleRow {
     /// Robots, each with its own simulator, components, supervisor and registry.
     pub robots: usize,
@@ -495,7 +504,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     };
 
     say(format!("simulation: the corridor mission, {:.0} simulated s", plan.mission_s));
-    let mission = sim::mission(plan.mission_s)?;
+    let mission = part::mission(part::exe_launcher, plan.mission_s)?;
     let mut scale = Vec::new();
     for &n in &plan.scale {
         let measure = (plan.scale_robot_s / n as f64).max(plan.scale_min_s);
@@ -503,8 +512,8 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         say(format!("simulation: {n} robots, {measure:.0} simulated s measured, {repeats} run(s)"));
         let (mut rows, mut raws) = (Vec::with_capacity(repeats), Vec::with_capacity(repeats));
         for _ in 0..repeats {
-            rows.push(sim::scale(n, plan.scale_warm_s, measure)?);
-            let raw = sim::raw_scale(n, plan.scale_warm_s, measure)?;
+            rows.push(part::stack(part::exe_launcher, n, plan.scale_warm_s, measure)?);
+            let raw = part::raw(part::exe_launcher, n, plan.scale_warm_s, measure)?;
             anyhow::ensure!(
                 raw.steps > 0 && raw.commands > 0,
                 "the raw skeleton of {n} robots did not run: {raw:?}"

@@ -70,7 +70,7 @@ enum RawSimMsg {
 }
 
 /// What [`raw_scale`] measured.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct RawScale {
     /// Wall µs per robot per simulated second, over the measured span.
     pub(crate) us_per_robot_sim_s: f64,

@@ -403,3 +403,77 @@ fn a_failed_cross_process_bench_is_reported_not_fatal() {
     let text = render_markdown(&r);
     assert!(text.contains("## Across processes\n\nNot measured: not run in this test."), "{text}");
 }
+
+// ---- simulation parts in child processes ---------------------------------------------------
+
+/// The environment variable that makes [`sim_part_process`] run a part.
+const SIM_PART_ENV: &str = "ORSA_BENCH_TEST_SIM_PART";
+
+/// In tests the child is this harness again, running only [`sim_part_process`].
+fn sim_part_launcher(spec: &str) -> anyhow::Result<std::process::Command> {
+    let mut c = std::process::Command::new(std::env::current_exe()?);
+    c.args(["bench::tests::sim_part_process", "--exact", "--ignored", "--nocapture", "--test-threads=1"])
+        .env(SIM_PART_ENV, spec);
+    Ok(c)
+}
+
+#[test]
+#[ignore = "the child process of the simulation-part tests: they start it themselves"]
+fn sim_part_process() {
+    if let Ok(spec) = std::env::var(SIM_PART_ENV) {
+        part::serve(&spec).expect("the simulation part");
+    }
+}
+
+#[test]
+fn sim_part_specs_read_back_and_bad_ones_name_the_field() {
+    for p in [
+        part::Part::Mission { duration_s: 0.1 },
+        part::Part::Stack { robots: 1000, warm_s: 2.0, measure_s: 1.0 / 3.0 },
+        part::Part::Raw { robots: 7, warm_s: 0.0, measure_s: 1e-3 },
+    ] {
+        assert_eq!(part::Part::parse(&p.spec()).expect("reads back"), p, "{}", p.spec());
+    }
+    for (spec, names) in [
+        ("stack:0:1:1", "robots `0`"),
+        ("raw:-3:1:1", "robots `-3`"),
+        ("stack:2:soon:1", "warm-up `soon`"),
+        ("raw:2:1:-1", "span `-1`"),
+        ("mission:inf", "duration `inf`"),
+        ("mission:NaN", "duration `NaN`"),
+        ("walk:1", "expected mission:SECS"),
+        ("stack:1:2", "expected mission:SECS"),
+        ("", "expected mission:SECS"),
+    ] {
+        let e = part::Part::parse(spec).expect_err(spec).to_string();
+        assert!(e.contains(&format!("`{spec}`")) && e.contains(names), "{spec}: {e}");
+    }
+}
+
+#[test]
+fn simulation_parts_run_in_a_child_process() {
+    let row = part::stack(sim_part_launcher, 2, 0.5, 1.0).expect("two stacks in a child");
+    assert_eq!(row.robots, 2);
+    assert_eq!(row.expected_steps_per_robot, 100);
+    assert!(row.min_steps_per_robot >= 99, "{row:?}");
+    assert_eq!(row.restarts, 0);
+    let raw = part::raw(sim_part_launcher, 2, 0.5, 1.0).expect("two skeletons in a child");
+    assert!((300..=304).contains(&raw.steps), "{raw:?}");
+    let mission = part::mission(sim_part_launcher, 2.0).expect("a mission in a child");
+    assert_eq!(mission.simulated_s, 2.0);
+    assert!(mission.rtf > 0.0 && mission.restarts == 0, "{mission:?}");
+}
+
+#[test]
+fn a_failed_simulation_part_says_which_and_why() {
+    // The child refuses a part with no measured span: its own error reaches the caller.
+    let e = part::stack(sim_part_launcher, 1, 0.5, 0.0).expect_err("no span").to_string();
+    assert!(e.contains("`stack:1:0.5:0`") && e.contains("failed"), "{e}");
+    assert!(e.contains("positive duration"), "the child's reason is lost: {e}");
+    // A child that prints no result line.
+    fn silent(_: &str) -> anyhow::Result<std::process::Command> {
+        Ok(std::process::Command::new("true"))
+    }
+    let e = part::raw(silent, 1, 0.5, 1.0).expect_err("no result").to_string();
+    assert!(e.contains("`raw:1:0.5:1`") && e.contains("no result line"), "{e}");
+}
