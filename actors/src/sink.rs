@@ -97,6 +97,12 @@ pub struct Envelope<M> {
 }
 
 impl<M> Envelope<M> {
+    /// An envelope from no mailbox, with no receipt (for tests of what opens it).
+    #[cfg(test)]
+    pub(crate) fn loose(msg: M) -> Envelope<M> {
+        Envelope { msg: Some(msg), receipt: None, home: Weak::new(), superseded_by_next: false }
+    }
+
     /// The message, settling its receipt as arrived.
     pub(crate) fn open(mut self) -> Option<M> {
         if let Some(r) = self.receipt.take() {
