@@ -1,7 +1,8 @@
 //! `orsa bench`: what orsa costs, measured side by side with raw baselines in one run.
 //!
-//! Every figure comes with the baseline it is judged against, measured in the same process a
-//! moment apart, because the machine is noisy: a ratio survives a busy neighbour better than
+//! Every figure comes with the baseline it is judged against, measured in the same run a moment
+//! apart (in the same process, or for the simulation parts each in a fresh process of its own,
+//! see `part`), because the machine is noisy: a ratio survives a busy neighbour better than
 //! a nanosecond count. [`run`] measures, [`render_markdown`] writes the tables; the report is
 //! also JSON ([`BenchReport`], with the flat keys `inproc_push_p50_ns`,
 //! `raw_ractor_cast_p50_ns`, `zenoh_push_p50_ns`, `raw_zenoh_p50_ns`,

@@ -168,17 +168,17 @@ pub fn render_markdown(r: &BenchReport) -> String {
     let _ = writeln!(
         s,
         "\n## Simulation speed and scale\n\n`orsa run` (the corridor mission, one robot, paused clock, start-up and \
-         shutdown included): {:.0} simulated s in {:.2} wall s, **{:.0}x real time** ({:.1} m driven, {} restarts).\n",
+         shutdown included, in a fresh process): {:.0} simulated s in {:.2} wall s, **{:.0}x real time** ({:.1} m driven, {} restarts).\n",
         mi.simulated_s, mi.wall_s, mi.rtf, mi.distance_m, mi.restarts
     );
     let _ = writeln!(
         s,
         "N robots, each with its whole stack (simulator, server, two behaviours, master, planner, supervisor, \
-         registry), on one current-thread runtime with a paused clock; measured after a 2 s simulated warm-up. \
-         *Cost per robot*: wall µs per robot per simulated second. *Raw skeleton*: the baseline, as many \
+         registry), on one current-thread runtime with a paused clock, in a fresh process of its own; measured \
+         after a 2 s simulated warm-up. *Cost per robot*: wall µs per robot per simulated second. *Raw skeleton*: the baseline, as many \
          robots' skeletons in raw tokio on the same kind of runtime (per robot the stack's 13 tasks, its \
          timers at the same periods and its message flow, about 580 wake-ups per simulated second, none of \
-         its work), measured right after. Rows of up to 100 robots are the median of three runs (a \
+         its work), measured right after in a fresh process too. Rows of up to 100 robots are the median of three runs (a \
          run is about a second of wall time, which moves by a fifth between runs on a shared machine); \
          *x real time* gives every run's figure after the median.\n"
     );
