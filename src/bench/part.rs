@@ -4,7 +4,7 @@
 //! In the bench process they would run after every other part, in a heap those parts left
 //! fragmented (about 170 MiB), and on a tokio whose clock one paused runtime has already put
 //! on its slower path. A fresh process of 100 robots with its heap fragmented on purpose ran
-//! at 1.24-1.48x the cost of a plain fresh one (BENCHMARKS.md): the row measured the
+//! at 1.24-1.48x the cost of a plain fresh one (BENCHMARKS-history.md): the row measured the
 //! harness's history as much as orsa. The raw skeleton runs in a fresh process too, so the
 //! pair stays like for like.
 //!
