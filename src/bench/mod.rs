@@ -52,6 +52,19 @@ pub fn serve_sim_part(spec: &str) -> anyhow::Result<()> {
     part::serve(spec)
 }
 
+/// How to start one of the bench's helper processes (the cross-process peer, a simulation
+/// part) given its argument: this binary in the product, the test harness in tests.
+pub(crate) type Launcher = fn(&str) -> anyhow::Result<std::process::Command>;
+
+/// This binary again, `bench FLAG VALUE` (a hidden flag that makes it a helper process).
+pub(crate) fn this_program(flag: &str, value: &str) -> anyhow::Result<std::process::Command> {
+    use anyhow::Context as _;
+    let exe = std::env::current_exe().context("cannot find this program to start a bench process")?;
+    let mut c = std::process::Command::new(exe);
+    c.args(["bench", flag, value]);
+    Ok(c)
+}
+
 /// What to run.
 #[derive(Debug, Clone, Default)]
 pub struct BenchOptions {

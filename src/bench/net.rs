@@ -43,6 +43,7 @@
 //! Sense to act across processes lives in [`super::sense::across`] and uses the same two
 //! processes and sessions.
 
+use super::Launcher;
 use super::{CodecCosts, NetLatencyRow, NetReport, say, stats};
 use anyhow::{Context as _, anyhow, bail};
 use orsa_actors::component::{ComponentHandle, spawn};
@@ -247,15 +248,9 @@ pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 // ---- the peer process ------------------------------------------------------------------------
 
-/// How to start the peer for a given endpoint.
-pub(crate) type Launcher = fn(&str) -> anyhow::Result<Command>;
-
 /// This binary, `bench --peer ENDPOINT`.
 pub(crate) fn exe_launcher(endpoint: &str) -> anyhow::Result<Command> {
-    let exe = std::env::current_exe().context("cannot find this program to start the peer")?;
-    let mut c = Command::new(exe);
-    c.args(["bench", "--peer", endpoint]);
-    Ok(c)
+    super::this_program("--peer", endpoint)
 }
 
 /// The peer process, killed when dropped (every exit path of the bench, a panic included). It

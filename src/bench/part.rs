@@ -13,7 +13,7 @@
 //! own text, some of it on the same line).
 
 use super::sim::{self, RawScale};
-use super::{MissionRtf, ScaleRow};
+use super::{Launcher, MissionRtf, ScaleRow};
 use anyhow::{Context as _, anyhow, bail};
 use serde::{Deserialize, Serialize};
 use std::process::{Command, Stdio};
@@ -106,15 +106,9 @@ pub(crate) fn serve(spec: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// How to start a child for a part's spec.
-pub(crate) type Launcher = fn(&str) -> anyhow::Result<Command>;
-
 /// This binary, `bench --sim-part SPEC`.
 pub(crate) fn exe_launcher(spec: &str) -> anyhow::Result<Command> {
-    let exe = std::env::current_exe().context("cannot find this program to run a simulation part")?;
-    let mut c = Command::new(exe);
-    c.args(["bench", "--sim-part", spec]);
-    Ok(c)
+    super::this_program("--sim-part", spec)
 }
 
 /// Runs `part` in a fresh child process and returns what it measured.

@@ -205,9 +205,13 @@ const PEER_ENV: &str = "ORSA_BENCH_TEST_PEER";
 /// In tests this binary is the test harness, which has no `bench --peer`: the peer is this
 /// harness again, running only [`peer_process`].
 fn test_launcher(endpoint: &str) -> anyhow::Result<std::process::Command> {
+    this_harness("bench::tests::peer_process", PEER_ENV, endpoint)
+}
+
+/// This test harness again, running only the ignored test `test`, with `env` set to `value`.
+fn this_harness(test: &str, env: &str, value: &str) -> anyhow::Result<std::process::Command> {
     let mut c = std::process::Command::new(std::env::current_exe()?);
-    c.args(["bench::tests::peer_process", "--exact", "--ignored", "--nocapture", "--test-threads=1"])
-        .env(PEER_ENV, endpoint);
+    c.args([test, "--exact", "--ignored", "--nocapture", "--test-threads=1"]).env(env, value);
     Ok(c)
 }
 
@@ -411,10 +415,7 @@ const SIM_PART_ENV: &str = "ORSA_BENCH_TEST_SIM_PART";
 
 /// In tests the child is this harness again, running only [`sim_part_process`].
 fn sim_part_launcher(spec: &str) -> anyhow::Result<std::process::Command> {
-    let mut c = std::process::Command::new(std::env::current_exe()?);
-    c.args(["bench::tests::sim_part_process", "--exact", "--ignored", "--nocapture", "--test-threads=1"])
-        .env(SIM_PART_ENV, spec);
-    Ok(c)
+    this_harness("bench::tests::sim_part_process", SIM_PART_ENV, spec)
 }
 
 #[test]
