@@ -20,6 +20,7 @@ use crate::sim::{MoverTruth, Side};
 use orsa_actors::{Clock, Timestamp};
 use parking_lot::Mutex;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 use tokio::sync::{oneshot, watch};
 use tokio::task::JoinHandle;
@@ -27,10 +28,33 @@ use tokio::time::MissedTickBehavior;
 
 /// What every handle shares: the simulator, and the step counter the stepping task publishes
 /// (its sender is dropped when the task ends, which is how handles learn it has).
+///
+/// The counter changes silently unless someone waits for a step (`waiting`): a notification
+/// touches all of tokio's watch notifiers, and the stepping task publishes a hundred times a
+/// simulated second while, almost always, nobody waits.
 #[derive(Debug, Clone)]
 struct Link {
     sim: Arc<Mutex<SimNomad200>>,
     steps: watch::Receiver<u64>,
+    waiting: Arc<AtomicUsize>,
+}
+
+/// One waiter for the next step, counted while it lives.
+struct StepWaiter<'a>(&'a AtomicUsize);
+
+impl<'a> StepWaiter<'a> {
+    /// Counts a waiter. Steps taken from now on notify, so a waiter that looks at the simulator
+    /// after this misses none.
+    fn new(waiting: &'a AtomicUsize) -> Self {
+        waiting.fetch_add(1, Ordering::SeqCst);
+        StepWaiter(waiting)
+    }
+}
+
+impl Drop for StepWaiter<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
 }
 
 impl Link {
@@ -68,6 +92,8 @@ impl SimRobot {
         let (stop_tx, mut stop_rx) = oneshot::channel::<()>();
         let shared = Arc::new(Mutex::new(sim));
         let stepped = Arc::clone(&shared);
+        let waiting = Arc::new(AtomicUsize::new(0));
+        let waiters = Arc::clone(&waiting);
         let task = tokio::spawn(async move {
             let mut ticks = tokio::time::interval_at(first, step);
             ticks.set_missed_tick_behavior(MissedTickBehavior::Burst);
@@ -81,13 +107,23 @@ impl SimRobot {
                             sim.step();
                             sim.steps()
                         };
-                        steps_tx.send_replace(n);
+                        // The step is done and its lock released before the waiters are
+                        // counted: one counted later looks at the simulator after this step.
+                        steps_tx.send_if_modified(|v| {
+                            *v = n;
+                            waiters.load(Ordering::SeqCst) > 0
+                        });
                     }
                 }
             }
             tracing::debug!("simulated Nomad 200 stepping task stopped");
         });
-        SimRobot { link: Link { sim: shared, steps: steps_rx }, clock, stop: Some(stop_tx), task: Some(task) }
+        SimRobot {
+            link: Link { sim: shared, steps: steps_rx, waiting },
+            clock,
+            stop: Some(stop_tx),
+            task: Some(task),
+        }
     }
 
     /// A handle on the sensor board.
@@ -235,6 +271,7 @@ impl MotorBoard for SimMotorBoard {
     async fn wait_stop(&self, timeout: Duration) -> Result<(), BoardError> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut steps = self.link.steps.clone();
+        let _waiter = StepWaiter::new(&self.link.waiting);
         loop {
             // Mark the current step seen before looking, so no step slips between the two.
             steps.borrow_and_update();
