@@ -40,7 +40,7 @@ use orsa_actors::query::QueryRequest;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 use tokio::sync::watch;
 
@@ -190,6 +190,8 @@ pub struct Nomad200State {
     contact: EventServer<Empty, ContactScan, ContactScan>,
     base: PushTimedServer<BaseState>,
     deadline: watch::Sender<Option<Timestamp>>,
+    /// Whether the watchdog waits for a deadline (it enforced the last one).
+    watchdog_idle: Arc<AtomicBool>,
     last_applied: Option<Timestamp>,
     /// Until when teleoperation holds the robot.
     teleop_until: Option<Timestamp>,
@@ -262,7 +264,15 @@ where
             // The robot may go on with this command until it is cmd_timeout old (counted from
             // now at the latest, whatever a skewed clock says).
             let deadline = cmd.stamp.min(now).after(timeout);
-            st.deadline.send_replace(Some(deadline));
+            // The watchdog sleeps until the deadline it last read and looks again when it
+            // wakes, so a deadline that moves later, the usual case, needs no wake-up. It is
+            // woken when it waits for a deadline (none yet, or it enforced the last one) or
+            // when the deadline moves earlier.
+            st.deadline.send_if_modified(|d| {
+                let wake = (*d).is_none_or(|d| deadline < d) || st.watchdog_idle.load(Ordering::SeqCst);
+                *d = Some(deadline);
+                wake
+            });
             if teleop {
                 st.teleop_until = Some(deadline);
             }
@@ -307,7 +317,14 @@ where
         let timeouts = ctx.keep("timeouts", || Arc::new(AtomicU64::new(0)))?;
         let kept = ctx.keep("safety", || Arc::new(parking_lot::Mutex::new(SafetyCounters::default())))?;
         let counters = *kept.lock();
-        ctx.spawn_activity(watchdog(self.motors.clone(), ctx.clock(), rx, Arc::clone(&timeouts)));
+        let watchdog_idle = Arc::new(AtomicBool::new(false));
+        ctx.spawn_activity(watchdog(
+            self.motors.clone(),
+            ctx.clock(),
+            rx,
+            Arc::clone(&watchdog_idle),
+            Arc::clone(&timeouts),
+        ));
         Ok(Nomad200State {
             ir,
             sonar,
@@ -315,6 +332,7 @@ where
             contact,
             base,
             deadline,
+            watchdog_idle,
             last_applied: None,
             teleop_until: None,
             counters,
@@ -374,10 +392,14 @@ where
 
 /// Stops the motors at each command deadline, retrying until the board accepts; ends once the
 /// instance that set the deadlines is gone and the last one has been enforced.
+///
+/// The server moves a deadline later without waking this task (see `on_velocity`): on waking
+/// at the deadline it slept for, it looks at the current one and sleeps on if it moved.
 async fn watchdog<M: MotorBoard>(
     motors: M,
     clock: orsa_actors::Clock,
     mut rx: watch::Receiver<Option<Timestamp>>,
+    idle: Arc<AtomicBool>,
     timeouts: Arc<AtomicU64>,
 ) {
     loop {
@@ -392,25 +414,35 @@ async fn watchdog<M: MotorBoard>(
             () = tokio::time::sleep_until(clock.instant_of(d)) => false,
             changed = rx.changed() => {
                 if changed.is_ok() {
-                    continue; // a fresher command moved the deadline
+                    continue; // the deadline moved earlier
                 }
-                tokio::time::sleep_until(clock.instant_of(d)).await;
                 true
             }
         };
+        // What the server set last, silent moves included (readable after it is gone too).
+        let last = rx.borrow().unwrap_or(d);
+        if instance_gone {
+            tokio::time::sleep_until(clock.instant_of(last)).await;
+        } else if last != d {
+            continue; // a fresher command moved the deadline
+        }
         let moving = motors.read_state().await.map(|m| !m.stopped).unwrap_or(true);
         if moving {
-            tracing::info!("nomad200: no fresh command since {d}: stopping");
+            tracing::info!("nomad200: no fresh command since {last}: stopping");
             timeouts.fetch_add(1, Ordering::Relaxed);
             stop_until_accepted(&motors).await;
         }
         if instance_gone {
             return;
         }
-        // Sleep until a new command sets a new deadline.
+        // Wait for a new command's deadline. Saying so before looking: a deadline set before
+        // the look is seen, one set after it wakes us (the server reads `idle` under the
+        // watch's lock).
+        idle.store(true, Ordering::SeqCst);
         if *rx.borrow() == Some(d) && rx.changed().await.is_err() {
             return;
         }
+        idle.store(false, Ordering::SeqCst);
     }
 }
 

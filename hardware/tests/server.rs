@@ -130,6 +130,28 @@ async fn server_stops_the_robot_exactly_one_timeout_after_the_last_fresh_command
     assert_eq!(after.v_m_s, 0.0, "stopped");
 }
 
+/// After the watchdog has stopped the robot, commands drive it again and the watchdog guards
+/// the new deadline as it did the first (it is woken for a deadline only when it waits for one).
+#[tokio::test(start_paused = true)]
+async fn server_stops_the_robot_again_when_commands_resume_and_stop_again() {
+    let r = rig(ServerParams::default()).await;
+    let client =
+        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+    drive(&client, &r.registry, 0.2, 0.0, 1.0).await;
+    // Stopped at 1.4 s; commands resume at 2.0 s, the last stamped 2.9 s: deadline 3.4 s.
+    tokio::time::sleep(Duration::from_millis(1000)).await;
+    assert_eq!(r.sim.truth().truth().v_m_s, 0.0, "stopped at the first deadline");
+    assert_eq!(safety(&r.registry).await.timeouts, 1);
+    drive(&client, &r.registry, 0.2, 0.0, 1.0).await;
+    tokio::time::sleep(Duration::from_millis(390)).await;
+    let before = r.sim.truth().truth();
+    assert!((before.v_m_s - 0.2).abs() < 1e-9, "obeying again at {}", before.stamp);
+    tokio::time::sleep(Duration::from_millis(20)).await;
+    assert_eq!(safety(&r.registry).await.timeouts, 2, "the second deadline was enforced");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    assert_eq!(r.sim.truth().truth().v_m_s, 0.0, "stopped again");
+}
+
 #[tokio::test(start_paused = true)]
 async fn server_refuses_commands_older_than_the_timeout() {
     let r = rig(ServerParams::default()).await;
