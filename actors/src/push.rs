@@ -255,11 +255,26 @@ impl<T: CommObject> PushEndpoint<T> {
         // One lock per publication: the number, the newest value, the cells and the
         // subscribers to hand it to are taken together (so "newest" follows the numbers even
         // with concurrent publishers).
-        let (update, subs, previous) = {
+        let (update, subs, previous, replaced) = {
             let mut board = self.board.lock();
             board.seq += 1;
-            let update = Arc::new(Stamped { seq: board.seq, stamp, value });
-            let previous = board.latest.replace(Arc::clone(&update));
+            let seq = board.seq;
+            let (mut previous, mut replaced) = (None, None);
+            // When the server holds the only reference to its newest update (every subscriber
+            // is done with it, the usual case), the new one takes its place in the same
+            // allocation. Not when this one is held back: the cells keep the previous one.
+            let update = if let Some(latest) = board.latest.as_mut().filter(|_| now)
+                && let Some(slot) = Arc::get_mut(latest)
+            {
+                slot.seq = seq;
+                slot.stamp = stamp;
+                replaced = Some(std::mem::replace(&mut slot.value, value));
+                Arc::clone(latest)
+            } else {
+                let update = Arc::new(Stamped { seq, stamp, value });
+                previous = board.latest.replace(Arc::clone(&update));
+                update
+            };
             for c in board.cells.iter_mut().filter(|c| !c.detached) {
                 if now {
                     c.seq = update.seq;
@@ -271,9 +286,10 @@ impl<T: CommObject> PushEndpoint<T> {
             if now {
                 board.counted += board.ones;
             }
-            (update, Arc::clone(&board.subs), previous)
+            (update, Arc::clone(&board.subs), previous, replaced)
         };
-        drop(previous);
+        // What the publication replaced is dropped with no lock held.
+        drop((previous, replaced));
         self.tap.record(&self.topic, T::ID, update.stamp, &*update);
         let hand = match verdict {
             Verdict::Drop => Hand::Drop,

@@ -183,3 +183,29 @@ async fn push_newest_stats_count_what_reached_each_subscriber() {
     assert_eq!((stats.published, stats.delivered, stats.failed, stats.subscribers), (3, 4, 3, 2));
     assert_eq!(std::iter::from_fn(|| rx.try_recv().ok()).count(), 3);
 }
+
+/// A publication reuses the newest update's allocation once every subscriber is done with it,
+/// and never changes an update that someone still holds.
+#[tokio::test(start_paused = true)]
+async fn push_newest_reuses_an_update_nobody_holds_and_never_changes_a_held_one() {
+    let registry = Registry::new();
+    let server = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("register");
+    let (tx, mut rx) = mpsc::unbounded_channel::<Update<u64>>();
+    let client = PushNewestClient::connect_to(&registry, "odo/ticks", Sink::channel(tx)).expect("connect");
+    client.subscribe().expect("subscribe");
+
+    server.put(1);
+    let held = rx.try_recv().expect("first update");
+    server.put(2);
+    let second = rx.try_recv().expect("second update");
+    assert_eq!((held.seq, held.value), (1, 1), "an update held stays as it was");
+    assert!(!std::sync::Arc::ptr_eq(&held, &second), "held: the next one is a new allocation");
+
+    let at = std::sync::Arc::as_ptr(&second);
+    drop((held, second));
+    server.put(3);
+    let third = rx.try_recv().expect("third update");
+    assert_eq!((third.seq, third.value), (3, 3));
+    assert_eq!(std::sync::Arc::as_ptr(&third), at, "nobody held the second: its allocation was reused");
+    assert_eq!(server.latest().map(|u| (u.seq, u.value)), Some((3, 3)));
+}
