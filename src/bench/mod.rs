@@ -15,7 +15,7 @@
 //! | fan-out | one push server to 1..1000 subscriber components | a loop of ractor casts to as many plain actors |
 //! | sense to act | sensor update to the motor board, through the wired behaviour, in real time | the 200 µs target |
 //! | across processes | push over zenoh between two processes on loopback, back-to-back and at 25 Hz; sense to act with the behaviours in the other process | raw zenoh publish/subscribe of the same payload, same sessions: to a callback, and from a callback to a tokio task or a ractor actor |
-//! | simulation | `orsa run`'s real-time factor; N whole stacks in one process | one robot; N raw tokio skeletons of the stack (its tasks, timers and message flow, none of its work) |
+//! | simulation | `orsa run`'s real-time factor; N whole stacks in one process | one robot; N skeletons of the stack (its tasks, timers and message flow, none of its work), in raw tokio and with its components as plain ractor actors |
 //!
 //! The benches on tokio's running clock go first: once any runtime in a process has paused its
 //! clock, every later read of tokio's clock takes a slower path (tokio's `test-util`), which
@@ -299,6 +299,10 @@ pub struct ScaleRow {
     /// The baseline: the same number of robots as raw tokio skeletons (the stack's tasks,
     /// timers and message flow, none of its work), wall µs per robot per simulated second.
     pub raw_wall_us_per_robot_sim_s: Option<f64>,
+    /// The same skeletons with the stack's six actors (its five components and their supervisor) as plain ractor actors: what the
+    /// actor runtime adds to the raw skeleton, still with none of the stack's work.
+    #[serde(default)]
+    pub ractor_wall_us_per_robot_sim_s: Option<f64>,
     /// The real-time factor of every run of this row, in the order run; the row is the median
     /// run (one run for the largest rows).
     pub rtf_runs: Vec<f64>,
@@ -524,27 +528,33 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         let measure = (plan.scale_robot_s / n as f64).max(plan.scale_min_s);
         let repeats = if n <= plan.scale_repeat_up_to { plan.scale_repeats.max(1) } else { 1 };
         say(format!("simulation: {n} robots, {measure:.0} simulated s measured, {repeats} run(s)"));
-        let (mut rows, mut raws) = (Vec::with_capacity(repeats), Vec::with_capacity(repeats));
+        let mut rows = Vec::with_capacity(repeats);
+        let (mut raws, mut ractors) = (Vec::with_capacity(repeats), Vec::with_capacity(repeats));
         for _ in 0..repeats {
             rows.push(part::stack(part::exe_launcher, n, plan.scale_warm_s, measure)?);
-            let raw = part::raw(part::exe_launcher, n, plan.scale_warm_s, measure)?;
-            anyhow::ensure!(
-                raw.steps > 0 && raw.commands > 0,
-                "the raw skeleton of {n} robots did not run: {raw:?}"
-            );
-            raws.push(raw.us_per_robot_sim_s);
+            for (skeleton, costs) in
+                [(sim::Skeleton::Tokio, &mut raws), (sim::Skeleton::Ractor, &mut ractors)]
+            {
+                let raw = part::raw(part::exe_launcher, skeleton, n, plan.scale_warm_s, measure)?;
+                anyhow::ensure!(
+                    raw.steps > 0 && raw.commands > 0,
+                    "the {skeleton:?} skeleton of {n} robots did not run: {raw:?}"
+                );
+                costs.push(raw.us_per_robot_sim_s);
+            }
         }
         let rtf_runs: Vec<f64> = rows.iter().map(|r| r.rtf).collect();
         rows.sort_by(|a, b| a.rtf.total_cmp(&b.rtf));
-        raws.sort_by(f64::total_cmp);
         let mut row = rows.swap_remove(rows.len() / 2);
-        row.raw_wall_us_per_robot_sim_s = Some(raws[raws.len() / 2]);
+        row.raw_wall_us_per_robot_sim_s = stats::median(raws);
+        row.ractor_wall_us_per_robot_sim_s = stats::median(ractors);
         row.rtf_runs = rtf_runs;
         say(format!(
-            "  {n} robots: {:.1}x real time, {:.0} wall us per robot per simulated s (raw skeleton {:.0})",
+            "  {n} robots: {:.1}x real time, {:.0} wall us per robot per simulated s (skeletons: raw tokio {:.0}, ractor {:.0})",
             row.rtf,
             row.wall_us_per_robot_sim_s,
-            row.raw_wall_us_per_robot_sim_s.unwrap_or(f64::NAN)
+            row.raw_wall_us_per_robot_sim_s.unwrap_or(f64::NAN),
+            row.ractor_wall_us_per_robot_sim_s.unwrap_or(f64::NAN)
         ));
         scale.push(row);
     }
@@ -698,21 +708,31 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
     });
     let costs: Vec<f64> = r.scale.iter().map(|row| row.wall_us_per_robot_sim_s).collect();
     let (lo, hi) = costs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-    // The raw skeleton's spread over the same robot counts, for the verdict's reader.
-    let raw: Vec<f64> = r.scale.iter().filter_map(|row| row.raw_wall_us_per_robot_sim_s).collect();
-    let (raw_lo, raw_hi) = raw.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+    // The skeletons' spreads over the same robot counts, for the verdict's reader.
+    let spread = |of: fn(&ScaleRow) -> Option<f64>, name: &str| -> Option<String> {
+        let c: Vec<f64> = r.scale.iter().filter_map(of).collect();
+        let (lo, hi) = c.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+        (c.len() == costs.len() && lo > 0.0)
+            .then(|| format!("{name} {lo:.1} to {hi:.1} us ({:.2}x)", hi / lo))
+    };
+    let skeletons: Vec<String> = [
+        spread(|row| row.raw_wall_us_per_robot_sim_s, "raw tokio skeleton"),
+        spread(|row| row.ractor_wall_us_per_robot_sim_s, "ractor skeleton"),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     t.push(TargetCheck {
         target: "cost per robot roughly constant from 1 to 1000 (largest / smallest <= 1.5)".into(),
         measured: if costs.is_empty() {
             "not measured".into()
-        } else if raw.len() == costs.len() && raw_lo > 0.0 {
-            format!(
-                "{lo:.0} to {hi:.0} us per robot per simulated s ({:.2}x); raw tokio skeleton {raw_lo:.1} to {raw_hi:.1} us ({:.2}x)",
-                hi / lo,
-                raw_hi / raw_lo
-            )
         } else {
-            format!("{lo:.0} to {hi:.0} us per robot per simulated s ({:.2}x)", hi / lo)
+            let mut m = format!("{lo:.0} to {hi:.0} us per robot per simulated s ({:.2}x)", hi / lo);
+            for sk in skeletons {
+                m.push_str("; ");
+                m.push_str(&sk);
+            }
+            m
         },
         met: (!costs.is_empty() && lo > 0.0).then(|| hi / lo <= 1.5),
     });

@@ -12,7 +12,7 @@
 //! everything else it prints is ignored (a test harness standing in for the child prints its
 //! own text, some of it on the same line).
 
-use super::sim::{self, RawScale};
+use super::sim::{self, RawScale, Skeleton};
 use super::{Launcher, MissionRtf, ScaleRow};
 use anyhow::{Context as _, anyhow, bail};
 use serde::{Deserialize, Serialize};
@@ -28,8 +28,8 @@ pub(crate) enum Part {
     Mission { duration_s: f64 },
     /// N whole stacks ([`sim::scale`]).
     Stack { robots: usize, warm_s: f64, measure_s: f64 },
-    /// N raw skeletons ([`sim::raw_scale`]).
-    Raw { robots: usize, warm_s: f64, measure_s: f64 },
+    /// N skeletons of the stack, of raw tokio or of ractor actors ([`sim::raw_scale`]).
+    Raw { skeleton: Skeleton, robots: usize, warm_s: f64, measure_s: f64 },
 }
 
 /// What a part measured.
@@ -41,13 +41,20 @@ pub(crate) enum PartOut {
 }
 
 impl Part {
-    /// The part as `--sim-part` takes it: `mission:S`, `stack:N:WARM:MEASURE` or
-    /// `raw:N:WARM:MEASURE` (seconds; `f64`'s `Display`, which reads back exactly).
+    /// The part as `--sim-part` takes it: `mission:S`, `stack:N:WARM:MEASURE`,
+    /// `raw:N:WARM:MEASURE` or `ractor:N:WARM:MEASURE` (seconds; `f64`'s `Display`, which reads
+    /// back exactly).
     pub(crate) fn spec(&self) -> String {
         match *self {
             Part::Mission { duration_s } => format!("mission:{duration_s}"),
             Part::Stack { robots, warm_s, measure_s } => format!("stack:{robots}:{warm_s}:{measure_s}"),
-            Part::Raw { robots, warm_s, measure_s } => format!("raw:{robots}:{warm_s}:{measure_s}"),
+            Part::Raw { skeleton, robots, warm_s, measure_s } => {
+                let kind = match skeleton {
+                    Skeleton::Tokio => "raw",
+                    Skeleton::Ractor => "ractor",
+                };
+                format!("{kind}:{robots}:{warm_s}:{measure_s}")
+            }
         }
     }
 
@@ -77,10 +84,15 @@ impl Part {
                 warm_s: secs(2, "warm-up")?,
                 measure_s: secs(3, "span")?,
             }),
-            ["raw", n, _, _] => {
-                Ok(Part::Raw { robots: robots(n)?, warm_s: secs(2, "warm-up")?, measure_s: secs(3, "span")? })
-            }
-            _ => bail!("--sim-part `{spec}`: expected mission:SECS, stack:N:WARM:SECS or raw:N:WARM:SECS"),
+            [kind @ ("raw" | "ractor"), n, _, _] => Ok(Part::Raw {
+                skeleton: if *kind == "raw" { Skeleton::Tokio } else { Skeleton::Ractor },
+                robots: robots(n)?,
+                warm_s: secs(2, "warm-up")?,
+                measure_s: secs(3, "span")?,
+            }),
+            _ => bail!(
+                "--sim-part `{spec}`: expected mission:SECS, stack:N:WARM:SECS, raw:N:WARM:SECS or ractor:N:WARM:SECS"
+            ),
         }
     }
 
@@ -91,8 +103,8 @@ impl Part {
             Part::Stack { robots, warm_s, measure_s } => {
                 PartOut::Stack(sim::scale(robots, warm_s, measure_s)?)
             }
-            Part::Raw { robots, warm_s, measure_s } => {
-                PartOut::Raw(sim::raw_scale(robots, warm_s, measure_s)?)
+            Part::Raw { skeleton, robots, warm_s, measure_s } => {
+                PartOut::Raw(sim::raw_scale(skeleton, robots, warm_s, measure_s)?)
             }
         })
     }
@@ -163,14 +175,15 @@ pub(crate) fn stack(
     }
 }
 
-/// [`in_child`] for N raw skeletons.
+/// [`in_child`] for N skeletons.
 pub(crate) fn raw(
     launcher: Launcher,
+    skeleton: Skeleton,
     robots: usize,
     warm_s: f64,
     measure_s: f64,
 ) -> anyhow::Result<RawScale> {
-    match in_child(launcher, Part::Raw { robots, warm_s, measure_s })? {
+    match in_child(launcher, Part::Raw { skeleton, robots, warm_s, measure_s })? {
         PartOut::Raw(raw) => Ok(raw),
         other => Err(anyhow!("expected the raw skeleton's figures, got {other:?}")),
     }

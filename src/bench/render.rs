@@ -178,20 +178,25 @@ pub fn render_markdown(r: &BenchReport) -> String {
          after a 2 s simulated warm-up. *Cost per robot*: wall µs per robot per simulated second. *Raw skeleton*: the baseline, as many \
          robots' skeletons in raw tokio on the same kind of runtime (per robot the stack's 13 tasks, its \
          timers at the same periods and its message flow, about 580 wake-ups per simulated second, none of \
-         its work), measured right after in a fresh process too. Rows of up to 100 robots are the median of three runs (a \
+         its work), measured right after in a fresh process too. *Ractor skeleton*: the same with the \
+         stack's six actors (five components, one supervisor) as plain ractor actors, what the actor runtime adds, still none of the work. Rows of up to 100 robots are the median of three runs (a \
          run is about a second of wall time, which moves by a fifth between runs on a shared machine); \
          *x real time* gives every run's figure after the median.\n"
     );
     let _ = writeln!(
         s,
-        "| robots | start-up | simulated | wall | x real time | robot-s per wall s | cost per robot | vs 1 robot | raw skeleton | raw vs 1 robot | steps per robot | memory per robot | restarts |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"
+        "| robots | start-up | simulated | wall | x real time | robot-s per wall s | cost per robot | vs 1 robot | raw skeleton | raw vs 1 robot | ractor skeleton | ractor vs 1 robot | steps per robot | memory per robot | restarts |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"
     );
     let one = r.scale.iter().find(|x| x.robots == 1).map(|x| x.wall_us_per_robot_sim_s);
     let raw_one = r.scale.iter().find(|x| x.robots == 1).and_then(|x| x.raw_wall_us_per_robot_sim_s);
+    let ractor_one = r.scale.iter().find(|x| x.robots == 1).and_then(|x| x.ractor_wall_us_per_robot_sim_s);
+    let cost = |c: Option<f64>| c.map_or_else(|| "-".into(), |c| format!("{c:.1} µs"));
+    let against =
+        |one: Option<f64>, c: Option<f64>| ratio(one.zip(c).and_then(|(o, c)| super::stats::ratio(c, o)));
     for row in &r.scale {
         let _ = writeln!(
             s,
-            "| {} | {:.2} s | {:.0} s | {:.2} s | {} | {:.0} | {:.0} µs | {} | {} | {} | {} of {} | {} | {} |",
+            "| {} | {:.2} s | {:.0} s | {:.2} s | {} | {:.0} | {:.0} µs | {} | {} | {} | {} | {} | {} of {} | {} | {} |",
             row.robots,
             row.startup_wall_s,
             row.simulated_s,
@@ -200,8 +205,10 @@ pub fn render_markdown(r: &BenchReport) -> String {
             row.robot_seconds_per_wall_s,
             row.wall_us_per_robot_sim_s,
             ratio(one.and_then(|o| super::stats::ratio(row.wall_us_per_robot_sim_s, o))),
-            row.raw_wall_us_per_robot_sim_s.map_or_else(|| "-".into(), |c| format!("{c:.1} µs")),
-            ratio(raw_one.zip(row.raw_wall_us_per_robot_sim_s).and_then(|(o, c)| super::stats::ratio(c, o))),
+            cost(row.raw_wall_us_per_robot_sim_s),
+            against(raw_one, row.raw_wall_us_per_robot_sim_s),
+            cost(row.ractor_wall_us_per_robot_sim_s),
+            against(ractor_one, row.ractor_wall_us_per_robot_sim_s),
             row.min_steps_per_robot,
             row.expected_steps_per_robot,
             row.rss_mib_per_robot.map_or_else(|| "-".into(), |m| format!("{m:.2} MiB")),

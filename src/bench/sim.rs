@@ -15,17 +15,23 @@
 //!   the stack's deliveries count them), through unbounded channels. What the skeleton's cost
 //!   per robot does from 1 to 1000 robots is the scheduler's, the timer wheel's and the
 //!   channels' on this machine, not orsa's.
+//! - [`raw_scale`] also runs the skeleton with the stack's six actors (server, behaviours,
+//!   master, planner and their supervisor) as plain ractor actors, the rest as above: what the actor
+//!   runtime adds to the raw skeleton, per robot and as robots are added, still with none of
+//!   the stack's work or data.
 
 use super::{MissionRtf, ScaleRow};
 use crate::config::Config;
 use crate::mission::stack::Stack;
 use crate::mission::{self, RunOptions};
-use anyhow::Context as _;
+use anyhow::{Context as _, anyhow};
 use orsa_actors::supervision::SupervisorEventKind;
 use orsa_hardware::world::World;
+use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
+use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender};
 
 fn paused_runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_current_thread()
@@ -87,38 +93,38 @@ struct RawCounts {
     commands: AtomicU64,
 }
 
+/// The skeleton's simulator: steps on its timer, answers reads, takes commands.
+async fn raw_sim(mut sim_rx: UnboundedReceiver<RawSimMsg>, step: Duration, counts: Arc<RawCounts>) {
+    let mut tick = tokio::time::interval(step);
+    let (mut steps, mut command) = (0u64, 0u64);
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {
+                steps = steps.wrapping_add(1 + command % 2);
+                counts.steps.fetch_add(1, Ordering::Relaxed);
+            }
+            msg = sim_rx.recv() => match msg {
+                Some(RawSimMsg::Read(reply)) => {
+                    let _ = reply.send(steps);
+                }
+                Some(RawSimMsg::Command(c)) => {
+                    command = c;
+                    counts.commands.fetch_add(1, Ordering::Relaxed);
+                }
+                None => return,
+            },
+        }
+    }
+}
+
 /// Starts one robot's skeleton (13 tasks) on the current runtime.
 fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::task::JoinHandle<()>>) {
     use tokio::sync::mpsc::unbounded_channel;
-    let (sim_tx, mut sim_rx) = unbounded_channel::<RawSimMsg>();
+    let (sim_tx, sim_rx) = unbounded_channel::<RawSimMsg>();
     let (srv_tx, mut srv_rx) = unbounded_channel::<RawServerMsg>();
     let (wall_tx, mut wall_rx) = unbounded_channel::<u64>();
     let (center_tx, mut center_rx) = unbounded_channel::<u64>();
-    // The simulator: steps on its timer, answers reads, takes commands.
-    let step = Duration::from_secs_f64(config.sim.step_s);
-    let counts = Arc::clone(counts);
-    tasks.push(tokio::spawn(async move {
-        let mut tick = tokio::time::interval(step);
-        let (mut steps, mut command) = (0u64, 0u64);
-        loop {
-            tokio::select! {
-                _ = tick.tick() => {
-                    steps = steps.wrapping_add(1 + command % 2);
-                    counts.steps.fetch_add(1, Ordering::Relaxed);
-                }
-                msg = sim_rx.recv() => match msg {
-                    Some(RawSimMsg::Read(reply)) => {
-                        let _ = reply.send(steps);
-                    }
-                    Some(RawSimMsg::Command(c)) => {
-                        command = c;
-                        counts.commands.fetch_add(1, Ordering::Relaxed);
-                    }
-                    None => return,
-                },
-            }
-        }
-    }));
+    tasks.push(tokio::spawn(raw_sim(sim_rx, Duration::from_secs_f64(config.sim.step_s), Arc::clone(counts))));
     // The four timed sensor services.
     let p = config.robot.push_periods();
     for (kind, period) in
@@ -186,9 +192,156 @@ fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::ta
     drop((sim_tx, srv_tx));
 }
 
-/// The baseline of [`scale`]: `n` robots' skeletons (see the module docs) for `warm_s` then
+/// What the ractor skeleton's server actor receives.
+enum RactorServerMsg {
+    /// The behaviours to hand scans to (sent once, after they are spawned).
+    Wire(ActorRef<u64>, ActorRef<u64>),
+    /// A timed sensor service ticked (as [`RawServerMsg::Tick`]).
+    Tick(u8),
+    /// The wired behaviour's command.
+    Command(u64),
+}
+
+/// The ractor skeleton's server: [`raw_robot`]'s server task as an actor.
+struct RactorServer;
+
+impl Actor for RactorServer {
+    type Msg = RactorServerMsg;
+    type State = (UnboundedSender<RawSimMsg>, Option<(ActorRef<u64>, ActorRef<u64>)>);
+    type Arguments = UnboundedSender<RawSimMsg>;
+
+    async fn pre_start(
+        &self,
+        _me: ActorRef<Self::Msg>,
+        sim: UnboundedSender<RawSimMsg>,
+    ) -> Result<Self::State, ActorProcessingErr> {
+        Ok((sim, None))
+    }
+
+    async fn handle(
+        &self,
+        _me: ActorRef<Self::Msg>,
+        msg: Self::Msg,
+        (sim, behaviours): &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        match msg {
+            RactorServerMsg::Wire(wall, center) => *behaviours = Some((wall, center)),
+            RactorServerMsg::Tick(kind) => {
+                let (tx, rx) = tokio::sync::oneshot::channel();
+                sim.send(RawSimMsg::Read(tx))?;
+                let reading = rx.await?;
+                if let Some((wall, center)) = behaviours {
+                    match kind {
+                        0 => {
+                            let _ = wall.cast(reading);
+                            let _ = center.cast(reading);
+                        }
+                        1 => {
+                            let _ = center.cast(reading);
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            RactorServerMsg::Command(c) => {
+                let _ = sim.send(RawSimMsg::Command(c));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A ractor skeleton's behaviour: the wired one (`to` set) answers every scan with a command;
+/// with `to` unset it only receives, as the other behaviour and the idle actors do.
+struct RactorBehaviour {
+    to: Option<ActorRef<RactorServerMsg>>,
+}
+
+impl Actor for RactorBehaviour {
+    type Msg = u64;
+    type State = ();
+    type Arguments = ();
+
+    async fn pre_start(&self, _me: ActorRef<u64>, _args: ()) -> Result<(), ActorProcessingErr> {
+        Ok(())
+    }
+
+    async fn handle(&self, _me: ActorRef<u64>, reading: u64, _st: &mut ()) -> Result<(), ActorProcessingErr> {
+        if let Some(server) = &self.to {
+            server.cast(RactorServerMsg::Command(reading))?;
+        }
+        Ok(())
+    }
+}
+
+/// Starts one robot's skeleton on ractor: [`raw_robot`] with the stack's six actors (the
+/// server, the two behaviours, and three idle ones as the master, the planner and the
+/// supervisor mostly are) as plain ractor actors; the simulator, the four timers and two idle
+/// tasks stay tokio tasks, as in the stack. Its actors go to `actors`.
+async fn ractor_robot(
+    config: &Config,
+    counts: &Arc<RawCounts>,
+    tasks: &mut Vec<tokio::task::JoinHandle<()>>,
+    actors: &mut Vec<ActorCell>,
+) -> anyhow::Result<()> {
+    let (sim_tx, sim_rx) = tokio::sync::mpsc::unbounded_channel::<RawSimMsg>();
+    tasks.push(tokio::spawn(raw_sim(sim_rx, Duration::from_secs_f64(config.sim.step_s), Arc::clone(counts))));
+    let spawn_failed = |e: ractor::SpawnErr| anyhow!("cannot spawn a ractor actor: {e}");
+    let (server, _) = Actor::spawn(None, RactorServer, sim_tx).await.map_err(spawn_failed)?;
+    let (wall, _) = Actor::spawn(None, RactorBehaviour { to: None }, ()).await.map_err(spawn_failed)?;
+    let (center, _) =
+        Actor::spawn(None, RactorBehaviour { to: Some(server.clone()) }, ()).await.map_err(spawn_failed)?;
+    server.cast(RactorServerMsg::Wire(wall.clone(), center.clone()))?;
+    let p = config.robot.push_periods();
+    for (kind, period) in
+        [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
+    {
+        let server = server.clone();
+        let period = Duration::from_secs_f64(period);
+        let kind = u8::try_from(kind).unwrap_or(u8::MAX);
+        tasks.push(tokio::spawn(async move {
+            let mut tick = tokio::time::interval(period);
+            loop {
+                tick.tick().await;
+                if server.cast(RactorServerMsg::Tick(kind)).is_err() {
+                    return;
+                }
+            }
+        }));
+    }
+    actors.extend([server.get_cell(), wall.get_cell(), center.get_cell()]);
+    for _ in 0..3 {
+        let (idle, _) = Actor::spawn(None, RactorBehaviour { to: None }, ()).await.map_err(spawn_failed)?;
+        actors.push(idle.get_cell());
+    }
+    for _ in 0..2 {
+        let (keep, mut idle) = tokio::sync::mpsc::unbounded_channel::<()>();
+        tasks.push(tokio::spawn(async move {
+            let _keep = keep;
+            while idle.recv().await.is_some() {}
+        }));
+    }
+    Ok(())
+}
+
+/// What a skeleton of the stack is made of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Skeleton {
+    /// Raw tokio tasks and channels ([`raw_robot`]).
+    Tokio,
+    /// The stack's six actors as plain ractor actors, the rest tokio tasks
+    /// ([`ractor_robot`]).
+    Ractor,
+}
+
+/// The baselines of [`scale`]: `n` robots' skeletons (see the module docs) for `warm_s` then
 /// `measure_s` simulated seconds; only the second span is timed.
-pub(crate) fn raw_scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<RawScale> {
+pub(crate) fn raw_scale(
+    skeleton: Skeleton,
+    n: usize,
+    warm_s: f64,
+    measure_s: f64,
+) -> anyhow::Result<RawScale> {
     if n == 0 || !(warm_s >= 0.0 && measure_s > 0.0 && measure_s.is_finite() && warm_s.is_finite()) {
         anyhow::bail!("raw scale: need at least one robot and a positive duration");
     }
@@ -197,18 +350,25 @@ pub(crate) fn raw_scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result
     let counts = Arc::new(RawCounts::default());
     let cost = rt.block_on(async {
         let mut tasks = Vec::with_capacity(13 * n);
+        let mut actors = Vec::new();
         for _ in 0..n {
-            raw_robot(&config, &counts, &mut tasks);
+            match skeleton {
+                Skeleton::Tokio => raw_robot(&config, &counts, &mut tasks),
+                Skeleton::Ractor => ractor_robot(&config, &counts, &mut tasks, &mut actors).await?,
+            }
         }
         tokio::time::sleep(Duration::from_secs_f64(warm_s)).await;
         let (wall, sim) = (Instant::now(), tokio::time::Instant::now());
         tokio::time::sleep(Duration::from_secs_f64(measure_s)).await;
         let (wall_s, simulated_s) = (wall.elapsed().as_secs_f64(), sim.elapsed().as_secs_f64());
+        for a in &actors {
+            a.stop(None);
+        }
         for t in &tasks {
             t.abort();
         }
-        wall_s * 1e6 / (n as f64 * simulated_s)
-    });
+        Ok::<_, anyhow::Error>(wall_s * 1e6 / (n as f64 * simulated_s))
+    })?;
     drop(rt);
     Ok(RawScale {
         us_per_robot_sim_s: cost,
@@ -281,6 +441,7 @@ pub(crate) fn scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<Sca
             },
             shutdown_wall_s,
             raw_wall_us_per_robot_sim_s: None,
+            ractor_wall_us_per_robot_sim_s: None,
             rtf_runs: Vec::new(),
         })
     })?;

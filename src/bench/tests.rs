@@ -32,6 +32,7 @@ fn sample_report() -> BenchReport {
         rss_mib_per_robot: None,
         shutdown_wall_s: 0.1,
         raw_wall_us_per_robot_sim_s: Some(cost / 10.0),
+        ractor_wall_us_per_robot_sim_s: Some(cost / 5.0),
         rtf_runs: vec![9.0, 10.0, 11.0],
     };
     let mut r = BenchReport {
@@ -108,7 +109,12 @@ fn targets_are_judged_from_the_figures() {
     assert_eq!(get("100 robots"), None, "not measured");
     assert_eq!(get("cost per robot"), Some(false), "3500 / 2000 > 1.5");
     let cost = r.targets.iter().find(|t| t.target.starts_with("cost per robot")).expect("cost per robot");
-    assert!(cost.measured.ends_with("raw tokio skeleton 200.0 to 350.0 us (1.75x)"), "{cost:?}");
+    assert!(
+        cost.measured.ends_with(
+            "raw tokio skeleton 200.0 to 350.0 us (1.75x); ractor skeleton 400.0 to 700.0 us (1.75x)"
+        ),
+        "{cost:?}"
+    );
     assert_eq!(get("zenoh push p50"), None, "the cross-process bench did not run");
 }
 
@@ -123,6 +129,7 @@ fn markdown_has_every_table_and_survives_missing_figures() {
     assert!(text.contains("1.20x"));
     assert!(text.contains("not measured"));
     assert!(text.contains("| 10.0x (runs 9.0, 10.0, 11.0) |"), "every run of a repeated row:\n{text}");
+    assert!(text.contains("| ractor skeleton | ractor vs 1 robot |"), "{text}");
 }
 
 #[test]
@@ -176,15 +183,17 @@ fn two_robots_step_through_every_simulated_step() {
 }
 
 #[test]
-fn the_raw_skeleton_steps_and_carries_commands_like_the_stack() {
+fn both_skeletons_step_and_carry_commands_like_the_stack() {
     // Two robots for 1.5 simulated s: a step every 10 ms from t = 0 (151 each), and a command
     // for every infrared scan (every 40 ms: 38) and sonar scan (every 64 ms: 24).
-    let raw = sim::raw_scale(2, 0.5, 1.0).expect("two skeletons");
-    assert!((300..=304).contains(&raw.steps), "{raw:?}");
-    assert!((120..=124).contains(&raw.commands), "{raw:?}");
-    assert!(raw.us_per_robot_sim_s.is_finite() && raw.us_per_robot_sim_s > 0.0, "{raw:?}");
-    assert!(sim::raw_scale(0, 0.5, 1.0).is_err());
-    assert!(sim::raw_scale(1, f64::INFINITY, 1.0).is_err());
+    for skeleton in [sim::Skeleton::Tokio, sim::Skeleton::Ractor] {
+        let raw = sim::raw_scale(skeleton, 2, 0.5, 1.0).expect("two skeletons");
+        assert!((300..=304).contains(&raw.steps), "{skeleton:?}: {raw:?}");
+        assert!((120..=124).contains(&raw.commands), "{skeleton:?}: {raw:?}");
+        assert!(raw.us_per_robot_sim_s.is_finite() && raw.us_per_robot_sim_s > 0.0, "{raw:?}");
+        assert!(sim::raw_scale(skeleton, 0, 0.5, 1.0).is_err());
+        assert!(sim::raw_scale(skeleton, 1, f64::INFINITY, 1.0).is_err());
+    }
 }
 
 #[test]
@@ -431,7 +440,8 @@ fn sim_part_specs_read_back_and_bad_ones_name_the_field() {
     for p in [
         part::Part::Mission { duration_s: 0.1 },
         part::Part::Stack { robots: 1000, warm_s: 2.0, measure_s: 1.0 / 3.0 },
-        part::Part::Raw { robots: 7, warm_s: 0.0, measure_s: 1e-3 },
+        part::Part::Raw { skeleton: sim::Skeleton::Tokio, robots: 7, warm_s: 0.0, measure_s: 1e-3 },
+        part::Part::Raw { skeleton: sim::Skeleton::Ractor, robots: 3, warm_s: 0.5, measure_s: 2.0 },
     ] {
         assert_eq!(part::Part::parse(&p.spec()).expect("reads back"), p, "{}", p.spec());
     }
@@ -440,6 +450,7 @@ fn sim_part_specs_read_back_and_bad_ones_name_the_field() {
         ("raw:-3:1:1", "robots `-3`"),
         ("stack:2:soon:1", "warm-up `soon`"),
         ("raw:2:1:-1", "span `-1`"),
+        ("ractor:x:1:1", "robots `x`"),
         ("mission:inf", "duration `inf`"),
         ("mission:NaN", "duration `NaN`"),
         ("walk:1", "expected mission:SECS"),
@@ -458,8 +469,10 @@ fn simulation_parts_run_in_a_child_process() {
     assert_eq!(row.expected_steps_per_robot, 100);
     assert!(row.min_steps_per_robot >= 99, "{row:?}");
     assert_eq!(row.restarts, 0);
-    let raw = part::raw(sim_part_launcher, 2, 0.5, 1.0).expect("two skeletons in a child");
-    assert!((300..=304).contains(&raw.steps), "{raw:?}");
+    for skeleton in [sim::Skeleton::Tokio, sim::Skeleton::Ractor] {
+        let raw = part::raw(sim_part_launcher, skeleton, 2, 0.5, 1.0).expect("two skeletons in a child");
+        assert!((300..=304).contains(&raw.steps), "{skeleton:?}: {raw:?}");
+    }
     let mission = part::mission(sim_part_launcher, 2.0).expect("a mission in a child");
     assert_eq!(mission.simulated_s, 2.0);
     assert!(mission.rtf > 0.0 && mission.restarts == 0, "{mission:?}");
@@ -475,6 +488,6 @@ fn a_failed_simulation_part_says_which_and_why() {
     fn silent(_: &str) -> anyhow::Result<std::process::Command> {
         Ok(std::process::Command::new("true"))
     }
-    let e = part::raw(silent, 1, 0.5, 1.0).expect_err("no result").to_string();
+    let e = part::raw(silent, sim::Skeleton::Tokio, 1, 0.5, 1.0).expect_err("no result").to_string();
     assert!(e.contains("`raw:1:0.5:1`") && e.contains("no result line"), "{e}");
 }
