@@ -117,6 +117,65 @@ async fn raw_sim(mut sim_rx: UnboundedReceiver<RawSimMsg>, step: Duration, count
     }
 }
 
+/// The skeleton's four timed sensor services, each a task that sends its kind (as
+/// [`RawServerMsg::Tick`]) through `tick` at its period until `tick` fails.
+fn raw_timers(
+    config: &Config,
+    tasks: &mut Vec<tokio::task::JoinHandle<()>>,
+    tick: impl Fn(u8) -> bool + Clone + Send + 'static,
+) {
+    let p = config.robot.push_periods();
+    for (kind, period) in
+        [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
+    {
+        let tick = tick.clone();
+        let period = Duration::from_secs_f64(period);
+        let kind = u8::try_from(kind).unwrap_or(u8::MAX);
+        tasks.push(tokio::spawn(async move {
+            let mut timer = tokio::time::interval(period);
+            loop {
+                timer.tick().await;
+                if !tick(kind) {
+                    return;
+                }
+            }
+        }));
+    }
+}
+
+/// The skeleton server's answer to a tick of `kind`: reads the simulator, then hands infrared
+/// to both behaviours and sonar to the wired one (`center`). `None`: the simulator is gone.
+async fn raw_serve_tick(
+    sim: &UnboundedSender<RawSimMsg>,
+    kind: u8,
+    wall: impl Fn(u64),
+    center: impl Fn(u64),
+) -> Option<()> {
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    sim.send(RawSimMsg::Read(tx)).ok()?;
+    let reading = rx.await.ok()?;
+    match kind {
+        0 => {
+            wall(reading);
+            center(reading);
+        }
+        1 => center(reading),
+        _ => {}
+    }
+    Some(())
+}
+
+/// `n` idle tasks, as the master, planner and supervisor mostly are.
+fn raw_idle(n: usize, tasks: &mut Vec<tokio::task::JoinHandle<()>>) {
+    for _ in 0..n {
+        let (keep, mut idle) = tokio::sync::mpsc::unbounded_channel::<()>();
+        tasks.push(tokio::spawn(async move {
+            let _keep = keep;
+            while idle.recv().await.is_some() {}
+        }));
+    }
+}
+
 /// Starts one robot's skeleton (13 tasks) on the current runtime.
 fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::task::JoinHandle<()>>) {
     use tokio::sync::mpsc::unbounded_channel;
@@ -125,44 +184,22 @@ fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::ta
     let (wall_tx, mut wall_rx) = unbounded_channel::<u64>();
     let (center_tx, mut center_rx) = unbounded_channel::<u64>();
     tasks.push(tokio::spawn(raw_sim(sim_rx, Duration::from_secs_f64(config.sim.step_s), Arc::clone(counts))));
-    // The four timed sensor services.
-    let p = config.robot.push_periods();
-    for (kind, period) in
-        [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
-    {
-        let srv = srv_tx.clone();
-        let period = Duration::from_secs_f64(period);
-        let kind = u8::try_from(kind).unwrap_or(u8::MAX);
-        tasks.push(tokio::spawn(async move {
-            let mut tick = tokio::time::interval(period);
-            loop {
-                tick.tick().await;
-                if srv.send(RawServerMsg::Tick(kind)).is_err() {
-                    return;
-                }
-            }
-        }));
-    }
+    let srv = srv_tx.clone();
+    raw_timers(config, tasks, move |kind| srv.send(RawServerMsg::Tick(kind)).is_ok());
     // The server: reads the simulator on every tick, hands scans on, passes commands down.
     let sim = sim_tx.clone();
     tasks.push(tokio::spawn(async move {
         while let Some(msg) = srv_rx.recv().await {
             match msg {
                 RawServerMsg::Tick(kind) => {
-                    let (tx, rx) = tokio::sync::oneshot::channel();
-                    if sim.send(RawSimMsg::Read(tx)).is_err() {
+                    let wall = |r| {
+                        let _ = wall_tx.send(r);
+                    };
+                    let center = |r| {
+                        let _ = center_tx.send(r);
+                    };
+                    if raw_serve_tick(&sim, kind, wall, center).await.is_none() {
                         return;
-                    }
-                    let Ok(reading) = rx.await else { return };
-                    match kind {
-                        0 => {
-                            let _ = wall_tx.send(reading);
-                            let _ = center_tx.send(reading);
-                        }
-                        1 => {
-                            let _ = center_tx.send(reading);
-                        }
-                        _ => {}
                     }
                 }
                 RawServerMsg::Command(c) => {
@@ -181,14 +218,8 @@ fn raw_robot(config: &Config, counts: &Arc<RawCounts>, tasks: &mut Vec<tokio::ta
             }
         }
     }));
-    // The rest of the stack's tasks, idle as the master, planner and supervisor mostly are.
-    for _ in 0..5 {
-        let (keep, mut idle) = unbounded_channel::<()>();
-        tasks.push(tokio::spawn(async move {
-            let _keep = keep;
-            while idle.recv().await.is_some() {}
-        }));
-    }
+    // The rest of the stack's tasks.
+    raw_idle(5, tasks);
     drop((sim_tx, srv_tx));
 }
 
@@ -227,20 +258,16 @@ impl Actor for RactorServer {
         match msg {
             RactorServerMsg::Wire(wall, center) => *behaviours = Some((wall, center)),
             RactorServerMsg::Tick(kind) => {
-                let (tx, rx) = tokio::sync::oneshot::channel();
-                sim.send(RawSimMsg::Read(tx))?;
-                let reading = rx.await?;
                 if let Some((wall, center)) = behaviours {
-                    match kind {
-                        0 => {
-                            let _ = wall.cast(reading);
-                            let _ = center.cast(reading);
-                        }
-                        1 => {
-                            let _ = center.cast(reading);
-                        }
-                        _ => {}
-                    }
+                    let wall = |r| {
+                        let _ = wall.cast(r);
+                    };
+                    let center = |r| {
+                        let _ = center.cast(r);
+                    };
+                    raw_serve_tick(sim, kind, wall, center)
+                        .await
+                        .ok_or("the skeleton's simulator is gone")?;
                 }
             }
             RactorServerMsg::Command(c) => {
@@ -292,35 +319,14 @@ async fn ractor_robot(
     let (center, _) =
         Actor::spawn(None, RactorBehaviour { to: Some(server.clone()) }, ()).await.map_err(spawn_failed)?;
     server.cast(RactorServerMsg::Wire(wall.clone(), center.clone()))?;
-    let p = config.robot.push_periods();
-    for (kind, period) in
-        [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
-    {
-        let server = server.clone();
-        let period = Duration::from_secs_f64(period);
-        let kind = u8::try_from(kind).unwrap_or(u8::MAX);
-        tasks.push(tokio::spawn(async move {
-            let mut tick = tokio::time::interval(period);
-            loop {
-                tick.tick().await;
-                if server.cast(RactorServerMsg::Tick(kind)).is_err() {
-                    return;
-                }
-            }
-        }));
-    }
+    let to = server.clone();
+    raw_timers(config, tasks, move |kind| to.cast(RactorServerMsg::Tick(kind)).is_ok());
     actors.extend([server.get_cell(), wall.get_cell(), center.get_cell()]);
     for _ in 0..3 {
         let (idle, _) = Actor::spawn(None, RactorBehaviour { to: None }, ()).await.map_err(spawn_failed)?;
         actors.push(idle.get_cell());
     }
-    for _ in 0..2 {
-        let (keep, mut idle) = tokio::sync::mpsc::unbounded_channel::<()>();
-        tasks.push(tokio::spawn(async move {
-            let _keep = keep;
-            while idle.recv().await.is_some() {}
-        }));
-    }
+    raw_idle(2, tasks);
     Ok(())
 }
 
