@@ -266,10 +266,11 @@ where
             let deadline = cmd.stamp.min(now).after(timeout);
             // The watchdog sleeps until the deadline it last read and looks again when it
             // wakes, so a deadline that moves later, the usual case, needs no wake-up. It is
-            // woken when it waits for a deadline (none yet, or it enforced the last one) or
-            // when the deadline moves earlier.
+            // woken when it waits for a deadline (none yet, or it enforced the last one), and
+            // when the deadline stays or moves earlier: a command with the deadline being
+            // enforced may land while the watchdog stops the robot, and drive it again.
             st.deadline.send_if_modified(|d| {
-                let wake = (*d).is_none_or(|d| deadline < d) || st.watchdog_idle.load(Ordering::SeqCst);
+                let wake = (*d).is_none_or(|d| deadline <= d) || st.watchdog_idle.load(Ordering::SeqCst);
                 *d = Some(deadline);
                 wake
             });
@@ -414,7 +415,7 @@ async fn watchdog<M: MotorBoard>(
             () = tokio::time::sleep_until(clock.instant_of(d)) => false,
             changed = rx.changed() => {
                 if changed.is_ok() {
-                    continue; // the deadline moved earlier
+                    continue; // a command set the deadline again, or earlier
                 }
                 true
             }
@@ -427,6 +428,9 @@ async fn watchdog<M: MotorBoard>(
             continue; // a fresher command moved the deadline
         }
         let moving = motors.read_state().await.map(|m| !m.stopped).unwrap_or(true);
+        if !instance_gone && *rx.borrow() != Some(last) {
+            continue; // a fresher command moved the deadline meanwhile
+        }
         if moving {
             tracing::info!("nomad200: no fresh command since {last}: stopping");
             timeouts.fetch_add(1, Ordering::Relaxed);

@@ -6,6 +6,7 @@ use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::query::QueryClient;
 use orsa_actors::send::SendClient;
 use orsa_actors::{Clock, Empty, Registry, Sink, Stamped, Update};
+use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
 use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
 use orsa_hardware::server::{Nomad200, SafetyCounters, ServerParams};
 use orsa_hardware::sim::{SimConfig, SimMotorBoard, SimNomad200, SimRobot, SimSensorBoard};
@@ -150,6 +151,73 @@ async fn server_stops_the_robot_again_when_commands_resume_and_stop_again() {
     assert_eq!(safety(&r.registry).await.timeouts, 2, "the second deadline was enforced");
     tokio::time::sleep(Duration::from_secs(1)).await;
     assert_eq!(r.sim.truth().truth().v_m_s, 0.0, "stopped again");
+}
+
+/// A motor board whose `stop` lets other tasks run for a while before it returns, as a real
+/// board's round trip would.
+#[derive(Clone)]
+struct YieldingStop(SimMotorBoard);
+
+impl MotorBoard for YieldingStop {
+    async fn move_velocity(&self, v: AxisVelocities) -> Result<(), BoardError> {
+        self.0.move_velocity(v).await
+    }
+    async fn stop(&self) -> Result<(), BoardError> {
+        let r = self.0.stop().await;
+        for _ in 0..10 {
+            tokio::task::yield_now().await;
+        }
+        r
+    }
+    async fn wait_stop(&self, timeout: Duration) -> Result<(), BoardError> {
+        self.0.wait_stop(timeout).await
+    }
+    async fn zero_axes(&self) -> Result<(), BoardError> {
+        self.0.zero_axes().await
+    }
+    async fn set_velocity_limits(&self, limits: AxisVelocities) -> Result<(), BoardError> {
+        self.0.set_velocity_limits(limits).await
+    }
+    async fn set_accelerations(&self, accel: AxisAccelerations) -> Result<(), BoardError> {
+        self.0.set_accelerations(accel).await
+    }
+    async fn read_state(&self) -> Result<MotorState, BoardError> {
+        self.0.read_state().await
+    }
+}
+
+/// A command that lands while the watchdog is stopping the robot, with the very deadline being
+/// enforced (stamped as the last one applied, exactly one timeout ago), drives the robot again:
+/// the watchdog must see it and stop the robot again, not wait for a deadline that has passed.
+#[tokio::test(start_paused = true)]
+async fn server_stops_a_command_that_lands_while_the_watchdog_stops_the_robot() {
+    let clock = Clock::start();
+    let registry = Registry::with_clock(clock);
+    let config = SimConfig::noiseless();
+    let params = ServerParams::default();
+    let robot_params = config.robot_params(params.push_periods());
+    let world = World::palazzina().expect("reference world");
+    let sim = SimRobot::spawn(SimNomad200::new(world, config, 1).expect("sim"), clock);
+    let server = Nomad200::new(params, robot_params, sim.sensor_board(), YieldingStop(sim.motor_board()));
+    let _server = spawn(&registry, "nomad200", server).await.expect("server starts");
+    let client =
+        SendClient::<NavigationVelocity>::connect(&registry, "nomad200/navigationvelocity").expect("c");
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let stamp = registry.now();
+    let cmd = NavigationVelocity { stamp, v_m_s: 0.2, omega_rad_s: 0.0 };
+    client.send(cmd).expect("send");
+    // At the deadline, let the watchdog go first, then send the same command again: it is
+    // exactly one timeout old, so it is applied, with the same deadline.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    for _ in 0..3 {
+        tokio::task::yield_now().await;
+    }
+    client.send(cmd).expect("send");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let s = safety(&registry).await;
+    assert_eq!(s.applied, 2, "{s:?}");
+    let t = sim.truth().truth();
+    assert_eq!((t.v_m_s, t.omega_rad_s), (0.0, 0.0), "the robot drives on a passed deadline: {s:?}");
 }
 
 #[tokio::test(start_paused = true)]
