@@ -130,72 +130,138 @@ pub struct StateStatus {
 }
 comm_object!(StateStatus, "orsa.StateStatus/1");
 
-struct Inner {
-    spec: StateSpec,
-    current: String,
-    pending: Option<String>,
-    /// Every substate the spec declares (and any it no longer declares that is still held),
-    /// with what `spec`, `current` and `pending` make of it; [`Inner::refresh`] keeps it in step
-    /// with them. Holding a substate, which a behaviour does for every message, reads this
-    /// short list and allocates nothing, instead of walking the spec's maps of names.
-    subs: Vec<Sub>,
-}
+mod inner {
+    //! [`Inner`] keeps its substate list in step with its spec, current and pending states:
+    //! those change only through its setters, each of which refreshes the list.
 
-/// A substate as [`Inner::subs`] keeps it.
-struct Sub {
-    name: Arc<str>,
-    /// How many activities hold it.
-    held: usize,
-    /// Whether the spec declares it.
-    known: bool,
-    /// Whether it may be held now (see [`Inner::allows`]).
-    allowed: bool,
-}
+    use super::StateSpec;
+    use std::sync::Arc;
 
-impl Inner {
-    fn new(spec: StateSpec) -> Inner {
-        let mut inner = Inner { current: spec.initial.clone(), spec, pending: None, subs: Vec::new() };
-        inner.refresh();
-        inner
+    pub(super) struct Inner {
+        spec: StateSpec,
+        current: String,
+        pending: Option<String>,
+        /// Every substate the spec declares (and any it no longer declares that is still held),
+        /// with what `spec`, `current` and `pending` make of it. Holding a substate, which a
+        /// behaviour does for every message, reads this short list and allocates nothing,
+        /// instead of walking the spec's maps of names.
+        subs: Vec<Sub>,
     }
 
-    /// Whether `sub` may be held now: the current main state contains it, and so does the one
-    /// a pending change goes to.
-    fn allows(&self, sub: &str) -> bool {
-        let contains = |m: &str| self.spec.main.get(m).is_some_and(|s| s.contains(sub));
-        contains(&self.current) && self.pending.as_deref().is_none_or(contains)
+    /// A substate as [`Inner`] keeps it.
+    pub(super) struct Sub {
+        pub(super) name: Arc<str>,
+        /// How many activities hold it.
+        pub(super) held: usize,
+        /// Whether the spec declares it.
+        known: bool,
+        /// Whether it may be held now (see [`Inner::allows`]).
+        allowed: bool,
     }
 
-    /// Brings `subs` in step with `spec`, `current` and `pending`; called after every change
-    /// of one of them.
-    fn refresh(&mut self) {
-        for name in self.spec.main.values().flatten() {
-            if !self.subs.iter().any(|s| &*s.name == name.as_str()) {
-                self.subs.push(Sub { name: name.as_str().into(), held: 0, known: true, allowed: false });
-            }
+    impl Sub {
+        pub(super) fn known(&self) -> bool {
+            self.known
         }
-        let mut subs = std::mem::take(&mut self.subs);
-        subs.retain_mut(|s| {
-            s.known = self.spec.main.values().any(|set| set.contains(&*s.name));
-            s.allowed = s.known && self.allows(&s.name);
-            s.known || s.held > 0
-        });
-        self.subs = subs;
+
+        pub(super) fn allowed(&self) -> bool {
+            self.allowed
+        }
     }
 
-    /// The held substates that `target` does not contain, in name order.
-    fn blocking(&self, target: &str) -> Vec<String> {
-        let allowed = self.spec.main.get(target);
-        let mut blocking: Vec<String> = self
-            .subs
-            .iter()
-            .filter(|s| s.held > 0 && !allowed.is_some_and(|a| a.contains(&*s.name)))
-            .map(|s| s.name.to_string())
-            .collect();
-        blocking.sort_unstable();
-        blocking
+    impl Inner {
+        pub(super) fn new(spec: StateSpec) -> Inner {
+            let mut inner = Inner { current: spec.initial.clone(), spec, pending: None, subs: Vec::new() };
+            inner.refresh();
+            inner
+        }
+
+        pub(super) fn spec(&self) -> &StateSpec {
+            &self.spec
+        }
+
+        pub(super) fn current(&self) -> &str {
+            &self.current
+        }
+
+        pub(super) fn pending(&self) -> Option<&str> {
+            self.pending.as_deref()
+        }
+
+        /// The substates, for holding and releasing them (their counts only: what the spec
+        /// makes of them is the setters' to change).
+        pub(super) fn subs_mut(&mut self) -> &mut Vec<Sub> {
+            &mut self.subs
+        }
+
+        pub(super) fn subs(&self) -> &[Sub] {
+            &self.subs
+        }
+
+        /// Takes a new spec; the current state stays if the spec declares it, else it becomes
+        /// the spec's initial one.
+        pub(super) fn set_spec(&mut self, spec: StateSpec) {
+            if !spec.main.contains_key(&self.current) {
+                self.current = spec.initial.clone();
+            }
+            self.spec = spec;
+            self.refresh();
+        }
+
+        /// Asks for (`Some`) or withdraws (`None`) a change of main state.
+        pub(super) fn set_pending(&mut self, pending: Option<String>) {
+            self.pending = pending;
+            self.refresh();
+        }
+
+        /// Enters main state `main`; a change asked for is done (`pending` cleared) if
+        /// `settles`.
+        pub(super) fn enter(&mut self, main: &str, settles: bool) {
+            self.current = main.to_string();
+            if settles {
+                self.pending = None;
+            }
+            self.refresh();
+        }
+
+        /// Whether `sub` may be held now: the current main state contains it, and so does the
+        /// one a pending change goes to.
+        pub(super) fn allows(&self, sub: &str) -> bool {
+            let contains = |m: &str| self.spec.main.get(m).is_some_and(|s| s.contains(sub));
+            contains(&self.current) && self.pending.as_deref().is_none_or(contains)
+        }
+
+        /// Brings `subs` in step with `spec`, `current` and `pending`; every setter calls it.
+        fn refresh(&mut self) {
+            for name in self.spec.main.values().flatten() {
+                if !self.subs.iter().any(|s| &*s.name == name.as_str()) {
+                    self.subs.push(Sub { name: name.as_str().into(), held: 0, known: true, allowed: false });
+                }
+            }
+            let mut subs = std::mem::take(&mut self.subs);
+            subs.retain_mut(|s| {
+                s.known = self.spec.main.values().any(|set| set.contains(&*s.name));
+                s.allowed = s.known && self.allows(&s.name);
+                s.known || s.held > 0
+            });
+            self.subs = subs;
+        }
+
+        /// The held substates that `target` does not contain, in name order.
+        pub(super) fn blocking(&self, target: &str) -> Vec<String> {
+            let allowed = self.spec.main.get(target);
+            let mut blocking: Vec<String> = self
+                .subs
+                .iter()
+                .filter(|s| s.held > 0 && !allowed.is_some_and(|a| a.contains(&*s.name)))
+                .map(|s| s.name.to_string())
+                .collect();
+            blocking.sort_unstable();
+            blocking
+        }
     }
 }
+use inner::Inner;
 
 /// The slave side of the State pattern: one per component, registered as `component/state`.
 pub struct StateSlave {
@@ -229,15 +295,16 @@ impl Drop for SubstateGuard {
         let released_for_change = {
             let mut inner = self.slave.inner.lock();
             let mut last = false;
-            if let Some(i) = inner.subs.iter().position(|s| Arc::ptr_eq(&s.name, &self.sub)) {
-                let sub = &mut inner.subs[i];
+            let subs = inner.subs_mut();
+            if let Some(i) = subs.iter().position(|s| Arc::ptr_eq(&s.name, &self.sub)) {
+                let sub = &mut subs[i];
                 sub.held = sub.held.saturating_sub(1);
                 last = sub.held == 0;
-                if last && !sub.known {
-                    inner.subs.swap_remove(i); // declared no more, and now released
+                if last && !sub.known() {
+                    subs.swap_remove(i); // declared no more, and now released
                 }
             }
-            last && inner.pending.is_some()
+            last && inner.pending().is_some()
         };
         if released_for_change {
             self.slave.bump();
@@ -274,11 +341,7 @@ impl StateSlave {
     pub fn declare(&self, spec: StateSpec) -> PatternResult<()> {
         spec.check()?;
         let mut inner = self.inner.lock();
-        if !spec.main.contains_key(&inner.current) {
-            inner.current = spec.initial.clone();
-        }
-        inner.spec = spec;
-        inner.refresh();
+        inner.set_spec(spec);
         drop(inner);
         self.bump();
         Ok(())
@@ -307,15 +370,15 @@ impl StateSlave {
     fn status(&self) -> StateStatus {
         let inner = self.inner.lock();
         StateStatus {
-            current: inner.current.clone(),
-            pending: inner.pending.clone(),
-            held: inner.subs.iter().filter(|s| s.held > 0).map(|s| (s.name.to_string(), s.held)).collect(),
-            main_states: inner.spec.main.clone(),
+            current: inner.current().to_string(),
+            pending: inner.pending().map(str::to_string),
+            held: inner.subs().iter().filter(|s| s.held > 0).map(|s| (s.name.to_string(), s.held)).collect(),
+            main_states: inner.spec().main.clone(),
         }
     }
 
     fn check_main(&self, name: &str) -> PatternResult<()> {
-        if self.inner.lock().spec.main.contains_key(name) {
+        if self.inner.lock().spec().main.contains_key(name) {
             Ok(())
         } else {
             Err(PatternError::Unknown {
@@ -330,8 +393,7 @@ impl StateSlave {
         let _one_change_at_a_time = self.change.lock().await;
         {
             let mut inner = self.inner.lock();
-            inner.pending = Some(main.to_string());
-            inner.refresh();
+            inner.set_pending(Some(main.to_string()));
         }
         self.bump();
         // If the master stops waiting (timeout, select, abort), the change is withdrawn, so
@@ -342,9 +404,7 @@ impl StateSlave {
             {
                 let mut inner = self.inner.lock();
                 if inner.blocking(main).is_empty() {
-                    inner.current = main.to_string();
-                    inner.pending = None;
-                    inner.refresh();
+                    inner.enter(main, true);
                     drop(inner);
                     withdraw.armed = false;
                     self.bump();
@@ -368,8 +428,7 @@ impl StateSlave {
         if !blocking.is_empty() {
             return Err(PatternError::Busy(blocking));
         }
-        inner.current = main.to_string();
-        inner.refresh();
+        inner.enter(main, false);
         drop(inner);
         self.bump();
         self.record();
@@ -392,8 +451,7 @@ impl Drop for Withdraw<'_> {
     fn drop(&mut self) {
         if self.armed {
             let mut inner = self.slave.inner.lock();
-            inner.pending = None;
-            inner.refresh();
+            inner.set_pending(None);
             drop(inner);
             self.slave.bump();
         }
@@ -435,10 +493,10 @@ impl StateHandle {
 
     fn grab(&self, substate: &str) -> PatternResult<Option<SubstateGuard>> {
         let mut inner = self.slave.inner.lock();
-        let Some(sub) = inner.subs.iter_mut().find(|s| s.known && &*s.name == substate) else {
+        let Some(sub) = inner.subs_mut().iter_mut().find(|s| s.known() && &*s.name == substate) else {
             return Err(PatternError::Unknown { kind: "substate", name: substate.to_string() });
         };
-        if !sub.allowed {
+        if !sub.allowed() {
             return Ok(None);
         }
         sub.held += 1;
@@ -447,7 +505,7 @@ impl StateHandle {
 
     /// The current main state.
     pub fn current(&self) -> String {
-        self.slave.inner.lock().current.clone()
+        self.slave.inner.lock().current().to_string()
     }
 
     /// Whether the current main state contains `substate`.
