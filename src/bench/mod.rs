@@ -299,8 +299,9 @@ pub struct ScaleRow {
     /// The baseline: the same number of robots as raw tokio skeletons (the stack's tasks,
     /// timers and message flow, none of its work), wall µs per robot per simulated second.
     pub raw_wall_us_per_robot_sim_s: Option<f64>,
-    /// The same skeletons with the stack's six actors (its five components and their supervisor) as plain ractor actors: what the
-    /// actor runtime adds to the raw skeleton, still with none of the stack's work.
+    /// The same skeletons with the stack's six actors (its five components and their
+    /// supervisor) as plain ractor actors: what the actor runtime adds to the raw skeleton,
+    /// still with none of the stack's work.
     #[serde(default)]
     pub ractor_wall_us_per_robot_sim_s: Option<f64>,
     /// The real-time factor of every run of this row, in the order run; the row is the median
@@ -706,12 +707,13 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         measured: format!("{:.1}x", r.rtf_100_robots),
         met: r.rtf_100_robots.is_finite().then_some(r.rtf_100_robots >= 10.0),
     });
+    let range = |c: &[f64]| c.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     let costs: Vec<f64> = r.scale.iter().map(|row| row.wall_us_per_robot_sim_s).collect();
-    let (lo, hi) = costs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+    let (lo, hi) = range(&costs);
     // The skeletons' spreads over the same robot counts, for the verdict's reader.
     let spread = |of: fn(&ScaleRow) -> Option<f64>, name: &str| -> Option<String> {
         let c: Vec<f64> = r.scale.iter().filter_map(of).collect();
-        let (lo, hi) = c.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+        let (lo, hi) = range(&c);
         (c.len() == costs.len() && lo > 0.0)
             .then(|| format!("{name} {lo:.1} to {hi:.1} us ({:.2}x)", hi / lo))
     };
