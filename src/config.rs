@@ -37,6 +37,8 @@ pub struct Config {
     pub supervision: SupervisionParams,
     /// How the robot watches its executive across processes (`[link]`).
     pub link: LinkParams,
+    /// Which components run, where, in which state and wired how (`[system]`).
+    pub system: crate::system::SystemSpec,
 }
 
 /// How the robot watches its executive across processes: the executive publishes a heartbeat,
@@ -202,6 +204,8 @@ impl Config {
         self.executive.validate()?;
         self.supervision.validate()?;
         self.link.validate(self.robot.cmd_timeout_s)?;
+        // Kinds are checked against the catalog when the system starts (a program may add its own).
+        self.system.validate(|_| true, &[])?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
         self.planner.validate(&modes)?;
         let behaviours = self.executive.behaviours();

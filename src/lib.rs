@@ -11,7 +11,8 @@
 //! - [`executive`]: the master that arbitrates behaviours by Wiring and State.
 //! - [`planner`]: the deliberative layer that issues goals.
 //!
-//! [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
+//! [`system`] assembles a system from the config, in one place (every command and test uses
+//! it). [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
 //! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
 //! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`](mod@bench)
 //! measures orsa against the raw parts it is built on. [`faults`] reads fault plans and breaks a
@@ -21,6 +22,7 @@
 pub use orsa_actors as actors;
 pub use orsa_executive as executive;
 pub use orsa_hardware as hardware;
+pub use orsa_interfaces as interfaces;
 pub use orsa_planner as planner;
 pub use orsa_reactive as reactive;
 
@@ -33,3 +35,4 @@ pub mod mission;
 pub mod plot;
 pub mod record;
 pub mod remote;
+pub mod system;

@@ -2,15 +2,11 @@
 
 use orsa::config::Config;
 use orsa::mission::{self, RunOptions};
-use orsa_actors::component::spawn;
-use orsa_actors::state::StateMaster;
-use orsa_actors::wiring::WiringMaster;
+use orsa::system::{RobotBoards, System};
 use orsa_actors::{Clock, Registry};
-use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::{SimConfig, SimNomad200, SimRobot};
+use orsa_hardware::faulty::BoardFaults;
+use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
-use orsa_reactive::CenterFollow;
-use orsa_reactive::centerfollow::CenterFollowParams;
 use std::time::Duration;
 
 /// A behaviour that knows the robot only through the patterns (pushes in, a wired Send out)
@@ -20,27 +16,30 @@ use std::time::Duration;
 async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor() {
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
-    let config = SimConfig::default();
-    let params = orsa_hardware::server::ServerParams::default();
-    let robot = config.robot_params(params.push_periods());
-    let sim =
-        SimRobot::spawn(SimNomad200::new(World::palazzina().expect("world"), config, 7).expect("sim"), clock);
+    // No master: the system's own table activates center following and wires it to the motors.
+    let config = Config::from_toml(
+        r#"
+        [[system.components]]
+        name = "nomad200"
+        [[system.components]]
+        name = "centerfollow"
+        state = "active"
+        wire = { vel = "nomad200/navigationvelocity" }
+        "#,
+        "the test's config",
+    )
+    .expect("config");
+    let sim = SimRobot::spawn(
+        SimNomad200::new(World::palazzina().expect("world"), config.sim.clone(), 7).expect("sim"),
+        clock,
+    );
     let truth = sim.truth();
-    let _server =
-        spawn(&registry, "nomad200", Nomad200::new(params, robot, sim.sensor_board(), sim.motor_board()))
-            .await
-            .expect("server");
-    let cf = CenterFollow { params: CenterFollowParams::default(), robot: "nomad200".into() };
-    let _cf = spawn(&registry, "centerfollow", cf).await.expect("behaviour");
-    StateMaster::connect(&registry, "centerfollow")
-        .expect("state")
-        .set_state("active")
+    let system = System::builder(&config)
+        .robot(RobotBoards::simulated(&sim, &config, &BoardFaults::new(7)))
+        .start(&registry)
         .await
-        .expect("activate");
-    WiringMaster::new(&registry)
-        .connect("centerfollow", "vel", "nomad200/navigationvelocity")
-        .await
-        .expect("wire");
+        .expect("system");
+    assert_eq!(system.components, ["nomad200", "centerfollow"]);
 
     let start = truth.truth();
     let mut worst_offset: f64 = 0.0;

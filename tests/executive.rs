@@ -1,16 +1,16 @@
 //! The master as a component, with the robot server and both behaviours on the simulator:
 //! goals, their events, and the wiring invariant, watched through a tap on the registry.
 
-use orsa_actors::component::spawn;
+use orsa::config::Config;
+use orsa::system::{RobotBoards, System};
 use orsa_actors::event::{EventClient, EventMode};
 use orsa_actors::query::QueryClient;
 use orsa_actors::tap::Tap;
 use orsa_actors::{Clock, Registry, Timestamp};
-use orsa_executive::{ExecutiveParams, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, Master};
-use orsa_hardware::server::{Nomad200, ServerParams};
-use orsa_hardware::sim::{SimConfig, SimNomad200, SimRobot};
+use orsa_hardware::faulty::BoardFaults;
+use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
-use orsa_reactive::{CenterFollow, WallFollow};
+use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus};
 use parking_lot::Mutex;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -41,36 +41,38 @@ async fn master_runs_goals_reports_them_and_never_wires_two_behaviours() {
     let registry = Registry::with_clock(clock);
     let watch = Arc::new(WiringWatch::default());
     registry.set_tap(Some(watch.clone()));
-    let config = SimConfig::default();
-    let params = ServerParams::default();
-    let robot = config.robot_params(params.push_periods());
+    let config = Config::from_toml(
+        r#"
+        [[system.components]]
+        name = "nomad200"
+        [[system.components]]
+        name = "wallfollow"
+        [[system.components]]
+        name = "centerfollow"
+        [[system.components]]
+        name = "master"
+        "#,
+        "the test's config",
+    )
+    .expect("config");
     let sim = SimRobot::spawn(
-        SimNomad200::new(World::palazzina().expect("world"), config, 11).expect("sim"),
+        SimNomad200::new(World::palazzina().expect("world"), config.sim.clone(), 11).expect("sim"),
         clock,
     );
     let truth = sim.truth();
-    let _s =
-        spawn(&registry, "nomad200", Nomad200::new(params, robot, sim.sensor_board(), sim.motor_board()))
-            .await
-            .expect("server");
-    let _w =
-        spawn(&registry, "wallfollow", WallFollow { params: Default::default(), robot: "nomad200".into() })
-            .await
-            .expect("wallfollow");
-    let _c = spawn(
-        &registry,
-        "centerfollow",
-        CenterFollow { params: Default::default(), robot: "nomad200".into() },
-    )
-    .await
-    .expect("centerfollow");
-    let _m = spawn(&registry, "master", Master { params: ExecutiveParams::default() }).await.expect("master");
+    let _system = System::builder(&config)
+        .robot(RobotBoards::simulated(&sim, &config, &BoardFaults::new(11)))
+        .start(&registry)
+        .await
+        .expect("system");
 
-    let goals = QueryClient::<Goal, GoalReply>::connect(&registry, "master/goal").expect("goal");
-    let mut events = EventClient::<GoalFilter, GoalEvent>::connect(&registry, "master/goals")
-        .expect("events")
-        .activate(EventMode::Continuous, GoalFilter::default())
-        .expect("activate");
+    let goals = QueryClient::<Goal, GoalReply>::connect(&registry, executive::GOAL.on(executive::NAME))
+        .expect("goal");
+    let mut events =
+        EventClient::<GoalFilter, GoalEvent>::connect(&registry, executive::GOALS.on(executive::NAME))
+            .expect("events")
+            .activate(EventMode::Continuous, GoalFilter::default())
+            .expect("activate");
     let ask = |mode: &str, for_s: Option<f64>| Goal { mode: mode.into(), for_s };
     let timeout = Some(Duration::from_secs(5));
 

@@ -17,10 +17,10 @@
 use ciborium::value::Value;
 use orsa::config::{Config, ConfigError, DEFAULT_CONFIG};
 use orsa::faults::{FaultPlan, KINDS, PlanTargets};
-use orsa::hardware::comm::{DistanceReading, DistanceScan, NavigationVelocity, Ring};
 use orsa::hardware::world::{PALAZZINA_TOML, World, WorldError};
+use orsa::interfaces::nomad200::{DistanceReading, DistanceScan, NavigationVelocity, Ring};
+use orsa_actors::addr::{PatternKind, ServiceAddr, ServiceInfo};
 use orsa_actors::event::EventMode;
-use orsa_actors::registry::{PatternKind, ServiceAddr, ServiceInfo};
 use orsa_actors::wire::{Reply, decode, decode_stamped, encode, encode_stamped};
 use orsa_actors::{Clock, CommObject, Stamped, Timestamp};
 use orsa_net::{ActivateRequest, Keys, NetStats, SubscribeRequest};
@@ -843,7 +843,7 @@ fn stamped_decodes_stably<T: CommObject>(bytes: &[u8], clock: &Clock) -> Result<
 fn stamped<T: CommObject>(value: impl Strategy<Value = T> + 'static, clock: Clock) -> BoxedStrategy<Vec<u8>> {
     (any::<u64>(), 0..u64::MAX / 2, value)
         .prop_map(move |(seq, stamp, value)| {
-            encode_stamped(&Stamped { seq, stamp: Timestamp(stamp), value }, &clock)
+            encode_stamped(&Stamped { seq, sent_at: Timestamp(stamp), value }, &clock)
         })
         .boxed()
 }

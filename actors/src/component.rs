@@ -16,7 +16,12 @@
 //! another component's methods.
 //!
 //! ```
-//! use orsa_actors::{Component, ComponentError, Ctx, Registry, Stamped, component::spawn};
+//! use orsa_actors::component::spawn;
+//! use orsa_actors::prelude::*;
+//!
+//! /// The doubler's interface: a service named once, with its pattern and object.
+//! const INPUT: SendService<u64> = SendService::new("input");
+//! const OUTPUT: PushNewestService<u64> = PushNewestService::new("output");
 //!
 //! /// Doubles every number sent to `doubler/input` and pushes it on `doubler/output`.
 //! struct Doubler;
@@ -24,10 +29,10 @@
 //!
 //! impl Component for Doubler {
 //!     type Msg = Msg;
-//!     type State = orsa_actors::push_newest::PushNewestServer<u64>;
+//!     type State = PushNewestServer<u64>;
 //!     async fn setup(&self, ctx: &Ctx<Msg>) -> Result<Self::State, ComponentError> {
-//!         ctx.send_server::<u64>("input", Msg::Input)?;
-//!         Ok(ctx.push_newest_server::<u64>("output")?)
+//!         ctx.send_server(INPUT, Msg::Input)?;
+//!         Ok(ctx.push_newest_server(OUTPUT)?)
 //!     }
 //!     async fn handle(&self, _ctx: &Ctx<Msg>, out: &mut Self::State, msg: Msg) -> Result<(), ComponentError> {
 //!         let Msg::Input(n) = msg;
@@ -39,14 +44,15 @@
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! let doubler = spawn(&registry, "doubler", Doubler).await?;
-//! let out = orsa_actors::push_newest::PushNewestClient::<u64>::connect(&registry, "doubler/output")?;
+//! let out = PushNewestClient::connect(&registry, OUTPUT.on("doubler"))?;
 //! out.subscribe()?;
-//! orsa_actors::send::SendClient::<u64>::connect(&registry, "doubler/input")?.send(21)?;
+//! SendClient::connect(&registry, INPUT.on("doubler"))?.send(21)?;
 //! assert_eq!(out.get_update_wait().await?.value, 42);
 //! doubler.stop().await;
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, ServiceAddr};
 use crate::clock::{Clock, Timestamp};
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
@@ -55,8 +61,12 @@ use crate::fault::HandlerFault;
 use crate::push_newest::{PushNewestClient, PushNewestServer};
 use crate::push_timed::{PushTimedClient, PushTimedServer, Tick};
 use crate::query::{QueryClient, QueryRequest, QueryServer};
-use crate::registry::{IntoAddr, Registry, ServiceAddr};
+use crate::registry::Registry;
 use crate::send::{SendClient, SendServer};
+use crate::service::{
+    Addr, Descriptor, EventService, PushNewestService, PushTimedService, QueryPortDesc, QueryService,
+    SendPortDesc, SendService,
+};
 use crate::sink::{Envelope, Mailbox};
 use crate::stamped::{Stamped, Update};
 use crate::state::{Cancel, StateHandle, StateSlave, StateSpec};
@@ -180,8 +190,12 @@ impl<M: ractor::Message> Ctx<M> {
     }
 
     /// The address of one of this component's services.
-    pub fn addr(&self, service: &str) -> ServiceAddr {
-        ServiceAddr::new(self.shell.name.clone(), service)
+    pub fn addr<D: Descriptor>(&self, service: D) -> Addr<D> {
+        Addr::new(self.shell.name.clone(), service)
+    }
+
+    fn untyped(&self, service: impl Descriptor) -> ServiceAddr {
+        ServiceAddr::new(self.shell.name.clone(), service.name())
     }
 
     /// The system's registry.
@@ -255,29 +269,32 @@ impl<M: ractor::Message> Ctx<M> {
     /// Declares a Send service; each message arrives as `map(message)`.
     pub fn send_server<T: CommObject>(
         &self,
-        service: &str,
+        service: SendService<T>,
         map: impl Fn(Stamped<T>) -> M + Send + Sync + 'static,
     ) -> PatternResult<SendServer<T>> {
-        self.declared(format!("service {service}"), || {
-            SendServer::register(&self.shell.registry, self.addr(service), self.shell.mailbox.sink(map))
+        self.declared(format!("service {}", service.name()), || {
+            SendServer::register(&self.shell.registry, self.untyped(service), self.shell.mailbox.sink(map))
         })
     }
 
     /// Declares a Query service; each request arrives as `map(request)`.
     pub fn query_server<Req: CommObject, Ans: CommObject>(
         &self,
-        service: &str,
+        service: QueryService<Req, Ans>,
         map: impl Fn(QueryRequest<Req, Ans>) -> M + Send + Sync + 'static,
     ) -> PatternResult<QueryServer<Req, Ans>> {
-        self.declared(format!("service {service}"), || {
-            QueryServer::register(&self.shell.registry, self.addr(service), self.shell.mailbox.sink(map))
+        self.declared(format!("service {}", service.name()), || {
+            QueryServer::register(&self.shell.registry, self.untyped(service), self.shell.mailbox.sink(map))
         })
     }
 
     /// Declares a Push newest service.
-    pub fn push_newest_server<T: CommObject>(&self, service: &str) -> PatternResult<PushNewestServer<T>> {
-        self.declared(format!("service {service}"), || {
-            PushNewestServer::register(&self.shell.registry, self.addr(service))
+    pub fn push_newest_server<T: CommObject>(
+        &self,
+        service: PushNewestService<T>,
+    ) -> PatternResult<PushNewestServer<T>> {
+        self.declared(format!("service {}", service.name()), || {
+            PushNewestServer::register(&self.shell.registry, self.untyped(service))
         })
     }
 
@@ -285,14 +302,14 @@ impl<M: ractor::Message> Ctx<M> {
     /// It starts stopped: call [`PushTimedServer::start`] (starting again is harmless).
     pub fn push_timed_server<T: CommObject>(
         &self,
-        service: &str,
+        service: PushTimedService<T>,
         period: Duration,
         map: impl Fn(Tick) -> M + Send + Sync + 'static,
     ) -> PatternResult<PushTimedServer<T>> {
-        self.declared(format!("service {service}"), || {
+        self.declared(format!("service {}", service.name()), || {
             let server = PushTimedServer::register(
                 &self.shell.registry,
-                self.addr(service),
+                self.untyped(service),
                 period,
                 self.shell.mailbox.sink_latest(map),
             )?;
@@ -305,23 +322,26 @@ impl<M: ractor::Message> Ctx<M> {
     /// Declares an Event service with its condition test (see [`EventServer::register`]).
     pub fn event_server<P: CommObject, E: CommObject, S: 'static>(
         &self,
-        service: &str,
+        service: EventService<P, E>,
         test: impl Fn(&mut P, &S) -> Option<E> + Send + Sync + 'static,
     ) -> PatternResult<EventServer<P, E, S>> {
-        self.declared(format!("service {service}"), || {
-            EventServer::register(&self.shell.registry, self.addr(service), test)
+        self.declared(format!("service {}", service.name()), || {
+            EventServer::register(&self.shell.registry, self.untyped(service), test)
         })
     }
 
     /// A Send client to `addr`.
-    pub fn send_client<T: CommObject>(&self, addr: impl IntoAddr) -> PatternResult<SendClient<T>> {
+    pub fn send_client<T: CommObject>(
+        &self,
+        addr: impl IntoAddr<SendService<T>>,
+    ) -> PatternResult<SendClient<T>> {
         SendClient::connect(&self.shell.registry, addr)
     }
 
     /// A Query client to `addr`, whose waits this component's deactivation aborts.
     pub fn query_client<Req: CommObject, Ans: CommObject>(
         &self,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<QueryService<Req, Ans>>,
     ) -> PatternResult<QueryClient<Req, Ans>> {
         Ok(QueryClient::connect(&self.shell.registry, addr)?.with_cancel(self.cancel()))
     }
@@ -329,7 +349,7 @@ impl<M: ractor::Message> Ctx<M> {
     /// An Event client to `addr`, whose waits this component's deactivation aborts.
     pub fn event_client<P: CommObject, E: CommObject>(
         &self,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<EventService<P, E>>,
     ) -> PatternResult<EventClient<P, E>> {
         Ok(EventClient::connect(&self.shell.registry, addr)?.with_cancel(self.cancel()))
     }
@@ -340,12 +360,12 @@ impl<M: ractor::Message> Ctx<M> {
     /// or [`EventClient::deactivate`] ends it (a single-shot one ends when it fires).
     pub fn activate_event<P: CommObject, E: CommObject>(
         &self,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<EventService<P, E>>,
         mode: crate::event::EventMode,
         params: P,
         map: impl Fn(crate::event::Fired<E>) -> M + Send + Sync + 'static,
     ) -> PatternResult<crate::event::ActivationId> {
-        let addr = addr.into_addr()?;
+        let addr = IntoAddr::<EventService<P, E>>::into_addr(addr);
         self.declared(format!("activation {addr}"), || {
             let client = EventClient::<P, E>::connect(&self.shell.registry, &addr)?;
             client.activate_to(mode, params, self.shell.mailbox.sink(map))
@@ -371,10 +391,10 @@ impl<M: ractor::Message> Ctx<M> {
     /// subscription belongs to the component and survives restarts of its instance.
     pub fn subscribe_newest<T: CommObject>(
         &self,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushNewestService<T>>,
         map: impl Fn(Update<T>) -> M + Send + Sync + 'static,
     ) -> PatternResult<Arc<PushNewestClient<T>>> {
-        let addr = addr.into_addr()?;
+        let addr = IntoAddr::<PushNewestService<T>>::into_addr(addr);
         self.declared(format!("subscription {addr}"), || {
             let client = PushNewestClient::build(
                 &self.shell.registry,
@@ -392,11 +412,11 @@ impl<M: ractor::Message> Ctx<M> {
     /// instance; declaring it again with another `every` re-subscribes with that one.
     pub fn subscribe_timed<T: CommObject>(
         &self,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushTimedService<T>>,
         every: u32,
         map: impl Fn(Update<T>) -> M + Send + Sync + 'static,
     ) -> PatternResult<Arc<PushTimedClient<T>>> {
-        let addr = addr.into_addr()?;
+        let addr = IntoAddr::<PushTimedService<T>>::into_addr(addr);
         let client: Arc<PushTimedClient<T>> = self.declared(format!("subscription {addr}"), || {
             let client = PushTimedClient::build(
                 &self.shell.registry,
@@ -417,16 +437,16 @@ impl<M: ractor::Message> Ctx<M> {
     }
 
     /// Declares (or gets back, still wired) a wireable Send port.
-    pub fn send_port<T: CommObject>(&self, port: &str) -> PatternResult<SendPort<T>> {
-        self.shell.wiring.send_port(port)
+    pub fn send_port<T: CommObject>(&self, port: SendPortDesc<T>) -> PatternResult<SendPort<T>> {
+        self.shell.wiring.send_port(port.name())
     }
 
     /// Declares (or gets back, still wired) a wireable Query port.
     pub fn query_port<Req: CommObject, Ans: CommObject>(
         &self,
-        port: &str,
+        port: QueryPortDesc<Req, Ans>,
     ) -> PatternResult<QueryPort<Req, Ans>> {
-        self.shell.wiring.query_port(port)
+        self.shell.wiring.query_port(port.name())
     }
 }
 

@@ -1,6 +1,6 @@
 //! The status values of the patterns: every failure is a [`PatternError`], never a panic.
 
-use crate::registry::{PatternKind, ServiceAddr};
+use crate::addr::{PatternKind, ServiceAddr};
 use thiserror::Error;
 
 /// What went wrong in a pattern operation.

@@ -10,14 +10,15 @@
 //! and a timestamp.
 //!
 //! ```
-//! # use orsa_actors::{Registry, event::{EventClient, EventMode, EventServer}};
+//! # use orsa_actors::{Registry, event::{EventClient, EventMode, EventServer}, service::EventService};
+//! const NEAR: EventService<f64, f64> = EventService::new("near");
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! // fire with the distance when it drops below the client's threshold
-//! let server = EventServer::<f64, f64, f64>::register(&registry, "nomad200/near", |limit: &mut f64, d: &f64| {
+//! let server = EventServer::<f64, f64, f64>::register(&registry, NEAR.on("nomad200"), |limit: &mut f64, d: &f64| {
 //!     (*d < *limit).then_some(*d)
 //! })?;
-//! let client = EventClient::<f64, f64>::connect(&registry, "nomad200/near")?;
+//! let client = EventClient::<f64, f64>::connect(&registry, NEAR.on("nomad200"))?;
 //! let mut near = client.activate(EventMode::Single, 0.5)?;
 //! server.put(&0.8); // no event
 //! server.put(&0.4); // fires once
@@ -26,10 +27,12 @@
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Remote, Resolved};
+use crate::service::EventService;
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
 use crate::state::Cancel;
@@ -124,7 +127,7 @@ impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
             let wire = WireFired {
                 activation: f.activation.0,
                 seq: f.event.seq,
-                stamp_ns: f.event.stamp,
+                stamp_ns: f.event.sent_at,
                 value: f.event.value,
             };
             if sink(&crate::wire::encode_on(&clock, &wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
@@ -163,10 +166,10 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
     /// state and fire only on a change.
     pub fn register(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<EventService<P, E>>,
         test: impl Fn(&mut P, &S) -> Option<E> + Send + Sync + 'static,
     ) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+        let addr = addr.into_addr();
         let endpoint = Arc::new(EventEndpoint {
             topic: addr.to_string(),
             tap: registry.tap_slot(),
@@ -201,8 +204,8 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             updated.push((id, params));
             let Some(event) = event else { continue };
             let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
-            let msg = Fired { activation: id, event: Stamped { seq, stamp: ep.clock.now(), value: event } };
-            ep.tap.record(&ep.topic, E::ID, msg.event.stamp, &msg);
+            let msg = Fired { activation: id, event: Stamped { seq, sent_at: ep.clock.now(), value: event } };
+            ep.tap.record(&ep.topic, E::ID, msg.event.sent_at, &msg);
             match sink.deliver_with(msg, ep.account.offer(None, seq)) {
                 Ok(()) => {
                     fired += 1;
@@ -326,8 +329,8 @@ impl<P: CommObject, E: CommObject> Drop for EventActivation<P, E> {
 
 impl<P: CommObject, E: CommObject> EventClient<P, E> {
     /// Connects to the Event service at `addr`, checking its parameter and event types.
-    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+    pub fn connect(registry: &Registry, addr: impl IntoAddr<EventService<P, E>>) -> PatternResult<Self> {
+        let addr = addr.into_addr();
         let via = match registry.resolve::<EventEndpoint<P, E>>(&addr, &info::<P, E>())? {
             Resolved::Local(e) => Via::Local(e),
             Resolved::Remote(remote) => Via::Remote {
@@ -416,7 +419,7 @@ fn remote_activate<P: CommObject, E: CommObject>(
         let Some(sink) = slot.as_ref() else { return false };
         let fired = Fired {
             activation: id,
-            event: Stamped { seq: wire.seq, stamp: wire.stamp_ns, value: wire.value },
+            event: Stamped { seq: wire.seq, sent_at: wire.stamp_ns, value: wire.value },
         };
         let open = sink.deliver(fired) != Err(Undeliverable::Closed);
         if !open || mode == EventMode::Single {

@@ -16,8 +16,8 @@
 //! the moment the component was back (the first message its new instance handled). With no fault
 //! set, the cost on the message path is one atomic load, and on a component's handler two.
 
+use crate::addr::ServiceAddr;
 use crate::clock::{Clock, Timestamp};
-use crate::registry::ServiceAddr;
 use parking_lot::{Mutex, RwLock};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;

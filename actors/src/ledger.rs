@@ -26,7 +26,7 @@
 //! Messages that arrive from other processes carry their sender's sequence numbers but not its
 //! identity, so they are counted delivered, never duplicate.
 
-use crate::registry::{PatternKind, ServiceAddr};
+use crate::addr::{PatternKind, ServiceAddr};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

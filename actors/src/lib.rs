@@ -19,9 +19,13 @@
 //!   (sequence number, timestamp) every object travels in.
 //! - [`component`]: a component is a named actor hosting services, ports, state and
 //!   subscriptions; a restarted instance keeps all of them.
-//! - [`registry`]: addresses (`component/service`) and the directory that resolves them, with the
-//!   type check between client and service; [`transport`]: the seam for other processes, and
-//!   [`wire`]: the CBOR encoding of what crosses it.
+//! - [`service`]: typed service and port descriptors (a service named once with its pattern and
+//!   objects, so a wrong name or type is a compile error); [`addr`]: untyped addresses
+//!   (`component/service`) and what a service is ([`ServiceInfo`]), the run-time half of the type
+//!   check for addresses a person typed.
+//! - [`registry`]: the directory of one system that resolves addresses; [`transport`]: the seam
+//!   for other processes, and [`wire`]: the CBOR encoding of what crosses it.
+//! - [`prelude`]: what a component author needs, in one `use`.
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
@@ -31,6 +35,7 @@
 //! - [`sink`]: where patterns deliver (a component's mailbox, a channel); [`error`]: the status
 //!   values of every operation.
 
+pub mod addr;
 pub mod clock;
 pub mod comm;
 pub mod component;
@@ -38,12 +43,14 @@ pub mod error;
 pub mod event;
 pub mod fault;
 pub mod ledger;
+pub mod prelude;
 mod push;
 pub mod push_newest;
 pub mod push_timed;
 pub mod query;
 pub mod registry;
 pub mod send;
+pub mod service;
 pub mod sink;
 pub mod stamped;
 pub mod state;
@@ -53,11 +60,12 @@ pub mod transport;
 pub mod wire;
 pub mod wiring;
 
+pub use addr::{PatternKind, ServiceAddr, ServiceInfo};
 pub use clock::{Clock, Timestamp};
 pub use comm::{CommObject, Empty};
 pub use component::{Component, ComponentError, ComponentHandle, Ctx};
 pub use error::{PatternError, PatternResult};
 pub use push::PushStats;
-pub use registry::{PatternKind, Registry, ServiceAddr, ServiceInfo};
+pub use registry::Registry;
 pub use sink::{Mailbox, Sink, Undeliverable};
 pub use stamped::{Stamped, Update};

@@ -7,12 +7,13 @@
 //! and costs nothing for the other nine. Updates are shared ([`Update`] is an `Arc`), so a fan-out
 //! to many subscribers copies a pointer, not the data.
 
+use crate::addr::{PatternKind, ServiceAddr, ServiceInfo};
 use crate::clock::Clock;
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::fault::Verdict;
 use crate::ledger::{Account, Stream};
-use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Remote, Resolved};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
 use crate::state::Cancel;
@@ -267,11 +268,11 @@ impl<T: CommObject> PushEndpoint<T> {
                 && let Some(slot) = Arc::get_mut(latest)
             {
                 slot.seq = seq;
-                slot.stamp = stamp;
+                slot.sent_at = stamp;
                 replaced = Some(std::mem::replace(&mut slot.value, value));
                 Arc::clone(latest)
             } else {
-                let update = Arc::new(Stamped { seq, stamp, value });
+                let update = Arc::new(Stamped { seq, sent_at: stamp, value });
                 previous = board.latest.replace(Arc::clone(&update));
                 update
             };
@@ -290,7 +291,7 @@ impl<T: CommObject> PushEndpoint<T> {
         };
         // What the publication replaced is dropped with no lock held.
         drop((previous, replaced));
-        self.tap.record(&self.topic, T::ID, update.stamp, &*update);
+        self.tap.record(&self.topic, T::ID, update.sent_at, &*update);
         let hand = match verdict {
             Verdict::Drop => Hand::Drop,
             Verdict::Duplicate => Hand::Copies(2),

@@ -10,11 +10,12 @@
 //! receives again once its component is back, without re-subscribing.
 //!
 //! ```
-//! # use orsa_actors::{Registry, push_newest::{PushNewestClient, PushNewestServer}};
+//! # use orsa_actors::{Registry, push_newest::{PushNewestClient, PushNewestServer}, service::PushNewestService};
+//! const TICKS: PushNewestService<u64> = PushNewestService::new("ticks");
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
-//! let server = PushNewestServer::<u64>::register(&registry, "odometry/ticks")?;
-//! let client = PushNewestClient::<u64>::connect(&registry, "odometry/ticks")?;
+//! let server = PushNewestServer::register(&registry, TICKS.on("odometry"))?;
+//! let client = PushNewestClient::connect(&registry, TICKS.on("odometry"))?;
 //! client.subscribe()?;
 //! server.put(41);
 //! server.put(42);
@@ -22,10 +23,12 @@
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr};
 use crate::comm::CommObject;
 use crate::error::PatternResult;
 use crate::push::{PushClientCore, PushEndpoint, PushStats};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr};
+use crate::registry::Registry;
+use crate::service::PushNewestService;
 use crate::sink::Sink;
 use crate::stamped::Update;
 use crate::state::Cancel;
@@ -44,8 +47,8 @@ impl<T> Clone for PushNewestServer<T> {
 
 impl<T: CommObject> PushNewestServer<T> {
     /// Registers a Push newest service at `addr`.
-    pub fn register(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
-        let endpoint = PushEndpoint::register(registry, addr.into_addr()?, PatternKind::PushNewest, true)?;
+    pub fn register(registry: &Registry, addr: impl IntoAddr<PushNewestService<T>>) -> PatternResult<Self> {
+        let endpoint = PushEndpoint::register(registry, addr.into_addr(), PatternKind::PushNewest, true)?;
         Ok(PushNewestServer { endpoint })
     }
 
@@ -77,14 +80,14 @@ pub struct PushNewestClient<T> {
 
 impl<T: CommObject> PushNewestClient<T> {
     /// Connects to the Push newest service at `addr` (not yet subscribed).
-    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
+    pub fn connect(registry: &Registry, addr: impl IntoAddr<PushNewestService<T>>) -> PatternResult<Self> {
         Self::build(registry, addr, None, None)
     }
 
     /// Connects, forwarding every received update into `sink` as well.
     pub fn connect_to(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushNewestService<T>>,
         sink: Sink<Update<T>>,
     ) -> PatternResult<Self> {
         Self::build(registry, addr, Some(sink), None)
@@ -92,12 +95,12 @@ impl<T: CommObject> PushNewestClient<T> {
 
     pub(crate) fn build(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushNewestService<T>>,
         sink: Option<Sink<Update<T>>>,
         cancel: Option<Cancel>,
     ) -> PatternResult<Self> {
         let core =
-            PushClientCore::connect(registry, &addr.into_addr()?, PatternKind::PushNewest, sink, cancel)?;
+            PushClientCore::connect(registry, &addr.into_addr(), PatternKind::PushNewest, sink, cancel)?;
         Ok(PushNewestClient { core })
     }
 

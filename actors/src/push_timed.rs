@@ -12,27 +12,30 @@
 //!
 //! ```
 //! # use std::time::Duration;
-//! # use orsa_actors::{Registry, Sink, push_timed::{PushTimedClient, PushTimedServer, Tick}};
+//! # use orsa_actors::{Registry, Sink, push_timed::{PushTimedClient, PushTimedServer, Tick}, service::PushTimedService};
+//! const COUNTER: PushTimedService<u64> = PushTimedService::new("counter");
 //! # #[tokio::main(flavor = "current_thread", start_paused = true)] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! let (tick_tx, mut ticks) = tokio::sync::mpsc::unbounded_channel::<Tick>();
 //! let server = PushTimedServer::<u64>::register(
-//!     &registry, "nomad200/counter", Duration::from_millis(40), Sink::channel(tick_tx))?;
+//!     &registry, COUNTER.on("nomad200"), Duration::from_millis(40), Sink::channel(tick_tx))?;
 //! let producer = server.clone();
 //! tokio::spawn(async move { while let Some(t) = ticks.recv().await { producer.put(t.seq); } });
 //!
-//! let client = PushTimedClient::<u64>::connect(&registry, "nomad200/counter")?;
+//! let client = PushTimedClient::connect(&registry, COUNTER.on("nomad200"))?;
 //! client.subscribe(10)?;
 //! server.start();
 //! assert_eq!(client.get_update_wait().await?.value, 10); // the 10th tick, after 400 ms
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr};
 use crate::clock::Timestamp;
 use crate::comm::CommObject;
 use crate::error::PatternResult;
 use crate::push::{PushClientCore, PushEndpoint, PushStats};
-use crate::registry::{IntoAddr, PatternKind, Registry, ServiceAddr};
+use crate::registry::Registry;
+use crate::service::PushTimedService;
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Update;
 use crate::state::Cancel;
@@ -86,7 +89,7 @@ impl<T: CommObject> PushTimedServer<T> {
     /// into `tick`. The server starts stopped.
     pub fn register(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushTimedService<T>>,
         period: Duration,
         tick: Sink<Tick>,
     ) -> PatternResult<Self> {
@@ -100,7 +103,7 @@ impl<T: CommObject> PushTimedServer<T> {
                 "a push timed server must be registered inside a tokio runtime".into(),
             )
         })?;
-        let endpoint = PushEndpoint::register(registry, addr.into_addr()?, PatternKind::PushTimed, false)?;
+        let endpoint = PushEndpoint::register(registry, addr.into_addr(), PatternKind::PushTimed, false)?;
         let timer =
             Arc::new(Mutex::new(Timer { period, tick, count: 0, task: None, missed: 0, generation: 0 }));
         Ok(PushTimedServer { endpoint, timer, runtime })
@@ -200,14 +203,14 @@ pub struct PushTimedClient<T> {
 
 impl<T: CommObject> PushTimedClient<T> {
     /// Connects to the Push timed service at `addr` (not yet subscribed).
-    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
+    pub fn connect(registry: &Registry, addr: impl IntoAddr<PushTimedService<T>>) -> PatternResult<Self> {
         Self::build(registry, addr, None, None)
     }
 
     /// Connects, forwarding every received update into `sink` as well.
     pub fn connect_to(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushTimedService<T>>,
         sink: Sink<Update<T>>,
     ) -> PatternResult<Self> {
         Self::build(registry, addr, Some(sink), None)
@@ -215,12 +218,12 @@ impl<T: CommObject> PushTimedClient<T> {
 
     pub(crate) fn build(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<PushTimedService<T>>,
         sink: Option<Sink<Update<T>>>,
         cancel: Option<Cancel>,
     ) -> PatternResult<Self> {
         let core =
-            PushClientCore::connect(registry, &addr.into_addr()?, PatternKind::PushTimed, sink, cancel)?;
+            PushClientCore::connect(registry, &addr.into_addr(), PatternKind::PushTimed, sink, cancel)?;
         Ok(PushTimedClient { core })
     }
 

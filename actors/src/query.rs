@@ -10,27 +10,30 @@
 //! with [`PatternError::Cancelled`] when its master deactivates it.
 //!
 //! ```
-//! # use orsa_actors::{Registry, Sink, query::{QueryClient, QueryRequest, QueryServer}};
+//! # use orsa_actors::{Registry, Sink, query::{QueryClient, QueryRequest, QueryServer}, service::QueryService};
+//! const SQUARE: QueryService<u64, u64> = QueryService::new("square");
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-//! let _server = QueryServer::<u64, u64>::register(&registry, "calc/square", Sink::channel(tx))?;
+//! let _server = QueryServer::register(&registry, SQUARE.on("calc"), Sink::channel(tx))?;
 //! tokio::spawn(async move {
 //!     while let Some(q) = rx.recv().await {
 //!         let n = q.request.value;
 //!         let _ = q.answer(n * n);
 //!     }
 //! });
-//! let client = QueryClient::<u64, u64>::connect(&registry, "calc/square")?;
+//! let client = QueryClient::connect(&registry, SQUARE.on("calc"))?;
 //! assert_eq!(client.query(7, None).await?, 49);
 //! let pending = client.request(3)?;          // request now ...
 //! assert_eq!(pending.receive(None).await?, 9); // ... collect later
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Remote, Resolved};
+use crate::service::QueryService;
 use crate::sink::Sink;
 use crate::stamped::Stamped;
 use crate::state::Cancel;
@@ -72,8 +75,8 @@ pub struct Responder<Ans> {
 impl<Ans: CommObject> Responder<Ans> {
     /// Sends the answer. Fails with [`PatternError::NotActive`] if the client stopped waiting.
     pub fn answer(self, answer: Ans) -> PatternResult<()> {
-        let msg = Stamped { seq: self.seq, stamp: self.stamp.now(), value: answer };
-        self.tap.record(&self.answer_topic, Ans::ID, msg.stamp, &msg);
+        let msg = Stamped { seq: self.seq, sent_at: self.stamp.now(), value: answer };
+        self.tap.record(&self.answer_topic, Ans::ID, msg.sent_at, &msg);
         self.tx
             .send(Ok(msg))
             .map_err(|_| PatternError::NotActive("the client no longer waits for this answer".into()))
@@ -99,7 +102,7 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
     ) -> PatternResult<oneshot::Receiver<PatternResult<Stamped<Ans>>>> {
         let (tx, rx) = oneshot::channel();
         let seq = request.seq;
-        self.tap.record(&self.topic, Req::ID, request.stamp, &request);
+        self.tap.record(&self.topic, Req::ID, request.sent_at, &request);
         let msg = QueryRequest {
             request,
             responder: Responder {
@@ -150,10 +153,10 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
     /// Registers a Query service at `addr` delivering requests into `sink`.
     pub fn register(
         registry: &Registry,
-        addr: impl IntoAddr,
+        addr: impl IntoAddr<QueryService<Req, Ans>>,
         sink: Sink<QueryRequest<Req, Ans>>,
     ) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+        let addr = addr.into_addr();
         let endpoint = Arc::new(QueryEndpoint {
             topic: addr.to_string(),
             answer_topic: format!("{addr}/answer").into(),
@@ -250,8 +253,8 @@ impl<Ans: CommObject> PendingQuery<Ans> {
 
 impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
     /// Connects to the Query service at `addr`, checking its request and answer types.
-    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+    pub fn connect(registry: &Registry, addr: impl IntoAddr<QueryService<Req, Ans>>) -> PatternResult<Self> {
+        let addr = addr.into_addr();
         let endpoint = match registry.resolve::<QueryEndpoint<Req, Ans>>(&addr, &info::<Req, Ans>())? {
             Resolved::Local(e) => Via::Local(e),
             Resolved::Remote(r) => Via::Remote(r),
@@ -281,7 +284,7 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
     fn request_within(&self, request: Req, timeout: Duration) -> PatternResult<PendingQuery<Ans>> {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
         let clock = self.registry.clock();
-        let stamped = Stamped { seq, stamp: clock.now(), value: request };
+        let stamped = Stamped { seq, sent_at: clock.now(), value: request };
         let rx = match &self.endpoint {
             Via::Local(ep) => ep.deliver(stamped)?,
             Via::Remote(r) => {

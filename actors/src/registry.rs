@@ -1,167 +1,21 @@
-//! Names: service addresses, the registry that resolves them, and the type check between a
-//! client and a service.
+//! The registry: the directory of one orsa system, which resolves service addresses.
 //!
-//! Every service is addressed as `component/service` ([`ServiceAddr`]). A [`Registry`] is the
+//! Every service is addressed as `component/service` ([`ServiceAddr`], in [`crate::addr`]). A [`Registry`] is the
 //! directory of one orsa system: the components and services hosted in this process, and behind
 //! them the [`crate::transport::Transport`] seam for services hosted elsewhere. A
 //! client resolves an address once; the registry answers with the service's pattern and
 //! communication object identifiers, and the client checks them against its own before it
 //! sends a byte, answering [`PatternError::IncompatibleService`] on a mismatch.
 
+use crate::addr::{PatternKind, ServiceAddr, ServiceInfo, valid_name};
 use crate::clock::{Clock, Timestamp};
 use crate::error::{PatternError, PatternResult};
 use crate::transport::{Served, Transport};
 use parking_lot::RwLock;
-use serde::{Deserialize, Serialize};
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::fmt;
-use std::str::FromStr;
 use std::sync::Arc;
-
-/// The address of a service: the component hosting it and the service's name.
-#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-pub struct ServiceAddr {
-    /// The component's name, e.g. `nomad200`.
-    pub component: String,
-    /// The service's name within the component, e.g. `distanceir`.
-    pub service: String,
-}
-
-impl ServiceAddr {
-    /// An address from its two parts.
-    pub fn new(component: impl Into<String>, service: impl Into<String>) -> Self {
-        ServiceAddr { component: component.into(), service: service.into() }
-    }
-}
-
-impl fmt::Display for ServiceAddr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}/{}", self.component, self.service)
-    }
-}
-
-/// A string that is not of the form `component/service`.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error(
-    "'{0}' is not a service address: expected 'component/service' (names of letters, digits, '_' or '-')"
-)]
-pub struct BadAddr(pub String);
-
-/// Whether `name` is a valid component, service or port name.
-pub fn valid_name(name: &str) -> bool {
-    !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-}
-
-impl FromStr for ServiceAddr {
-    type Err = BadAddr;
-    fn from_str(s: &str) -> Result<Self, BadAddr> {
-        match s.split_once('/') {
-            Some((c, sv)) if valid_name(c) && valid_name(sv) => Ok(ServiceAddr::new(c, sv)),
-            _ => Err(BadAddr(s.to_string())),
-        }
-    }
-}
-
-/// Anything a client accepts as an address: a [`ServiceAddr`] or a `"component/service"` string.
-pub trait IntoAddr {
-    /// The address, or an error naming the malformed text.
-    fn into_addr(self) -> PatternResult<ServiceAddr>;
-}
-
-impl IntoAddr for ServiceAddr {
-    fn into_addr(self) -> PatternResult<ServiceAddr> {
-        Ok(self)
-    }
-}
-
-impl IntoAddr for &ServiceAddr {
-    fn into_addr(self) -> PatternResult<ServiceAddr> {
-        Ok(self.clone())
-    }
-}
-
-impl IntoAddr for &str {
-    fn into_addr(self) -> PatternResult<ServiceAddr> {
-        self.parse().map_err(|e: BadAddr| PatternError::InvalidArgument(e.to_string()))
-    }
-}
-
-impl IntoAddr for (&str, &str) {
-    fn into_addr(self) -> PatternResult<ServiceAddr> {
-        Ok(ServiceAddr::new(self.0, self.1))
-    }
-}
-
-/// The communication patterns, each with fixed semantics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PatternKind {
-    /// One-way command.
-    Send,
-    /// Request/response.
-    Query,
-    /// Every subscriber gets each new value.
-    PushNewest,
-    /// The server produces on its own period; subscribers get every n-th value.
-    PushTimed,
-    /// The server fires to activations whose condition holds.
-    Event,
-    /// Master/slave configuration by main states and substates.
-    State,
-    /// Run-time reconnection of a component's client ports.
-    Wiring,
-}
-
-impl fmt::Display for PatternKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            PatternKind::Send => "a send service",
-            PatternKind::Query => "a query service",
-            PatternKind::PushNewest => "a push-newest service",
-            PatternKind::PushTimed => "a push-timed service",
-            PatternKind::Event => "an event service",
-            PatternKind::State => "a state service",
-            PatternKind::Wiring => "a wiring service",
-        })
-    }
-}
-
-/// What a service is: its pattern and the identifiers of its communication objects.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ServiceInfo {
-    /// The pattern.
-    pub pattern: PatternKind,
-    /// The communication object identifiers, in the pattern's order: the sent or pushed object;
-    /// request then answer for a query; parameter then event for an event.
-    pub types: Vec<String>,
-}
-
-impl ServiceInfo {
-    /// Info for a pattern over the given identifiers.
-    pub fn new(pattern: PatternKind, types: &[&str]) -> Self {
-        ServiceInfo { pattern, types: types.iter().map(|t| t.to_string()).collect() }
-    }
-
-    fn types_text(&self) -> String {
-        self.types.join(" -> ")
-    }
-
-    /// Checks that a client expecting `expected` may use this service at `addr`.
-    pub fn check(&self, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
-        if self == expected {
-            Ok(())
-        } else {
-            Err(PatternError::IncompatibleService {
-                addr: addr.clone(),
-                expected_pattern: expected.pattern,
-                expected: expected.types_text(),
-                found_pattern: self.pattern,
-                found: self.types_text(),
-            })
-        }
-    }
-}
 
 /// A service registered in this process: its info and its typed endpoint, type-erased.
 #[derive(Clone)]
@@ -473,30 +327,5 @@ impl Registry {
 impl Default for Registry {
     fn default() -> Self {
         Self::new()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn addresses_parse_and_print() {
-        let a: ServiceAddr = "nomad200/distanceir".parse().expect("valid");
-        assert_eq!(a, ServiceAddr::new("nomad200", "distanceir"));
-        assert_eq!(a.to_string(), "nomad200/distanceir");
-        for bad in ["", "nomad200", "/x", "x/", "a/b/c", "a b/c"] {
-            assert!(bad.parse::<ServiceAddr>().is_err(), "{bad:?} should not parse");
-        }
-    }
-
-    #[test]
-    fn info_mismatch_names_both_sides() {
-        let addr = ServiceAddr::new("a", "b");
-        let found = ServiceInfo::new(PatternKind::Send, &["x/1"]);
-        let expected = ServiceInfo::new(PatternKind::Send, &["y/1"]);
-        let err = found.check(&addr, &expected).expect_err("must mismatch");
-        let text = err.to_string();
-        assert!(text.contains("a/b") && text.contains("x/1") && text.contains("y/1"), "{text}");
     }
 }

@@ -7,24 +7,27 @@
 //! order they were sent. The server receives them as [`Stamped`] values in its own mailbox.
 //!
 //! ```
-//! # use orsa_actors::{Registry, Sink, Stamped, send::{SendClient, SendServer}};
+//! # use orsa_actors::{Registry, Sink, Stamped, send::{SendClient, SendServer}, service::SendService};
+//! const SPEED: SendService<f64> = SendService::new("speed");
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-//! let _server = SendServer::<f64>::register(&registry, ("robot", "speed"), Sink::channel(tx))?;
+//! let _server = SendServer::register(&registry, SPEED.on("robot"), Sink::channel(tx))?;
 //!
-//! let client = SendClient::<f64>::connect(&registry, "robot/speed")?;
+//! let client = SendClient::connect(&registry, SPEED.on("robot"))?;
 //! client.send(0.25)?;
 //! let got = rx.recv().await.expect("delivered");
 //! assert_eq!((got.seq, got.value), (1, 0.25));
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::fault::Verdict;
 use crate::ledger::{Account, Receipt, Stream};
-use crate::registry::{IntoAddr, PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Remote, Resolved};
+use crate::service::SendService;
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
 use std::marker::PhantomData;
@@ -50,7 +53,7 @@ impl<T: CommObject> SendEndpoint<T> {
     /// Hands `msg` to the server. `from` is the sending client's sequence (for duplicate
     /// detection), unknown for messages from other processes.
     pub(crate) fn accept(&self, msg: Stamped<T>, from: Option<&Arc<Stream>>) -> PatternResult<()> {
-        self.tap.record(&self.topic, T::ID, msg.stamp, &msg);
+        self.tap.record(&self.topic, T::ID, msg.sent_at, &msg);
         match self.faults.verdict(&self.addr) {
             Verdict::Deliver => {}
             Verdict::Drop => {
@@ -108,8 +111,12 @@ impl<T> Clone for SendServer<T> {
 
 impl<T: CommObject> SendServer<T> {
     /// Registers a Send service at `addr` delivering into `sink`.
-    pub fn register(registry: &Registry, addr: impl IntoAddr, sink: Sink<Stamped<T>>) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+    pub fn register(
+        registry: &Registry,
+        addr: impl IntoAddr<SendService<T>>,
+        sink: Sink<Stamped<T>>,
+    ) -> PatternResult<Self> {
+        let addr = addr.into_addr();
         let endpoint = Arc::new(SendEndpoint {
             topic: addr.to_string(),
             tap: registry.tap_slot(),
@@ -177,8 +184,8 @@ impl<T> Clone for Via<T> {
 
 impl<T: CommObject> SendClient<T> {
     /// Connects to the Send service at `addr`, checking that it sends `T`.
-    pub fn connect(registry: &Registry, addr: impl IntoAddr) -> PatternResult<Self> {
-        let addr = addr.into_addr()?;
+    pub fn connect(registry: &Registry, addr: impl IntoAddr<SendService<T>>) -> PatternResult<Self> {
+        let addr = addr.into_addr();
         let endpoint = match registry.resolve::<SendEndpoint<T>>(&addr, &info::<T>())? {
             Resolved::Local(e) => Via::Local(e),
             Resolved::Remote(r) => Via::Remote(r),
@@ -197,7 +204,7 @@ impl<T: CommObject> SendClient<T> {
     pub fn send(&self, value: T) -> PatternResult<()> {
         let mut seq = self.seq.lock();
         *seq += 1;
-        self.send_stamped(Stamped { seq: *seq, stamp: self.registry.now(), value })
+        self.send_stamped(Stamped { seq: *seq, sent_at: self.registry.now(), value })
     }
 
     /// Sends an already stamped message unchanged (for forwarding and replay).

@@ -34,9 +34,10 @@
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm_object;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::{PatternKind, Registry, Remote, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Remote, Resolved};
 use crate::transport::{DEFAULT_REQUEST_TIMEOUT, Served};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};

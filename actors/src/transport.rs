@@ -17,9 +17,9 @@
 //! This module is the one place where another process enters: the zenoh transport (crate
 //! `orsa-net`) implements [`Transport`], and no other module of this crate names zenoh.
 
+use crate::addr::{ServiceAddr, ServiceInfo};
 use crate::error::{PatternError, PatternResult};
 use crate::event::EventMode;
-use crate::registry::{ServiceAddr, ServiceInfo};
 use futures::future::BoxFuture;
 use std::num::NonZeroU32;
 use std::sync::Arc;

@@ -11,11 +11,11 @@
 //!
 //! Decoding never panics: bad bytes give a [`WireError`] that names what was expected.
 
+use crate::addr::ServiceAddr;
 use crate::clock::Clock;
 #[cfg(test)]
 use crate::clock::Timestamp;
 use crate::error::{PatternError, PatternResult};
-use crate::registry::ServiceAddr;
 use crate::stamped::Stamped;
 use serde::{Deserialize, Serialize, de::DeserializeOwned};
 
@@ -75,13 +75,13 @@ pub struct WireStamped<T> {
 
 impl<T> From<Stamped<T>> for WireStamped<T> {
     fn from(m: Stamped<T>) -> Self {
-        WireStamped { seq: m.seq, stamp_ns: m.stamp, value: m.value }
+        WireStamped { seq: m.seq, stamp_ns: m.sent_at, value: m.value }
     }
 }
 
 impl<T> From<WireStamped<T>> for Stamped<T> {
     fn from(w: WireStamped<T>) -> Self {
-        Stamped { seq: w.seq, stamp: w.stamp_ns, value: w.value }
+        Stamped { seq: w.seq, sent_at: w.stamp_ns, value: w.value }
     }
 }
 
@@ -93,7 +93,7 @@ pub fn encode_stamped<T: Serialize>(msg: &Stamped<T>, clock: &Clock) -> Vec<u8> 
         stamp_ns: crate::Timestamp,
         value: &'a T,
     }
-    encode_on(clock, &Ref { seq: msg.seq, stamp_ns: msg.stamp, value: &msg.value })
+    encode_on(clock, &Ref { seq: msg.seq, stamp_ns: msg.sent_at, value: &msg.value })
 }
 
 /// Decodes a stamped value onto `clock`.
@@ -226,13 +226,13 @@ mod tests {
     fn stamped_round_trips_through_unix_time() {
         let a = Clock::with_unix_epoch_ns(tokio_free_instant(), 1_000_000_000_000);
         let b = Clock::with_unix_epoch_ns(tokio_free_instant(), 1_000_000_500_000);
-        let msg = Stamped { seq: 3, stamp: Timestamp(2_000_000), value: 0.25f64 };
+        let msg = Stamped { seq: 3, sent_at: Timestamp(2_000_000), value: 0.25f64 };
         let bytes = encode_stamped(&msg, &a);
         let back: Stamped<f64> = decode_stamped(&bytes, "orsa.F64/1", &b).expect("decodes");
         // b's epoch is 500 us later in UNIX time: the same instant is 500 us earlier on b.
-        assert_eq!(back, Stamped { seq: 3, stamp: Timestamp(1_500_000), value: 0.25 });
+        assert_eq!(back, Stamped { seq: 3, sent_at: Timestamp(1_500_000), value: 0.25 });
         // Timestamps inside the value move the same way, and JSON outside the wire is untouched.
-        let nested = Stamped { seq: 1, stamp: Timestamp(2_000_000), value: Timestamp(3_000_000) };
+        let nested = Stamped { seq: 1, sent_at: Timestamp(2_000_000), value: Timestamp(3_000_000) };
         let back: Stamped<Timestamp> =
             decode_stamped(&encode_stamped(&nested, &a), "orsa.Timestamp", &b).expect("decodes");
         assert_eq!(back.value, Timestamp(2_500_000));

@@ -17,27 +17,32 @@
 //!
 //! ```
 //! # use orsa_actors::{Registry, Sink, PatternError, send::SendServer, wiring::{WiringMaster, WiringSlave}};
+//! # use orsa_actors::service::{SendPortDesc, SendService};
+//! const SPEED: SendService<f64> = SendService::new("speed");
+//! const VEL: SendPortDesc<f64> = SendPortDesc::new("vel");
 //! # #[tokio::main(flavor = "current_thread")] async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let registry = Registry::new();
 //! let (tx, _rx) = tokio::sync::mpsc::unbounded_channel();
-//! SendServer::<f64>::register(&registry, "robot/speed", Sink::channel(tx))?;
+//! SendServer::register(&registry, SPEED.on("robot"), Sink::channel(tx))?;
 //! let wiring = WiringSlave::register(&registry, "behaviour")?;
-//! let port = wiring.send_port::<f64>("vel")?;
+//! let port = wiring.send_port::<f64>(VEL.name())?;
 //!
 //! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
 //! let master = WiringMaster::new(&registry);
-//! master.connect("behaviour", "vel", "robot/speed").await?;
+//! master.connect("behaviour", VEL, SPEED.on("robot")).await?; // a port of f64 to a service of f64
 //! port.send(0.1)?;
-//! master.disconnect("behaviour", "vel").await?;
+//! master.disconnect("behaviour", VEL).await?;
 //! assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
 //! # Ok(()) }
 //! ```
 
+use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm::CommObject;
 use crate::error::{PatternError, PatternResult};
 use crate::query::{PendingQuery, QueryClient};
-use crate::registry::{IntoAddr, PatternKind, Registry, Resolved, ServiceAddr, ServiceInfo};
+use crate::registry::{Registry, Resolved};
 use crate::send::SendClient;
+use crate::service::PortDescriptor;
 use crate::stamped::Stamped;
 use crate::state::Cancel;
 use crate::transport::{DEFAULT_REQUEST_TIMEOUT, Served};
@@ -228,7 +233,7 @@ impl WiringSlave {
     }
 
     fn declare<P: Port + Clone + 'static>(&self, name: &str, make: impl FnOnce() -> P) -> PatternResult<P> {
-        if !crate::registry::valid_name(name) {
+        if !crate::addr::valid_name(name) {
             return Err(PatternError::InvalidArgument(format!("'{name}' is not a valid port name")));
         }
         let mut ports = self.ports.write();
@@ -325,7 +330,7 @@ impl Served for WiringSlave {
         let done = match crate::wire::decode::<WiringRequest>(payload, "orsa.WiringRequest/1") {
             Err(e) => Err(PatternError::Decode(format!("to {}: {e}", self.topic))),
             Ok(WiringRequest::Connect { port, target }) => {
-                target.as_str().into_addr().and_then(|t| self.connect(&port, &t))
+                parse_target(&target).and_then(|t| self.connect(&port, &t))
             }
             Ok(WiringRequest::Disconnect { port }) => self.disconnect(&port),
             Ok(WiringRequest::Ports) => Ok(()),
@@ -361,7 +366,7 @@ impl WiringMaster {
             Resolved::Local(slave) => {
                 match request {
                     WiringRequest::Connect { port, target } => {
-                        slave.connect(&port, &target.as_str().into_addr()?)?
+                        slave.connect(&port, &parse_target(&target)?)?
                     }
                     WiringRequest::Disconnect { port } => slave.disconnect(&port)?,
                     WiringRequest::Ports => {}
@@ -383,14 +388,36 @@ impl WiringMaster {
         }
     }
 
-    /// Connects `component`'s port `port` to the service `target`.
-    pub async fn connect(&self, component: &str, port: &str, target: impl IntoAddr) -> PatternResult<()> {
-        let target = target.into_addr()?.to_string();
+    /// Connects `component`'s port `port` to the service `target`: only a service of the kind
+    /// the port sends to compiles.
+    pub async fn connect<P: PortDescriptor>(
+        &self,
+        component: &str,
+        port: P,
+        target: impl IntoAddr<P::Target>,
+    ) -> PatternResult<()> {
+        self.connect_named(component, port.name(), &target.into_addr()).await
+    }
+
+    /// Connects `component`'s port named `port` to `target`, both as a person typed them (the
+    /// command line, a config file): the slave checks the port and the service's type.
+    pub async fn connect_named(
+        &self,
+        component: &str,
+        port: &str,
+        target: &ServiceAddr,
+    ) -> PatternResult<()> {
+        let target = target.to_string();
         self.run(component, WiringRequest::Connect { port: port.to_string(), target }).await.map(|_| ())
     }
 
     /// Disconnects `component`'s port `port`. When this returns, nothing more goes out on it.
-    pub async fn disconnect(&self, component: &str, port: &str) -> PatternResult<()> {
+    pub async fn disconnect(&self, component: &str, port: impl PortDescriptor) -> PatternResult<()> {
+        self.disconnect_named(component, port.name()).await
+    }
+
+    /// Disconnects `component`'s port named `port`, as a person typed it.
+    pub async fn disconnect_named(&self, component: &str, port: &str) -> PatternResult<()> {
         self.run(component, WiringRequest::Disconnect { port: port.to_string() }).await.map(|_| ())
     }
 
@@ -398,4 +425,9 @@ impl WiringMaster {
     pub async fn ports(&self, component: &str) -> PatternResult<Vec<PortStatus>> {
         self.run(component, WiringRequest::Ports).await
     }
+}
+
+/// The target of a wiring request as it travels (`component/service`), parsed.
+fn parse_target(target: &str) -> PatternResult<ServiceAddr> {
+    target.parse().map_err(|e: crate::addr::BadAddr| PatternError::InvalidArgument(e.to_string()))
 }

@@ -6,12 +6,13 @@
 //!
 //! Modules:
 //! - [`rules`]: modes and their priority lists of conditions on sensor values.
-//! - [`goal`]: the communication objects of goals, their progress and of wiring changes.
 //! - [`master`]: the `master` component.
+//!
+//! The master's services and the goal objects are in `orsa_interfaces::executive`; it knows the
+//! behaviours by `orsa_interfaces::behaviour` and the robot by `orsa_interfaces::nomad200`, and
+//! depends on neither crate.
 
-pub mod goal;
 pub mod master;
 pub mod rules;
 
-pub use goal::{Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, WiringChange};
 pub use master::{ExecutiveParams, Master};

@@ -16,27 +16,24 @@
 //! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
 //! every change of driver goes out on the Push newest service `driving` ([`WiringChange`]).
 
-use crate::goal::{Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, WiringChange};
 use crate::rules::{Mode, Readings, validate_modes};
 use orsa_actors::event::EventServer;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
 use orsa_actors::send::SendClient;
+use orsa_actors::service::{Addr, SendService};
 use orsa_actors::state::{NEUTRAL, StateMaster};
 use orsa_actors::wiring::WiringMaster;
-use orsa_actors::{Component, ComponentError, Ctx, ServiceAddr, Update};
-use orsa_hardware::comm::{DistanceScan, NavigationVelocity};
-use orsa_reactive::components::ACTIVE;
+use orsa_actors::{Component, ComponentError, Ctx, Update};
+use orsa_interfaces::behaviour::{ACTIVE, VEL};
+use orsa_interfaces::executive::{
+    DRIVING, GOAL, GOALS, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S, WiringChange,
+};
+use orsa_interfaces::nomad200::{self, DistanceScan, NavigationVelocity};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
-
-/// The longest goal, s (about a year): longer ones are refused rather than overflow a timer.
-pub const MAX_GOAL_S: f64 = 3.2e7;
-
-/// The name of every behaviour's wireable velocity port.
-pub const VEL_PORT: &str = "vel";
 
 /// Configuration of the executive (the `[executive]` table of the config file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -136,7 +133,7 @@ pub struct MasterState {
     driving: Option<String>,
     wiring: WiringMaster,
     motors: SendClient<NavigationVelocity>,
-    motors_addr: ServiceAddr,
+    motors_addr: Addr<SendService<NavigationVelocity>>,
     states: BTreeMap<String, StateMaster>,
     events: EventServer<GoalFilter, GoalEvent, GoalEvent>,
     wiring_push: PushNewestServer<WiringChange>,
@@ -150,12 +147,11 @@ impl Component for Master {
     async fn setup(&self, ctx: &Ctx<MasterMsg>) -> Result<MasterState, ComponentError> {
         self.params.validate()?;
         let robot = self.params.robot.as_str();
-        ctx.query_server::<Goal, GoalReply>("goal", MasterMsg::Goal)?;
-        let events = ctx.event_server::<GoalFilter, GoalEvent, GoalEvent>(
-            "goals",
-            |f: &mut GoalFilter, e: &GoalEvent| f.goal.is_none_or(|g| g == e.id).then(|| e.clone()),
-        )?;
-        let wiring_push = ctx.push_newest_server::<WiringChange>("driving")?;
+        ctx.query_server(GOAL, MasterMsg::Goal)?;
+        let events = ctx.event_server(GOALS, |f: &mut GoalFilter, e: &GoalEvent| {
+            f.goal.is_none_or(|g| g == e.id).then(|| e.clone())
+        })?;
+        let wiring_push = ctx.push_newest_server(DRIVING)?;
         let mut states = BTreeMap::new();
         for b in self.params.behaviours() {
             let sm = StateMaster::connect(ctx.registry(), &b)
@@ -163,11 +159,11 @@ impl Component for Master {
             states.insert(b, sm);
         }
         let every = self.params.subscribe_every;
-        ctx.subscribe_timed::<DistanceScan>((robot, "distanceir"), every, MasterMsg::Ir)?;
+        ctx.subscribe_timed(nomad200::DISTANCEIR.on(robot), every, MasterMsg::Ir)?;
         if self.params.modes.values().any(Mode::uses_sonar) {
-            ctx.subscribe_timed::<DistanceScan>((robot, "distanceson"), every, MasterMsg::Sonar)?;
+            ctx.subscribe_timed(nomad200::DISTANCESON.on(robot), every, MasterMsg::Sonar)?;
         }
-        let motors_addr = ServiceAddr::new(robot, "navigationvelocity");
+        let motors_addr = nomad200::NAVIGATIONVELOCITY.on(robot);
         let kept = ctx.keep("goal", || Arc::new(parking_lot::Mutex::new(Kept { goal: None, next_id: 1 })))?;
         let mut st = MasterState {
             readings: Readings::default(),
@@ -186,7 +182,7 @@ impl Component for Master {
         // Nothing drives until the goal is known again: a first start has none; a restarted
         // master resumes the goal it was pursuing (the planner is not asked again).
         for b in st.states.keys() {
-            st.wiring.disconnect(b, VEL_PORT).await?;
+            st.wiring.disconnect(b, VEL).await?;
         }
         stop_motors(ctx, &mut st);
         let resumed = st.kept.lock().goal.clone();
@@ -242,8 +238,8 @@ impl Component for Master {
     }
 }
 
-fn fill(ring: &mut [Option<f64>; orsa_hardware::comm::RING_SIZE], scan: &DistanceScan) {
-    *ring = [None; orsa_hardware::comm::RING_SIZE];
+fn fill(ring: &mut [Option<f64>; nomad200::RING_SIZE], scan: &DistanceScan) {
+    *ring = [None; nomad200::RING_SIZE];
     for r in &scan.readings {
         if let Some(slot) = ring.get_mut(usize::from(r.sensor_id)) {
             *slot = (r.valid && r.distance_m.is_finite()).then_some(r.distance_m);
@@ -274,12 +270,12 @@ impl Master {
             return;
         }
         if let Some(old) = st.driving.take()
-            && let Err(e) = st.wiring.disconnect(&old, VEL_PORT).await
+            && let Err(e) = st.wiring.disconnect(&old, VEL).await
         {
             tracing::warn!("master: cannot unwire {old}: {e}");
         }
         match &want {
-            Some(new) => match st.wiring.connect(new, VEL_PORT, &st.motors_addr).await {
+            Some(new) => match st.wiring.connect(new, VEL, &st.motors_addr).await {
                 Ok(()) => st.driving = want.clone(),
                 Err(e) => {
                     tracing::warn!("master: cannot wire {new} to {}: {e}", st.motors_addr);

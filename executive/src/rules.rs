@@ -19,7 +19,7 @@
 //! valid distance under it; `above_m` holds when **all** of them read over it or nothing at all
 //! (an invalid reading means nothing within range, which is "far").
 
-use orsa_hardware::comm::RING_SIZE;
+use orsa_interfaces::nomad200::RING_SIZE;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 

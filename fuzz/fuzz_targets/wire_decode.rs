@@ -10,7 +10,7 @@
 use libfuzzer_sys::fuzz_target;
 use orsa_actors::event::{EventMode, EventServer};
 use orsa_actors::query::{QueryRequest, QueryServer};
-use orsa_actors::registry::ServiceAddr;
+use orsa_actors::addr::ServiceAddr;
 use orsa_actors::send::SendServer;
 use orsa_actors::state::{StateRequest, StateSlave, StateSpec, StateStatus};
 use orsa_actors::transport::{ByteSink, Served};
@@ -19,7 +19,7 @@ use orsa_actors::wire::{
 };
 use orsa_actors::wiring::{PortStatus, WiringRequest, WiringSlave};
 use orsa_actors::{Clock, CommObject, Registry, Sink, Timestamp, comm_object};
-use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
+use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
 use orsa_net::{ActivateRequest, NetStats, SubscribeRequest};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

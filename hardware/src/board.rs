@@ -39,8 +39,8 @@
 //! and turret back to the bumper zero as `zr` does. Position-mode moves (`pr`) are not offered:
 //! nothing above the hardware layer uses them.
 
-use crate::comm::{ContactScan, DistanceScan};
 use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
 use serde::{Deserialize, Serialize};
 use std::future::Future;
 use std::time::Duration;

@@ -13,7 +13,7 @@
 use crate::board::{
     AxisAccelerations, AxisVelocities, BoardError, CompassReading, MotorBoard, MotorState, SensorBoard,
 };
-use crate::comm::{ContactScan, DistanceScan};
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
 use parking_lot::Mutex;
 use rand::SeedableRng as _;
 use rand_chacha::ChaCha8Rng;
@@ -290,8 +290,8 @@ impl<M: MotorBoard> MotorBoard for FaultyMotorBoard<M> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::comm::{DistanceReading, Ring};
     use orsa_actors::Timestamp;
+    use orsa_interfaces::nomad200::{DistanceReading, Ring};
 
     fn scan(d: f64, t: u64) -> DistanceScan {
         DistanceScan {

@@ -6,22 +6,23 @@
 //! Modules:
 //! - [`board`]: the [`SensorBoard`](board::SensorBoard) and [`MotorBoard`](board::MotorBoard)
 //!   traits, with the table that maps each method to the original Nomad 200 C function.
-//! - [`comm`]: the communication objects the `nomad200` component speaks (`DistanceScan`,
-//!   `ContactScan`, `BaseState`, `NavigationVelocity`, `RobotParams`).
 //! - [`world`]: world files (TOML) loaded into checked, typed structs; the reference world
 //!   `palazzina` ships inside the crate.
 //! - [`geometry`]: segments, circles and boxes: distances, ray casts, swept-circle collision.
 //! - [`sim`]: [`SimNomad200`](sim::SimNomad200), a pure, seeded, fixed-step simulator of the
 //!   robot in a world, and [`SimRobot`](sim::SimRobot), which steps it on tokio's clock behind
 //!   the board traits.
+//! - [`faulty`]: board wrappers that inject hardware faults (stuck, dead and noisy rings,
+//!   stalled motors) for fault plans.
+//! - [`server`]: the robot server component `nomad200`, which offers the services of
+//!   [`orsa_interfaces::nomad200`] on top of any pair of boards, with its velocity watchdog.
+//!
+//! The communication objects the robot speaks live in `orsa-interfaces`, so that behaviours
+//! know the robot by its interface and never depend on this crate.
 
 pub mod board;
-pub mod comm;
 pub mod faulty;
 pub mod geometry;
+pub mod server;
 pub mod sim;
 pub mod world;
-
-// The `nomad200` server component (services distanceir, distanceson, bumpers, basestate and
-// navigationvelocity on top of the board traits) goes here:
-pub mod server;

@@ -32,12 +32,14 @@
 //! counted as `overridden` and not applied. When teleop goes silent the watchdog stops the
 //! robot at that deadline, and the next behaviour command drives again.
 
-use crate::board::{AxisVelocities, MotorBoard, SensorBoard};
-use crate::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams};
+use crate::board::{AxisVelocities, CompassReading, MotorBoard, MotorState, SensorBoard};
 use orsa_actors::event::EventServer;
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::query::QueryRequest;
-use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp, comm_object};
+use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp};
+use orsa_interfaces::nomad200::{
+    self, BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams, SafetyCounters,
+};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -87,7 +89,7 @@ impl Default for ServerParams {
 impl ServerParams {
     /// Checks every value; the message names the key.
     pub fn validate(&self) -> Result<(), String> {
-        if !orsa_actors::registry::valid_name(&self.name) {
+        if !orsa_actors::addr::valid_name(&self.name) {
             return Err(format!("robot.name: '{}' is not a valid component name", self.name));
         }
         for (key, v) in [
@@ -116,32 +118,6 @@ impl ServerParams {
         }
     }
 }
-
-/// What the server did with velocity commands (service `safety`, for reports and tests).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SafetyCounters {
-    /// Commands applied to the motors.
-    pub applied: u64,
-    /// Commands refused because they were older than the timeout on arrival, or older than the
-    /// last command applied.
-    pub stale_refused: u64,
-    /// Commands refused because they were stamped in the future.
-    pub future_refused: u64,
-    /// Times the watchdog stopped the robot for lack of fresh commands.
-    pub timeouts: u64,
-    /// Commands whose values were clamped to the robot's limits.
-    pub clamped: u64,
-    /// Commands the motor board refused (not finite, board gone).
-    pub failed: u64,
-    /// `navigationvelocity` commands ignored because teleoperation held the robot.
-    #[serde(default)]
-    pub overridden: u64,
-    /// Commands older than the timeout when the motor board took them (checked after the
-    /// board answered, apart from the refusal on arrival: a slow board would show here).
-    #[serde(default)]
-    pub stale_applied: u64,
-}
-comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 
 /// The robot server over any pair of boards.
 pub struct Nomad200<S, M> {
@@ -292,16 +268,20 @@ where
     async fn setup(&self, ctx: &Ctx<Nomad200Msg>) -> Result<Nomad200State, ComponentError> {
         self.params.validate()?;
         let p = &self.params;
-        let ir = ctx.push_timed_server("distanceir", secs(p.distanceir_period_s), Nomad200Msg::Ir)?;
-        let sonar = ctx.push_timed_server("distanceson", secs(p.distanceson_period_s), Nomad200Msg::Sonar)?;
-        let bumpers = ctx.push_timed_server("bumpers", secs(p.bumpers_period_s), Nomad200Msg::Bumpers)?;
-        let base = ctx.push_timed_server("basestate", secs(p.basestate_period_s), Nomad200Msg::Base)?;
-        ctx.send_server::<NavigationVelocity>("navigationvelocity", Nomad200Msg::Velocity)?;
-        ctx.send_server::<NavigationVelocity>("teleop", Nomad200Msg::Teleop)?;
-        ctx.query_server::<Empty, RobotParams>("robotparams", Nomad200Msg::Params)?;
-        ctx.query_server::<Empty, SafetyCounters>("safety", Nomad200Msg::Safety)?;
-        let contact = ctx
-            .event_server("contact", |_: &mut Empty, scan: &ContactScan| scan.any().then(|| scan.clone()))?;
+        let ir = ctx.push_timed_server(nomad200::DISTANCEIR, secs(p.distanceir_period_s), Nomad200Msg::Ir)?;
+        let sonar =
+            ctx.push_timed_server(nomad200::DISTANCESON, secs(p.distanceson_period_s), Nomad200Msg::Sonar)?;
+        let bumpers =
+            ctx.push_timed_server(nomad200::BUMPERS, secs(p.bumpers_period_s), Nomad200Msg::Bumpers)?;
+        let base =
+            ctx.push_timed_server(nomad200::BASESTATE, secs(p.basestate_period_s), Nomad200Msg::Base)?;
+        ctx.send_server(nomad200::NAVIGATIONVELOCITY, Nomad200Msg::Velocity)?;
+        ctx.send_server(nomad200::TELEOP, Nomad200Msg::Teleop)?;
+        ctx.query_server(nomad200::ROBOTPARAMS, Nomad200Msg::Params)?;
+        ctx.query_server(nomad200::SAFETY, Nomad200Msg::Safety)?;
+        let contact = ctx.event_server(nomad200::CONTACT, |_: &mut Empty, scan: &ContactScan| {
+            scan.any().then(|| scan.clone())
+        })?;
         // A (re)started server does not trust whatever the motors were doing.
         self.motors.stop().await?;
         for s in [&ir, &sonar] {
@@ -363,7 +343,7 @@ where
             Nomad200Msg::Base(_) => {
                 let m = self.motors.read_state().await?;
                 let c = self.sensors.read_compass().await?;
-                st.base.put(BaseState::from_readings(&m, &c));
+                st.base.put(base_state(&m, &c));
             }
             Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value, false).await,
             Nomad200Msg::Teleop(cmd) => self.on_velocity(ctx, st, cmd.value, true).await,
@@ -464,5 +444,46 @@ async fn stop_until_accepted<M: MotorBoard>(motors: &M) {
                 tokio::time::sleep(Duration::from_millis(50)).await;
             }
         }
+    }
+}
+/// The base state from the motor board's encoders and the latest compass sample, stamped when
+/// the encoders were read.
+fn base_state(motors: &MotorState, compass: &CompassReading) -> BaseState {
+    BaseState {
+        stamp: motors.stamp,
+        x_m: motors.x_m,
+        y_m: motors.y_m,
+        heading_rad: motors.heading_rad,
+        v_m_s: motors.velocities.translate_m_s,
+        omega_rad_s: motors.velocities.steer_rad_s,
+        steer_rad: motors.steer_rad,
+        turret_rad: motors.turret_rad,
+        turret_omega_rad_s: motors.velocities.turret_rad_s,
+        compass_rad: compass.heading_rad,
+        compass_valid: compass.valid,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base_state_takes_each_field_from_its_reading() {
+        let motors = MotorState {
+            stamp: Timestamp(7),
+            x_m: 1.0,
+            y_m: 2.0,
+            heading_rad: 0.3,
+            steer_rad: 0.25,
+            turret_rad: -0.5,
+            velocities: AxisVelocities { translate_m_s: 0.2, steer_rad_s: 0.1, turret_rad_s: -0.1 },
+            stopped: false,
+        };
+        let compass = CompassReading { stamp: Timestamp(5), heading_rad: 1.5, valid: true };
+        let b = base_state(&motors, &compass);
+        assert_eq!((b.stamp, b.x_m, b.y_m, b.heading_rad), (Timestamp(7), 1.0, 2.0, 0.3));
+        assert_eq!((b.v_m_s, b.omega_rad_s, b.turret_omega_rad_s), (0.2, 0.1, -0.1));
+        assert_eq!((b.steer_rad, b.turret_rad, b.compass_rad, b.compass_valid), (0.25, -0.5, 1.5, true));
     }
 }

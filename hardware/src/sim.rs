@@ -178,9 +178,14 @@ impl SimNomad200 {
             travelled_m: 0.0,
             drive: Drive::new(&config.drive),
             odometry: Odometry::new(&config.odometry),
-            sonar: RangeRing::new(crate::comm::Ring::Sonar, &config.sonar, stream(seed, SONAR_STREAM), 0),
+            sonar: RangeRing::new(
+                orsa_interfaces::nomad200::Ring::Sonar,
+                &config.sonar,
+                stream(seed, SONAR_STREAM),
+                0,
+            ),
             infrared: RangeRing::new(
-                crate::comm::Ring::Infrared,
+                orsa_interfaces::nomad200::Ring::Infrared,
                 &config.infrared,
                 stream(seed, INFRARED_STREAM),
                 0,

@@ -5,8 +5,8 @@ mod common;
 use common::*;
 use orsa_actors::Timestamp;
 use orsa_hardware::board::AxisVelocities;
-use orsa_hardware::comm::{DistanceScan, Ring, ring_angle_rad};
 use orsa_hardware::sim::{SimConfig, SimNomad200};
+use orsa_interfaces::nomad200::{DistanceScan, Ring, ring_angle_rad};
 
 const R: f64 = 0.25;
 

@@ -5,12 +5,13 @@ use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::query::QueryClient;
 use orsa_actors::send::SendClient;
+use orsa_actors::service::PushTimedService;
 use orsa_actors::{Clock, Empty, Registry, Sink, Stamped, Update};
 use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
-use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
-use orsa_hardware::server::{Nomad200, SafetyCounters, ServerParams};
+use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_hardware::sim::{SimConfig, SimMotorBoard, SimNomad200, SimRobot, SimSensorBoard};
 use orsa_hardware::world::World;
+use orsa_interfaces::nomad200::{self, NAME, NavigationVelocity, RobotParams, SafetyCounters};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
@@ -36,20 +37,20 @@ async fn rig(params: ServerParams) -> Rig {
 
 fn counter<T: orsa_actors::CommObject>(
     registry: &Registry,
-    service: &str,
+    service: PushTimedService<T>,
 ) -> (PushTimedClient<T>, mpsc::UnboundedReceiver<Update<T>>) {
     let (tx, rx) = mpsc::unbounded_channel();
-    let c = PushTimedClient::connect_to(registry, ("nomad200", service), Sink::channel(tx)).expect("connect");
+    let c = PushTimedClient::connect_to(registry, service.on(NAME), Sink::channel(tx)).expect("connect");
     c.subscribe(1).expect("subscribe");
     (c, rx)
 }
 
 fn stamps<T>(rx: &mut mpsc::UnboundedReceiver<Update<T>>) -> Vec<u64> {
-    std::iter::from_fn(|| rx.try_recv().ok()).map(|u| u.stamp.as_nanos() / 1_000_000).collect()
+    std::iter::from_fn(|| rx.try_recv().ok()).map(|u| u.sent_at.as_nanos() / 1_000_000).collect()
 }
 
 async fn safety(registry: &Registry) -> SafetyCounters {
-    QueryClient::<Empty, SafetyCounters>::connect(registry, "nomad200/safety")
+    QueryClient::<Empty, SafetyCounters>::connect(registry, nomad200::SAFETY.on(NAME))
         .expect("connect")
         .query(Empty {}, Some(Duration::from_secs(1)))
         .await
@@ -59,10 +60,10 @@ async fn safety(registry: &Registry) -> SafetyCounters {
 #[tokio::test(start_paused = true)]
 async fn server_pushes_every_service_at_its_own_period_exactly() {
     let r = rig(ServerParams::default()).await;
-    let (_a, mut ir) = counter::<DistanceScan>(&r.registry, "distanceir");
-    let (_b, mut sonar) = counter::<DistanceScan>(&r.registry, "distanceson");
-    let (_c, mut bumpers) = counter::<ContactScan>(&r.registry, "bumpers");
-    let (_d, mut base) = counter::<BaseState>(&r.registry, "basestate");
+    let (_a, mut ir) = counter(&r.registry, nomad200::DISTANCEIR);
+    let (_b, mut sonar) = counter(&r.registry, nomad200::DISTANCESON);
+    let (_c, mut bumpers) = counter(&r.registry, nomad200::BUMPERS);
+    let (_d, mut base) = counter(&r.registry, nomad200::BASESTATE);
     // 1.92 s is a whole number of periods of each: 48 x 40 ms, 30 x 64 ms, 64 x 30 ms; 19 x 100 ms.
     tokio::time::sleep(Duration::from_millis(1921)).await;
     assert_eq!(stamps(&mut ir), (1..=48).map(|k| 40 * k).collect::<Vec<_>>());
@@ -75,7 +76,7 @@ async fn server_pushes_every_service_at_its_own_period_exactly() {
 async fn server_robotparams_describe_the_robot_and_the_push_periods() {
     let params = ServerParams { distanceir_period_s: 0.05, ..ServerParams::default() };
     let r = rig(params).await;
-    let p = QueryClient::<Empty, RobotParams>::connect(&r.registry, "nomad200/robotparams")
+    let p = QueryClient::<Empty, RobotParams>::connect(&r.registry, nomad200::ROBOTPARAMS.on(NAME))
         .expect("connect")
         .query(Empty {}, Some(Duration::from_secs(1)))
         .await
@@ -103,7 +104,8 @@ async fn drive(client: &SendClient<NavigationVelocity>, registry: &Registry, v: 
 async fn server_drives_the_robot_clamped_to_its_limits() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     let x0 = r.sim.truth().truth().x_m;
     drive(&client, &r.registry, 2.0, 0.0, 3.0).await;
     let t = r.sim.truth().truth();
@@ -118,7 +120,8 @@ async fn server_drives_the_robot_clamped_to_its_limits() {
 async fn server_stops_the_robot_exactly_one_timeout_after_the_last_fresh_command() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     drive(&client, &r.registry, 0.2, 0.0, 1.0).await;
     // The last command was stamped at 0.9 s; the deadline is 1.4 s.
     tokio::time::sleep(Duration::from_millis(390)).await;
@@ -137,7 +140,8 @@ async fn server_stops_the_robot_exactly_one_timeout_after_the_last_fresh_command
 async fn server_stops_the_robot_again_when_commands_resume_and_stop_again() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     drive(&client, &r.registry, 0.2, 0.0, 1.0).await;
     // Stopped at 1.4 s; commands resume at 2.0 s, the last stamped 2.9 s: deadline 3.4 s.
     tokio::time::sleep(Duration::from_millis(1000)).await;
@@ -200,8 +204,8 @@ async fn server_stops_a_command_that_lands_while_the_watchdog_stops_the_robot() 
     let sim = SimRobot::spawn(SimNomad200::new(world, config, 1).expect("sim"), clock);
     let server = Nomad200::new(params, robot_params, sim.sensor_board(), YieldingStop(sim.motor_board()));
     let _server = spawn(&registry, "nomad200", server).await.expect("server starts");
-    let client =
-        SendClient::<NavigationVelocity>::connect(&registry, "nomad200/navigationvelocity").expect("c");
+    let client = SendClient::<NavigationVelocity>::connect(&registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+        .expect("c");
     tokio::time::sleep(Duration::from_millis(100)).await;
     let stamp = registry.now();
     let cmd = NavigationVelocity { stamp, v_m_s: 0.2, omega_rad_s: 0.0 };
@@ -224,11 +228,12 @@ async fn server_stops_a_command_that_lands_while_the_watchdog_stops_the_robot() 
 async fn server_refuses_commands_older_than_the_timeout() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     tokio::time::sleep(Duration::from_secs(2)).await;
     let old = r.registry.now().as_nanos() - 600_000_000;
     let cmd = NavigationVelocity { stamp: orsa_actors::Timestamp(old), v_m_s: 0.3, omega_rad_s: 0.0 };
-    client.send_stamped(Stamped { seq: 1, stamp: orsa_actors::Timestamp(old), value: cmd }).expect("send");
+    client.send_stamped(Stamped { seq: 1, sent_at: orsa_actors::Timestamp(old), value: cmd }).expect("send");
     let bad = NavigationVelocity { stamp: r.registry.now(), v_m_s: f64::NAN, omega_rad_s: 0.0 };
     client.send(bad).expect("send");
     tokio::time::sleep(Duration::from_secs(1)).await;
@@ -241,7 +246,8 @@ async fn server_refuses_commands_older_than_the_timeout() {
 async fn server_stops_and_waits_for_the_axes_when_it_stops() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     drive(&client, &r.registry, 0.4, 0.3, 1.5).await;
     assert!(r.sim.truth().truth().v_m_s > 0.3);
     r.server.stop().await;
@@ -254,7 +260,8 @@ async fn server_stops_and_waits_for_the_axes_when_it_stops() {
 async fn server_refuses_commands_from_the_future_and_out_of_order() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     tokio::time::sleep(Duration::from_secs(1)).await;
     let now = r.registry.now();
     // A peer whose clock runs 30 s ahead must not keep the robot driving.
@@ -275,7 +282,8 @@ async fn server_refuses_commands_from_the_future_and_out_of_order() {
 async fn server_whose_instance_dies_still_stops_the_robot_at_the_deadline() {
     let r = rig(ServerParams::default()).await;
     let client =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
     drive(&client, &r.registry, 0.3, 0.2, 1.0).await;
     // Kill the instance (no supervisor restarts it): nothing runs its handlers or teardown.
     r.server.instance().expect("running").kill();
@@ -292,8 +300,10 @@ async fn server_whose_instance_dies_still_stops_the_robot_at_the_deadline() {
 async fn server_teleop_overrides_behaviours_until_it_goes_silent() {
     let r = rig(ServerParams::default()).await;
     let behaviour =
-        SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/navigationvelocity").expect("c");
-    let teleop = SendClient::<NavigationVelocity>::connect(&r.registry, "nomad200/teleop").expect("c");
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::NAVIGATIONVELOCITY.on(NAME))
+            .expect("c");
+    let teleop =
+        SendClient::<NavigationVelocity>::connect(&r.registry, nomad200::TELEOP.on(NAME)).expect("c");
     let (reg, b) = (r.registry.clone(), behaviour.clone());
     // The behaviour asks for 0.2 m/s every 100 ms throughout.
     let pushing = tokio::spawn(async move { drive(&b, &reg, 0.2, 0.0, 5.0).await });

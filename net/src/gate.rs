@@ -6,7 +6,7 @@
 //! id in its attachment and its role by its process token, are methods of [`Inner`] here.
 
 use crate::{Audience, Inner};
-use orsa_actors::registry::ServiceAddr;
+use orsa_actors::addr::ServiceAddr;
 use parking_lot::{Mutex, RwLock};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;

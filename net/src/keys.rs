@@ -1,6 +1,6 @@
 //! Key expressions: where each pattern's messages travel (see `docs/wire-format.md`).
 
-use orsa_actors::registry::{PatternKind, ServiceAddr, ServiceInfo, valid_name};
+use orsa_actors::addr::{PatternKind, ServiceAddr, ServiceInfo, valid_name};
 use std::num::NonZeroU32;
 
 /// The key expressions of one orsa system, under its prefix (`orsa` unless configured).

@@ -42,8 +42,8 @@ pub use options::{NetError, NetOptions};
 
 use futures::future::BoxFuture;
 use gate::Gate;
+use orsa_actors::addr::{ServiceAddr, ServiceInfo};
 use orsa_actors::event::EventMode;
-use orsa_actors::registry::{ServiceAddr, ServiceInfo};
 use orsa_actors::transport::{ByteSink, Served, Subscription, Transport};
 use orsa_actors::wire::{Reply, decode, encode};
 use orsa_actors::{PatternError, PatternKind, PatternResult, Registry};

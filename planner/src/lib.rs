@@ -15,12 +15,17 @@
 //! ]
 //! ```
 //! With no mission, the planner patrols for the whole run.
+//!
+//! It knows the executive by its interface (`orsa_interfaces::executive`: the `goal` query and
+//! the `goals` event) and offers its own (`orsa_interfaces::planner`), so it depends on no other
+//! orsa crate than `orsa-actors` and `orsa-interfaces`.
 
 use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryClient;
-use orsa_actors::{Component, ComponentError, Ctx, Empty, comm_object};
-use orsa_executive::{Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus};
+use orsa_actors::{Component, ComponentError, Ctx};
+use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S};
+use orsa_interfaces::planner::{MISSION, MissionStatus, NEXT};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -53,11 +58,11 @@ impl PlannerParams {
                 ));
             }
             if let Some(s) = step.for_s
-                && !(s.is_finite() && (0.0..=orsa_executive::master::MAX_GOAL_S).contains(&s))
+                && !(s.is_finite() && (0.0..=MAX_GOAL_S).contains(&s))
             {
                 return Err(format!(
                     "planner.mission[{i}].for_s: must be a number of seconds from 0 to {}",
-                    orsa_executive::master::MAX_GOAL_S
+                    MAX_GOAL_S
                 ));
             }
         }
@@ -73,22 +78,6 @@ impl PlannerParams {
         }
     }
 }
-
-/// Where a mission stands (the planner's `mission` push).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MissionStatus {
-    /// Index of the current step (equal to the number of steps when done).
-    pub step: usize,
-    /// Number of steps.
-    pub steps: usize,
-    /// The current goal's mode, if any.
-    pub mode: Option<String>,
-    /// The current goal's executive id, if accepted.
-    pub goal_id: Option<u64>,
-    /// Whether the mission ended, and how.
-    pub finished: Option<String>,
-}
-comm_object!(MissionStatus, "orsa.planner.MissionStatus/1");
 
 /// The planner component.
 #[derive(Debug, Clone)]
@@ -134,15 +123,15 @@ impl Component for Planner {
 
     async fn setup(&self, ctx: &Ctx<PlannerMsg>) -> Result<PlannerState, ComponentError> {
         let exec = self.executive.as_str();
-        let goals = ctx.query_client::<Goal, GoalReply>((exec, "goal"))?;
-        let events = ctx.event_client::<GoalFilter, GoalEvent>((exec, "goals"))?;
+        let goals = ctx.query_client(executive::GOAL.on(exec))?;
+        let events = ctx.event_client(executive::GOALS.on(exec))?;
         events.activate_to(
             EventMode::Continuous,
             GoalFilter { goal: None },
             ctx.mailbox().sink(PlannerMsg::Event),
         )?;
-        ctx.send_server::<Empty>("next", |_| PlannerMsg::Next)?;
-        let status = ctx.push_newest_server::<MissionStatus>("mission")?;
+        ctx.send_server(NEXT, |_| PlannerMsg::Next)?;
+        let status = ctx.push_newest_server(MISSION)?;
         ctx.mailbox().cast(PlannerMsg::Next).map_err(|_| "planner: cannot reach its own mailbox")?;
         Ok(PlannerState { step: 0, goal_id: None, goals, status })
     }

@@ -27,7 +27,7 @@ use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, WallEstimate, front_min, fuse, wall_in};
 use crate::walldir::{WallDirParams, WallDirection};
 use orsa_actors::Timestamp;
-use orsa_hardware::comm::NavigationVelocity;
+use orsa_interfaces::nomad200::NavigationVelocity;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of center following (the `[centerfollow]` table of the config file).

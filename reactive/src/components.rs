@@ -18,33 +18,12 @@ use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
-use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update, comm_object};
-use orsa_hardware::comm::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams};
-use serde::{Deserialize, Serialize};
+use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update};
+use orsa_interfaces::behaviour::{ACTIVE, BehaviourStatus, COMPUTE, STATUS, VEL};
+use orsa_interfaces::nomad200::{
+    self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams,
+};
 use std::time::Duration;
-
-/// The main state in which a behaviour computes.
-pub const ACTIVE: &str = "active";
-/// The substate a behaviour holds while it computes and sends.
-pub const COMPUTE: &str = "compute";
-
-/// What a behaviour saw and decided at one step (service `status`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BehaviourStatus {
-    /// Stamp of the sensor data the step used.
-    pub stamp: Timestamp,
-    /// The command it computed.
-    pub cmd: NavigationVelocity,
-    /// Estimated distance to the followed wall (wall following), m.
-    pub wall_m: Option<f64>,
-    /// Estimated offset from the corridor centre, positive left of it (center following), m.
-    pub offset_m: Option<f64>,
-    /// The wall angle the step used (see [`crate::ring`]), rad.
-    pub alpha_rad: f64,
-    /// Whether the command left through a wired port.
-    pub delivered: bool,
-}
-comm_object!(BehaviourStatus, "orsa.reactive.BehaviourStatus/1");
 
 fn states() -> StateSpec {
     StateSpec::new().main_state(ACTIVE, &[COMPUTE])
@@ -52,7 +31,7 @@ fn states() -> StateSpec {
 
 async fn robot_params(ctx: &Ctx<impl ractor::Message>, robot: &str) -> Result<RobotParams, ComponentError> {
     let params: RobotParams = ctx
-        .query_client::<Empty, RobotParams>((robot, "robotparams"))?
+        .query_client(nomad200::ROBOTPARAMS.on(robot))?
         .query(Empty {}, Some(Duration::from_secs(2)))
         .await
         .map_err(|e| format!("{}: cannot get {robot}/robotparams: {e}", ctx.name()))?;
@@ -107,12 +86,12 @@ impl Component for WallFollow {
         ctx.declare_states(states())?;
         let robot = robot_params(ctx, &self.robot).await?;
         let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
-        let vel = ctx.send_port::<NavigationVelocity>("vel")?;
-        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
-        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, WallFollowMsg::Ir)?;
-        ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, WallFollowMsg::Base)?;
+        let vel = ctx.send_port(VEL)?;
+        let status = ctx.push_newest_server(STATUS)?;
+        ctx.subscribe_timed(nomad200::DISTANCEIR.on(&self.robot), 1, WallFollowMsg::Ir)?;
+        ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, WallFollowMsg::Base)?;
         ctx.activate_event(
-            (self.robot.as_str(), "contact"),
+            nomad200::CONTACT.on(&self.robot),
             EventMode::Continuous,
             Empty {},
             WallFollowMsg::Contact,
@@ -195,13 +174,13 @@ impl Component for CenterFollow {
     async fn setup(&self, ctx: &Ctx<CenterFollowMsg>) -> Result<CenterFollowState, ComponentError> {
         ctx.declare_states(states())?;
         let robot = robot_params(ctx, &self.robot).await?;
-        let vel = ctx.send_port::<NavigationVelocity>("vel")?;
-        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
-        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceir"), 1, CenterFollowMsg::Ir)?;
-        ctx.subscribe_timed::<DistanceScan>((self.robot.as_str(), "distanceson"), 1, CenterFollowMsg::Sonar)?;
-        ctx.subscribe_timed::<BaseState>((self.robot.as_str(), "basestate"), 1, CenterFollowMsg::Base)?;
+        let vel = ctx.send_port(VEL)?;
+        let status = ctx.push_newest_server(STATUS)?;
+        ctx.subscribe_timed(nomad200::DISTANCEIR.on(&self.robot), 1, CenterFollowMsg::Ir)?;
+        ctx.subscribe_timed(nomad200::DISTANCESON.on(&self.robot), 1, CenterFollowMsg::Sonar)?;
+        ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, CenterFollowMsg::Base)?;
         ctx.activate_event(
-            (self.robot.as_str(), "contact"),
+            nomad200::CONTACT.on(&self.robot),
             EventMode::Continuous,
             Empty {},
             CenterFollowMsg::Contact,

@@ -11,7 +11,12 @@
 //! - [`cascade`]: the two cascaded proportional loops both behaviours use.
 //! - [`wallfollow`]: hold a distance from the left wall (infrared).
 //! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
+//! - [`manoeuvres`]: backing out of a contact and getting unstuck, shared by both.
 //! - [`components`]: the two as components with a `vel` port, activated by State.
+//!
+//! The behaviours know the robot only by its interface (`orsa_interfaces::nomad200`: the sensor
+//! scans they subscribe to, the command they send, the parameters they ask for) and offer the
+//! behaviour interface (`orsa_interfaces::behaviour`); they do not depend on the robot crate.
 
 pub mod cascade;
 pub mod centerfollow;
@@ -21,4 +26,4 @@ pub mod ring;
 pub mod walldir;
 pub mod wallfollow;
 
-pub use components::{BehaviourStatus, CenterFollow, WallFollow};
+pub use components::{CenterFollow, WallFollow};

@@ -5,7 +5,7 @@
 //! [`crate::wallfollow`] decide which they use.
 
 use crate::ring::{Ranges, RingGeometry, Side, front_min, projected, side_min, window_min, wrap};
-use orsa_hardware::comm::{RING_SIZE, bumper_angle_rad, ring_angle_rad};
+use orsa_interfaces::nomad200::{RING_SIZE, bumper_angle_rad, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 
 /// Getting out of a gap barely wider than the body.
@@ -505,7 +505,7 @@ mod tests {
 
     #[test]
     fn contact_is_placed_relative_to_the_direction_of_travel() {
-        use orsa_hardware::comm::BUMPER_COUNT;
+        use orsa_interfaces::nomad200::BUMPER_COUNT;
         let pressed = |ids: &[usize]| {
             let mut p = vec![false; BUMPER_COUNT];
             for &i in ids {

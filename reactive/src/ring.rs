@@ -24,7 +24,7 @@
 //!   missing, it falls back to the nearest reading and the coarse angle `pi/8 (m - c)`. It is
 //!   the default.
 
-use orsa_hardware::comm::{DistanceScan, RING_SIZE, ring_angle_rad};
+use orsa_interfaces::nomad200::{DistanceScan, RING_SIZE, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 

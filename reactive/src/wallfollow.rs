@@ -38,7 +38,7 @@ use crate::cascade::{CascadeParams, check_positive};
 use crate::manoeuvres::{Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
 use orsa_actors::Timestamp;
-use orsa_hardware::comm::{NavigationVelocity, ring_angle_rad};
+use orsa_interfaces::nomad200::{NavigationVelocity, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 

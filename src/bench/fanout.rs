@@ -9,12 +9,15 @@ use super::inproc::{PushSub, RawSub, RuntimeKind};
 use super::probe::{Probe, ns_since};
 use super::{FanoutRow, say, stats};
 use anyhow::anyhow;
+use orsa_actors::Registry;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::push_newest::PushNewestServer;
-use orsa_actors::{Registry, ServiceAddr};
 use ractor::{Actor, ActorRef};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// The service the fan-out rows publish on.
+const OUT: orsa_actors::service::PushNewestService<u64> = orsa_actors::service::PushNewestService::new("out");
 
 /// Rounds for `n` subscribers: about `budget` handler runs in all, within bounds.
 pub(crate) fn rounds_for(n: usize, budget: usize, min: usize) -> usize {
@@ -34,11 +37,11 @@ fn last_of_rounds(lat: &[u64], n: usize) -> Vec<u64> {
 async fn one(n: usize, rounds: usize, warmup: usize) -> anyhow::Result<FanoutRow> {
     let base = Instant::now();
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, "fan/out")?;
+    let server = PushNewestServer::<u64>::register(&registry, OUT.on("fan"))?;
     let orsa_probe = Probe::new(base);
     let mut subs: Vec<ComponentHandle<PushSub>> = Vec::with_capacity(n);
     for i in 0..n {
-        let sub = PushSub { probe: Arc::clone(&orsa_probe), addr: ServiceAddr::new("fan", "out") };
+        let sub = PushSub { probe: Arc::clone(&orsa_probe), addr: OUT.on("fan") };
         subs.push(spawn(&registry, &format!("sub{i}"), sub).await?);
     }
     let raw_probe = Probe::new(base);

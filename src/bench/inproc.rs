@@ -19,11 +19,17 @@ use anyhow::anyhow;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::{QueryClient, QueryRequest};
-use orsa_actors::{Component, ComponentError, Ctx, Registry, ServiceAddr, Update};
+use orsa_actors::service::{Addr, PushNewestService, QueryService};
+use orsa_actors::{Component, ComponentError, Ctx, Registry, Update};
 use ractor::{Actor, ActorProcessingErr, ActorRef, RpcReplyPort};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
+
+/// The service the in-process push rows publish on.
+pub(crate) const PING: PushNewestService<u64> = PushNewestService::new("ping");
+/// The service the in-process query rows ask.
+const ECHO: QueryService<u64, u64> = QueryService::new("echo");
 
 /// How many messages each mode takes.
 #[derive(Debug, Clone, Copy)]
@@ -89,7 +95,7 @@ pub(crate) fn baseline_of(path: &str) -> Option<&'static str> {
 /// A component subscribed to a Push newest service; its handler hits the probe.
 pub(crate) struct PushSub {
     pub(crate) probe: Arc<Probe>,
-    pub(crate) addr: ServiceAddr,
+    pub(crate) addr: Addr<PushNewestService<u64>>,
 }
 
 /// Messages of [`PushSub`].
@@ -150,7 +156,7 @@ impl Component for Echo {
     type State = ();
 
     async fn setup(&self, ctx: &Ctx<EchoMsg>) -> Result<(), ComponentError> {
-        ctx.query_server::<u64, u64>("echo", EchoMsg::Q)?;
+        ctx.query_server(ECHO, EchoMsg::Q)?;
         Ok(())
     }
 
@@ -257,14 +263,10 @@ struct Rig {
 impl Rig {
     async fn start(base: Instant) -> anyhow::Result<Rig> {
         let registry = Registry::new();
-        let server = PushNewestServer::<u64>::register(&registry, "bench/ping")?;
+        let server = PushNewestServer::<u64>::register(&registry, PING.on("bench"))?;
         let orsa_probe = Probe::new(base);
-        let sub = spawn(
-            &registry,
-            "sub",
-            PushSub { probe: Arc::clone(&orsa_probe), addr: ServiceAddr::new("bench", "ping") },
-        )
-        .await?;
+        let sub = spawn(&registry, "sub", PushSub { probe: Arc::clone(&orsa_probe), addr: PING.on("bench") })
+            .await?;
         let ractor_probe = Probe::new(base);
         let (raw_sub, _) = Actor::spawn(None, RawSub { probe: Arc::clone(&ractor_probe) }, ())
             .await
@@ -279,7 +281,7 @@ impl Rig {
         });
 
         let echo = spawn(&registry, "echo", Echo).await?;
-        let client = QueryClient::<u64, u64>::connect(&registry, "echo/echo")?;
+        let client = QueryClient::<u64, u64>::connect(&registry, ECHO.on("echo"))?;
         let (raw_echo, _) =
             Actor::spawn(None, RawEcho, ()).await.map_err(|e| anyhow!("cannot spawn a ractor actor: {e}"))?;
         let (qtx, mut qrx) = mpsc::unbounded_channel::<(u64, oneshot::Sender<u64>)>();

@@ -49,6 +49,7 @@ use anyhow::{Context as _, anyhow, bail};
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::push_newest::PushNewestClient;
 use orsa_actors::query::QueryClient;
+use orsa_actors::service::{PushNewestService, QueryService};
 use orsa_actors::{
     CommObject as _, Component, ComponentError, Ctx, Registry, ServiceAddr, Sink, Stamped, Update,
     comm_object,
@@ -83,12 +84,14 @@ pub(crate) fn baseline_of(path: &str) -> Option<&'static str> {
     (path != RAW_CALLBACK).then_some(RAW_CALLBACK)
 }
 
+/// The peer process's component.
+pub(crate) const PEER: &str = "benchpeer";
 /// The Push newest service the peer publishes on for the component.
-pub(crate) const SAMPLE: &str = "benchpeer/sample";
+pub(crate) const SAMPLE: PushNewestService<Sample> = PushNewestService::new("sample");
 /// The Push newest service the peer publishes on for the client sink.
-pub(crate) const SAMPLE_SINK: &str = "benchpeer/sample_sink";
+pub(crate) const SAMPLE_SINK: PushNewestService<Sample> = PushNewestService::new("sample_sink");
 /// The peer's control Query service.
-pub(crate) const CONTROL: &str = "benchpeer/control";
+pub(crate) const CONTROL: QueryService<PeerRequest, PeerReply> = QueryService::new("control");
 /// The bench process's role in zenoh (the peer leaves when it disappears).
 pub(crate) const BENCH_ROLE: &str = "bench";
 /// The peer's role.
@@ -367,7 +370,7 @@ impl Component for NetSub {
     type State = ();
 
     async fn setup(&self, ctx: &Ctx<NetSubMsg>) -> Result<(), ComponentError> {
-        ctx.subscribe_newest::<Sample>(SAMPLE, NetSubMsg::Up)?;
+        ctx.subscribe_newest(SAMPLE.on(PEER), NetSubMsg::Up)?;
         Ok(())
     }
 
@@ -543,7 +546,7 @@ fn codec_costs(n: usize) -> CodecCosts {
     use std::hint::black_box;
     let clock = orsa_actors::Clock::start();
     let sample = Sample { seq: 1, sent_unix_ns: unix_ns(), readings: Sample::padding() };
-    let stamped = Stamped { seq: 1, stamp: clock.now(), value: sample.clone() };
+    let stamped = Stamped { seq: 1, sent_at: clock.now(), value: sample.clone() };
     let raw = cbor(&sample);
     let orsa = orsa_actors::wire::encode_stamped(&stamped, &clock);
     // The median of five rounds' means.
@@ -645,14 +648,12 @@ async fn with_peer(
     sizes: NetSizes,
     t0: Instant,
 ) -> anyhow::Result<NetReport> {
-    let needed: Vec<ServiceAddr> = [SAMPLE, SAMPLE_SINK, CONTROL]
-        .iter()
-        .map(|s| s.parse().map_err(|e| anyhow!("{s}: {e}")))
-        .collect::<anyhow::Result<_>>()?;
+    let needed: Vec<ServiceAddr> =
+        vec![SAMPLE.on(PEER).untyped(), SAMPLE_SINK.on(PEER).untyped(), CONTROL.on(PEER).untyped()];
     if let Err(missing) = transport.wait_for(&needed, Duration::from_secs(30)).await {
         bail!("the peer did not offer {missing:?} within 30 s");
     }
-    let control = QueryClient::<PeerRequest, PeerReply>::connect(registry, CONTROL)?;
+    let control = QueryClient::<PeerRequest, PeerReply>::connect(registry, CONTROL.on(PEER))?;
     let keys = RawKeys::new(prefix);
     let rx: Vec<Arc<Rx>> = PATHS.iter().map(|_| Arc::new(Rx::default())).collect();
 
@@ -661,7 +662,7 @@ async fn with_peer(
     let r = Arc::clone(&rx[1]);
     let sink_client = PushNewestClient::<Sample>::connect_to(
         registry,
-        SAMPLE_SINK,
+        SAMPLE_SINK.on(PEER),
         Sink::from_fn(move |u: Update<Sample>| {
             r.hit(u.value.seq, u.value.sent_unix_ns);
             Ok(())

@@ -8,8 +8,8 @@
 //! closes (the bench process died without saying so), or after an hour at most.
 
 use super::net::{
-    BENCH_ROLE, CONTROL, Go, PATHS, PEER_ROLE, PeerReply, PeerRequest, RawKeys, SAMPLE, SAMPLE_SINK, Sample,
-    cbor, prefix_for, runtime, uncbor, unix_ns,
+    BENCH_ROLE, CONTROL, Go, PATHS, PEER, PEER_ROLE, PeerReply, PeerRequest, RawKeys, SAMPLE, SAMPLE_SINK,
+    Sample, cbor, prefix_for, runtime, uncbor, unix_ns,
 };
 use anyhow::{Context as _, anyhow};
 use orsa_actors::push_newest::PushNewestServer;
@@ -54,11 +54,11 @@ async fn serve(endpoint: String) -> anyhow::Result<()> {
     let prefix = prefix_for(&endpoint);
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
-    let to_component = PushNewestServer::<Sample>::register(&registry, SAMPLE)?;
-    let to_sink = PushNewestServer::<Sample>::register(&registry, SAMPLE_SINK)?;
+    let to_component = PushNewestServer::<Sample>::register(&registry, SAMPLE.on(PEER))?;
+    let to_sink = PushNewestServer::<Sample>::register(&registry, SAMPLE_SINK.on(PEER))?;
     let (ctl_tx, mut ctl_rx) = mpsc::unbounded_channel::<QueryRequest<PeerRequest, PeerReply>>();
     let _control =
-        QueryServer::<PeerRequest, PeerReply>::register(&registry, CONTROL, Sink::channel(ctl_tx))?;
+        QueryServer::<PeerRequest, PeerReply>::register(&registry, CONTROL.on(PEER), Sink::channel(ctl_tx))?;
     let options = NetOptions { connect: vec![endpoint], prefix: prefix.clone(), ..NetOptions::default() };
     let transport = ZenohTransport::open(&registry, &options, PEER_ROLE).await?;
     let (lost_tx, mut lost_rx) = mpsc::unbounded_channel::<()>();

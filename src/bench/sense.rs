@@ -41,12 +41,14 @@ use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
 use orsa_actors::{Clock, Component, ComponentError, Ctx, Empty, Registry, Timestamp};
 use orsa_executive::Master;
 use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
-use orsa_hardware::server::{Nomad200, SafetyCounters};
+use orsa_hardware::server::Nomad200;
 use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
+use orsa_interfaces::behaviour::BehaviourStatus;
+use orsa_interfaces::nomad200::SafetyCounters;
 use orsa_planner::Planner;
 use orsa_reactive::components::{CenterFollowMsg, WallFollowMsg};
-use orsa_reactive::{BehaviourStatus, CenterFollow, WallFollow};
+use orsa_reactive::{CenterFollow, WallFollow};
 use parking_lot::Mutex;
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
@@ -123,9 +125,9 @@ impl Triggered for WallFollow {
         // Odometry and contact never make a step (no status follows them), so their stamps are
         // never used.
         match msg {
-            WallFollowMsg::Ir(u) => (u.stamp, u.value.stamp),
-            WallFollowMsg::Base(u) => (u.stamp, u.value.stamp),
-            WallFollowMsg::Contact(c) => (c.event.stamp, c.event.value.stamp),
+            WallFollowMsg::Ir(u) => (u.sent_at, u.value.stamp),
+            WallFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
+            WallFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
         }
     }
 }
@@ -134,9 +136,9 @@ impl Triggered for CenterFollow {
     const NAME: &'static str = "centerfollow";
     fn trigger(msg: &CenterFollowMsg) -> (Timestamp, Timestamp) {
         match msg {
-            CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.stamp, u.value.stamp),
-            CenterFollowMsg::Base(u) => (u.stamp, u.value.stamp),
-            CenterFollowMsg::Contact(c) => (c.event.stamp, c.event.value.stamp),
+            CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.sent_at, u.value.stamp),
+            CenterFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
+            CenterFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
         }
     }
 }
@@ -161,7 +163,7 @@ impl<C: Triggered> Component for Traced<C> {
     async fn setup(&self, ctx: &Ctx<C::Msg>) -> Result<Self::State, ComponentError> {
         let inner = self.inner.setup(ctx).await?;
         // The behaviour declared it; declaring it again gives back the same server.
-        let status = ctx.push_newest_server::<BehaviourStatus>("status")?;
+        let status = ctx.push_newest_server(orsa_interfaces::behaviour::STATUS)?;
         let last_seq = status.latest().map_or(0, |u| u.seq);
         Ok(TracedState { inner, status, last_seq })
     }
@@ -333,10 +335,13 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
     acts.lock().clear();
     say(format!("  sense to act: the stack in real time for {duration_s:.0} s"));
     tokio::time::sleep(Duration::from_secs_f64(duration_s)).await;
-    let safety = QueryClient::<Empty, SafetyCounters>::connect(&registry, (robot.as_str(), "safety"))?
-        .query(Empty {}, Some(Duration::from_secs(1)))
-        .await
-        .context("the robot server's safety counters")?;
+    let safety = QueryClient::<Empty, SafetyCounters>::connect(
+        &registry,
+        orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
+    )?
+    .query(Empty {}, Some(Duration::from_secs(1)))
+    .await
+    .context("the robot server's safety counters")?;
     let acts: Vec<Act> = std::mem::take(&mut *acts.lock());
     let steps: Vec<Step> = std::mem::take(&mut *steps.lock());
     supervisor.shutdown().await;
@@ -528,10 +533,13 @@ pub(crate) async fn across(
         acts.lock().clear();
         say(format!("  sense to act across processes: the stack in real time for {duration_s:.0} s"));
         tokio::time::sleep(Duration::from_secs_f64(duration_s)).await;
-        let safety = QueryClient::<Empty, SafetyCounters>::connect(registry, (robot.as_str(), "safety"))?
-            .query(Empty {}, Some(Duration::from_secs(1)))
-            .await
-            .context("the robot server's safety counters")?;
+        let safety = QueryClient::<Empty, SafetyCounters>::connect(
+            registry,
+            orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
+        )?
+        .query(Empty {}, Some(Duration::from_secs(1)))
+        .await
+        .context("the robot server's safety counters")?;
         let taken: Vec<Act> = std::mem::take(&mut *acts.lock());
         let (wire_steps, peer_restarts) =
             match control.query(PeerRequest::StopBehaviours, Some(Duration::from_secs(30))).await {

@@ -243,7 +243,7 @@ fn peer_protocol_messages_round_trip_through_cbor() {
     // orsa's envelope carries the same sample, unchanged (the padding has no Timestamp to map).
     let clock =
         orsa_actors::Clock::with_unix_epoch_ns(tokio::time::Instant::now(), 1_763_000_000_000_000_000);
-    let stamped = orsa_actors::Stamped { seq: 1, stamp: orsa_actors::Timestamp(5), value: sample.clone() };
+    let stamped = orsa_actors::Stamped { seq: 1, sent_at: orsa_actors::Timestamp(5), value: sample.clone() };
     let bytes = orsa_actors::wire::encode_stamped(&stamped, &clock);
     let back = orsa_actors::wire::decode_stamped::<net::Sample>(&bytes, "sample", &clock).expect("decodes");
     assert_eq!(back.value, sample);

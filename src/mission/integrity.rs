@@ -6,8 +6,8 @@
 use orsa_actors::ledger::DeliveryCounts;
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{PatternKind, Registry, ServiceAddr};
-use orsa_executive::master::VEL_PORT;
 use orsa_hardware::faulty::BoardFaults;
+use orsa_interfaces::behaviour::VEL;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -108,7 +108,7 @@ async fn vel_targets(registry: &Registry, behaviours: &[&str]) -> BTreeMap<Strin
     let mut out = BTreeMap::new();
     for b in behaviours {
         let target = match master.ports(b).await {
-            Ok(ports) => ports.into_iter().find(|p| p.port == VEL_PORT).and_then(|p| p.target),
+            Ok(ports) => ports.into_iter().find(|p| p.port == VEL.name()).and_then(|p| p.target),
             Err(_) => None,
         };
         out.insert(b.to_string(), target.map(|t| t.to_string()));

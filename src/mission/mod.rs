@@ -21,10 +21,10 @@ use orsa_actors::push_newest::PushNewestClient;
 use orsa_actors::query::QueryClient;
 use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
 use orsa_actors::{Empty, Sink, Update};
-use orsa_executive::WiringChange;
-use orsa_hardware::server::SafetyCounters;
 use orsa_hardware::sim::Side;
 use orsa_hardware::world::World;
+use orsa_interfaces::executive::{self, WiringChange};
+use orsa_interfaces::nomad200::{self, SafetyCounters};
 use report::{Report, SafetyFigures};
 use stack::{Stack, StackError};
 use std::sync::Arc;
@@ -150,7 +150,11 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     });
 
     let (wtx, mut wrx) = mpsc::unbounded_channel::<Update<WiringChange>>();
-    let wiring = PushNewestClient::connect_to(&stack.registry, "master/driving", Sink::channel(wtx))?;
+    let wiring = PushNewestClient::connect_to(
+        &stack.registry,
+        executive::DRIVING.on(executive::NAME),
+        Sink::channel(wtx),
+    )?;
     wiring.subscribe()?;
 
     let period = Duration::from_secs_f64(opts.sample_period_s);
@@ -201,7 +205,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         p.abort();
     }
     let robot = opts.config.robot.name.as_str();
-    let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, (robot, "safety"))?
+    let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot))?
         .query(Empty {}, Some(Duration::from_secs(1)))
         .await?;
     let faults_switch = stack.registry.faults();

@@ -23,15 +23,12 @@ pub use robot::{FALLBACK, RobotArgs, RobotReport, robot};
 pub use tools::{EchoArgs, ListArgs, StateArgs, WireArgs, echo, list, state, wire};
 
 use crate::config::Config;
+use crate::system::{Place, System};
 use anyhow::{Context as _, bail};
-use orsa_actors::component::ComponentHandle;
 use orsa_actors::send::SendClient;
-use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
 use orsa_actors::{Clock, Registry, ServiceAddr};
-use orsa_executive::Master;
-use orsa_hardware::comm::NavigationVelocity;
+use orsa_interfaces::nomad200::{self, NavigationVelocity};
 use orsa_net::{NetOptions, ZenohTransport};
-use orsa_planner::Planner;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -186,33 +183,28 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
         // The heartbeat tells the robot this process still drives it (see [link] in the config).
         let beat = Duration::from_secs_f64(config.link.heartbeat_period_s);
         let transport = open(&registry, &args.net, "executive", Some(beat)).await?;
-        let mut exec = config.executive.clone();
-        exec.robot = config.robot.name.clone();
-        let mut needed = vec![
-            ServiceAddr::new(&exec.robot, "distanceir"),
-            ServiceAddr::new(&exec.robot, "navigationvelocity"),
-        ];
-        for b in exec.behaviours() {
+        let robot = config.robot.name.as_str();
+        let mut needed =
+            vec![nomad200::DISTANCEIR.on(robot).untyped(), nomad200::NAVIGATIONVELOCITY.on(robot).untyped()];
+        for b in config.executive.behaviours() {
             needed.push(ServiceAddr::new(&b, "state"));
             needed.push(ServiceAddr::new(&b, "wiring"));
         }
         wait_for(&transport, &needed, wait).await?;
         // A robot driving its fallback mode stops it when it sees this process; two masters
         // never wire at once.
-        if !transport.wait_gone(&ServiceAddr::new(FALLBACK, "goal"), wait).await {
+        let fallback = orsa_interfaces::executive::GOAL.on(FALLBACK).untyped();
+        if !transport.wait_gone(&fallback, wait).await {
             bail!("the robot's fallback master is still running after {:.1} s", wait.as_secs_f64());
         }
-        let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
-        let planner =
-            Planner { mission: config.planner.mission_for(args.duration), executive: "master".into() };
-        let planner = ComponentHandle::new(&registry, "planner", planner)?;
-        let spec = SupervisorSpec::new("executive", Strategy::OneForOne)
-            .with_intensity(10, Duration::from_secs(60))
-            .with_clock(clock)
-            .with_child(master.child_spec())
-            .with_child(planner.child_spec());
-        let supervisor =
-            Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the executive: {e}"))?;
+        let system = System::builder(&config)
+            .only(Place::Executive)
+            .supervisor("executive")
+            .duration(args.duration)
+            .start(&registry)
+            .await
+            .context("starting the executive")?;
+        let supervisor = system.supervisor;
         eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
         until_stopped(Some(duration)).await;
         supervisor.shutdown().await;

@@ -2,21 +2,19 @@
 
 use super::{NetArgs, load_config, open, runtime, secs, until_stopped};
 use crate::config::Config;
+use crate::system::{Place, RobotBoards, System};
 use anyhow::{Context as _, bail};
 use orsa_actors::component::ComponentHandle;
 use orsa_actors::send::SendClient;
-use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{Clock, Registry, ServiceAddr};
 use orsa_executive::Master;
-use orsa_executive::goal::{Goal, GoalReply};
-use orsa_executive::master::VEL_PORT;
-use orsa_hardware::comm::NavigationVelocity;
-use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
-use orsa_hardware::server::Nomad200;
+use orsa_hardware::faulty::BoardFaults;
 use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
-use orsa_reactive::{CenterFollow, WallFollow};
+use orsa_interfaces::behaviour::VEL;
+use orsa_interfaces::executive::{Goal, GoalReply};
+use orsa_interfaces::nomad200::NavigationVelocity;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -62,7 +60,7 @@ pub struct RobotReport {
     /// When the fault plan's clock started (its `at` 0), seconds on the robot's clock.
     pub plan_started_at_s: Option<f64>,
     /// What the robot server did with velocity commands over its whole life.
-    pub safety: orsa_hardware::server::SafetyCounters,
+    pub safety: orsa_interfaces::nomad200::SafetyCounters,
     /// What link cuts kept from crossing.
     pub link: orsa_net::LinkCutStats,
     /// What the fault plan broke and how the robot came back (with `--faults`).
@@ -122,37 +120,18 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             SimNomad200::new(world, config.sim.clone(), args.seed).map_err(|e| anyhow::anyhow!("{e}"))?;
         let sim = SimRobot::spawn(sim, clock);
         let robot = config.robot.name.clone();
-        let params = config.sim.robot_params(config.robot.push_periods());
         let boards = BoardFaults::new(args.seed);
-        let sensors = FaultySensorBoard::new(sim.sensor_board(), boards.clone());
-        let motor_board = FaultyMotorBoard::new(sim.motor_board(), boards.clone());
-        let server = Nomad200::new(config.robot.clone(), params, sensors, motor_board);
-        let watchdog = Duration::from_secs_f64(config.supervision.handler_timeout_s);
-        let nomad = ComponentHandle::new(&registry, &robot, server)?.with_handler_timeout(watchdog);
-        let wall = ComponentHandle::new(
-            &registry,
-            "wallfollow",
-            WallFollow { params: config.wallfollow, robot: robot.clone() },
-        )?
-        .with_handler_timeout(watchdog);
-        let center = ComponentHandle::new(
-            &registry,
-            "centerfollow",
-            CenterFollow { params: config.centerfollow, robot: robot.clone() },
-        )?
-        .with_handler_timeout(watchdog);
         let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
         let sink = Arc::clone(&supervisor_events);
-        let s = config.supervision;
-        let spec = SupervisorSpec::new("robot", Strategy::OneForOne)
-            .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))
-            .with_clock(clock)
-            .with_event_sink(move |e| sink.lock().push(e))
-            .with_child(nomad.child_spec())
-            .with_child(wall.child_spec())
-            .with_child(center.child_spec());
-        let supervisor =
-            Supervisor::start(spec).await.map_err(|e| anyhow::anyhow!("starting the robot: {e}"))?;
+        let system = System::builder(&config)
+            .only(Place::Robot)
+            .robot(RobotBoards::simulated(&sim, &config, &boards))
+            .supervisor("robot")
+            .on_event(move |e| sink.lock().push(e))
+            .start(&registry)
+            .await
+            .context("starting the robot")?;
+        let supervisor = system.supervisor;
         let transport = open(&registry, &args.net, "robot", None).await?;
         eprintln!("robot: up as {} (zenoh id {})", robot, transport.zid());
 
@@ -177,9 +156,9 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             .await?;
         // The robot's own base state, to report when it came to rest and moved again.
         let (base_tx, mut base_rx) = tokio::sync::mpsc::unbounded_channel();
-        let base = orsa_actors::push_timed::PushTimedClient::<orsa_hardware::comm::BaseState>::connect_to(
+        let base = orsa_actors::push_timed::PushTimedClient::<orsa_interfaces::nomad200::BaseState>::connect_to(
             &registry,
-            (robot.as_str(), "basestate"),
+            orsa_interfaces::nomad200::BASESTATE.on(robot.as_str()),
             orsa_actors::Sink::channel(base_tx),
         )?;
         base.subscribe(1)?;
@@ -303,8 +282,8 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                     }
                 },
                 Some(u) = base_rx.recv() => {
-                    let u: orsa_actors::Update<orsa_hardware::comm::BaseState> = u;
-                    let t = u.stamp.as_secs_f64();
+                    let u: orsa_actors::Update<orsa_interfaces::nomad200::BaseState> = u;
+                    let t = u.sent_at.as_secs_f64();
                     let b = &u.value;
                     let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
                     for l in &mut links {
@@ -321,9 +300,9 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         if let Some(p) = plan_task {
             p.abort();
         }
-        let safety = orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_hardware::server::SafetyCounters>::connect(
+        let safety = orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_interfaces::nomad200::SafetyCounters>::connect(
             &registry,
-            (robot.as_str(), "safety"),
+            orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
         )?
         .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
         .await
@@ -387,11 +366,11 @@ async fn lose_executive(
     let mut driving = None;
     for b in behaviours {
         if let Ok(ports) = wiring.ports(b).await
-            && ports.iter().any(|p| p.port == VEL_PORT && p.target.as_ref() == Some(motors_addr))
+            && ports.iter().any(|p| p.port == VEL.name() && p.target.as_ref() == Some(motors_addr))
         {
             driving = Some((*b).to_string());
         }
-        if let Err(e) = wiring.disconnect(b, VEL_PORT).await {
+        if let Err(e) = wiring.disconnect(b, VEL).await {
             tracing::warn!("robot: cannot unwire {b}: {e}");
         }
     }
@@ -440,11 +419,11 @@ async fn executive_back(
     if let Some(b) = &restore {
         // Whatever a fallback wired goes first: never two behaviours on the motors.
         for other in behaviours.iter().filter(|o| **o != b.as_str()) {
-            if let Err(e) = wiring.disconnect(other, VEL_PORT).await {
+            if let Err(e) = wiring.disconnect(other, VEL).await {
                 tracing::warn!("robot: cannot unwire {other}: {e}");
             }
         }
-        match wiring.connect(b, VEL_PORT, motors_addr).await {
+        match wiring.connect(b, VEL, motors_addr).await {
             Ok(()) => {
                 eprintln!("robot: [{t:.3} s] executive {zid} is back: {b} drives again, as it had wired")
             }
@@ -491,7 +470,10 @@ async fn start_fallback(
     let mut exec = config.executive.clone();
     exec.robot = config.robot.name.clone();
     let master = orsa_actors::component::spawn(registry, FALLBACK, Master { params: exec }).await?;
-    let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(registry, (FALLBACK, "goal"))?;
+    let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(
+        registry,
+        orsa_interfaces::executive::GOAL.on(FALLBACK),
+    )?;
     let reply = goals.query(Goal { mode: mode.to_string(), for_s: None }, Some(Duration::from_secs(5))).await;
     match reply {
         Ok(GoalReply::Accepted { .. }) => Ok(master),

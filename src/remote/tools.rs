@@ -293,8 +293,8 @@ pub fn wire(args: WireArgs) -> anyhow::Result<()> {
         wait_for(&transport, &[ServiceAddr::new(&args.component, "wiring")], wait).await?;
         let master = WiringMaster::new(&registry);
         match &args.target {
-            Some(t) => master.connect(&args.component, &args.port, t).await?,
-            None => master.disconnect(&args.component, &args.port).await?,
+            Some(t) => master.connect_named(&args.component, &args.port, t).await?,
+            None => master.disconnect_named(&args.component, &args.port).await?,
         }
         for p in master.ports(&args.component).await? {
             let target = p.target.map_or("(disconnected)".to_string(), |t| t.to_string());

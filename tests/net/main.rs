@@ -9,7 +9,7 @@ mod links;
 mod processes;
 mod security;
 
-use orsa::hardware::comm::BaseState;
+use orsa::interfaces::nomad200::{self, BaseState};
 use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::{Registry, Sink, Update};
 use orsa_net::{NetOptions, ZenohTransport};
@@ -132,8 +132,12 @@ pub(crate) async fn base_stream(
     .collect();
     t.wait_for(&services, STARTUP).await.expect("the robot is up");
     let (tx, rx) = mpsc::unbounded_channel();
-    let c = PushTimedClient::<BaseState>::connect_to(registry, "nomad200/basestate", Sink::channel(tx))
-        .expect("base state client");
+    let c = PushTimedClient::<BaseState>::connect_to(
+        registry,
+        nomad200::BASESTATE.on(nomad200::NAME),
+        Sink::channel(tx),
+    )
+    .expect("base state client");
     c.subscribe(1).expect("subscribe");
     (c, rx)
 }

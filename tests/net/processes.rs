@@ -1,7 +1,7 @@
 //! Robot, executive, teleop and echo as separate processes.
 
 use super::*;
-use orsa::hardware::server::SafetyCounters;
+use orsa::interfaces::nomad200::SafetyCounters;
 use orsa_actors::query::QueryClient;
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{Empty, ServiceAddr};
@@ -21,7 +21,7 @@ async fn wired(registry: &Registry) -> Vec<String> {
 }
 
 async fn safety(registry: &Registry) -> SafetyCounters {
-    QueryClient::<Empty, SafetyCounters>::connect(registry, "nomad200/safety")
+    QueryClient::<Empty, SafetyCounters>::connect(registry, nomad200::SAFETY.on(nomad200::NAME))
         .expect("safety client")
         .query(Empty {}, Some(Duration::from_secs(5)))
         .await
@@ -79,13 +79,13 @@ async fn killing_the_executive_stops_the_robot() {
     let killed = registry.now();
     // Unwired and commanded to zero within 1 s; the axes then decelerate at 0.5 m/s^2.
     let stopped = until_base(&mut base, Duration::from_secs(10), "the robot stops", |b| b.v_m_s == 0.0).await;
-    let took = stopped.stamp.saturating_since(killed);
+    let took = stopped.sent_at.saturating_since(killed);
     assert!(took < Duration::from_millis(1600), "stopped {took:?} after the kill (1 s + braking)");
     assert!(wired(&registry).await.is_empty(), "no behaviour stays wired");
     assert!(robot.log_text().contains("lost"), "{}", robot.log_text());
     // And it stays stopped: the behaviours compute but drive nothing.
     let later = until_base(&mut base, Duration::from_secs(5), "a later state", |b| {
-        b.stamp > stopped.stamp.after(Duration::from_secs(1))
+        b.stamp > stopped.sent_at.after(Duration::from_secs(1))
     })
     .await;
     assert_eq!(later.v_m_s, 0.0);
@@ -166,12 +166,12 @@ async fn a_corrupted_message_is_rejected_and_counted_and_nothing_else_changes() 
         "a bad request is answered with a decode error"
     );
     // A good command after the garbage is applied.
-    let client = orsa_actors::send::SendClient::<orsa::hardware::comm::NavigationVelocity>::connect(
+    let client = orsa_actors::send::SendClient::<orsa::interfaces::nomad200::NavigationVelocity>::connect(
         &registry, &teleop,
     )
     .expect("teleop client");
     client
-        .send(orsa::hardware::comm::NavigationVelocity {
+        .send(orsa::interfaces::nomad200::NavigationVelocity {
             stamp: registry.now(),
             v_m_s: 0.05,
             omega_rad_s: 0.0,
@@ -212,7 +212,7 @@ async fn a_robot_drives_its_fallback_mode_without_an_executive_and_hands_back_to
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_command_older_than_the_timeout_is_not_acted_on_across_processes() {
-    use orsa::hardware::comm::NavigationVelocity;
+    use orsa::interfaces::nomad200::NavigationVelocity;
     use orsa_actors::Timestamp;
     let sys = System::new("stale");
     let _robot = sys.robot(&[]);
@@ -221,8 +221,11 @@ async fn a_command_older_than_the_timeout_is_not_acted_on_across_processes() {
     // Wait until this process's clock is well past 1.5 s (robot stamps arrive on our clock).
     until_base(&mut base, STARTUP, "time passes", |b| b.stamp > Timestamp::from_secs_f64(1.5)).await;
     let before = safety(&registry).await;
-    let teleop = orsa_actors::send::SendClient::<NavigationVelocity>::connect(&registry, "nomad200/teleop")
-        .expect("teleop client");
+    let teleop = orsa_actors::send::SendClient::<NavigationVelocity>::connect(
+        &registry,
+        nomad200::TELEOP.on(nomad200::NAME),
+    )
+    .expect("teleop client");
     // Computed from data 1 s old (older than the 0.5 s timeout): as after a reconnect.
     let old = registry.now().saturating_since(Timestamp::ZERO).as_secs_f64() - 1.0;
     teleop

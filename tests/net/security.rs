@@ -44,9 +44,11 @@ async fn a_peer_without_credentials_cannot_command_the_robot() {
     t.wait_for(&["nomad200/safety".parse().expect("addr")], STARTUP)
         .await
         .expect("an authorised peer sees the robot");
-    let safety =
-        QueryClient::<Empty, orsa::hardware::server::SafetyCounters>::connect(&authorised, "nomad200/safety")
-            .expect("client");
+    let safety = QueryClient::<Empty, orsa::interfaces::nomad200::SafetyCounters>::connect(
+        &authorised,
+        orsa::interfaces::nomad200::SAFETY.on(orsa::interfaces::nomad200::NAME),
+    )
+    .expect("client");
 
     // Without credentials: teleop cannot find the robot and gives up; nothing reached the motors.
     let mut intruder = sys.run("intruder", "teleop", &["--send", "0.3,0", "--for", "1", "--wait", "4"]);

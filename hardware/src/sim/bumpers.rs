@@ -7,8 +7,8 @@
 //! its closest point. The lower ring's bumper `k` covers `k x 36 ± 18` degrees, the upper
 //! ring's (ids 10 + k) `k x 36 + 18 ± 18` degrees.
 
-use crate::comm::{BUMPER_COUNT, ContactScan};
 use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{BUMPER_COUNT, ContactScan};
 use std::f64::consts::TAU;
 
 /// The two bumpers (one per ring) whose sectors contain `angle_rad` (relative to the base).
@@ -69,7 +69,7 @@ impl Bumpers {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::comm::bumper_angle_rad;
+    use orsa_interfaces::nomad200::bumper_angle_rad;
 
     #[test]
     fn each_bumper_centre_maps_to_itself() {

@@ -9,7 +9,7 @@
 //! Missing keys take their defaults, except inside `[sonar]` and `[infrared]`: the two rings
 //! share a type but not their defaults, so a ring table that is given must be given whole.
 
-use crate::comm::{
+use orsa_interfaces::nomad200::{
     BUMPER_COUNT, PushPeriods, RING_SIZE, RingParams, RobotParams, bumper_angle_rad, ring_angle_rad,
 };
 use serde::{Deserialize, Serialize};

@@ -15,9 +15,9 @@ use super::{SimNomad200, Truth};
 use crate::board::{
     AxisAccelerations, AxisVelocities, BoardError, CompassReading, MotorBoard, MotorState, SensorBoard,
 };
-use crate::comm::{ContactScan, DistanceScan};
 use crate::sim::{MoverTruth, Side};
 use orsa_actors::{Clock, Timestamp};
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
 use parking_lot::Mutex;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -11,11 +11,11 @@
 use super::movers::MoverState;
 use super::scene::Scene;
 use crate::board::CompassReading;
-use crate::comm::{DistanceReading, DistanceScan, RING_SIZE, Ring, ring_angle_rad};
 use crate::geometry::{Circle, Point};
 use crate::sim::config::{RingConfig, nanos};
 use crate::sim::odometry::wrap_angle;
 use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, Ring, ring_angle_rad};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;

@@ -3,7 +3,7 @@
 
 use super::SimNomad200;
 use crate::board::{BoardError, CompassReading};
-use crate::comm::{ContactScan, DistanceScan};
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
 use std::time::Duration;
 
 /// The shortest fire period accepted: 0.1 ms.

@@ -5,9 +5,9 @@ use super::SimNomad200;
 use super::movers::{MoverState, MoverTruth};
 use super::odometry::wrap_angle;
 use super::scene::MAX_RAYS;
-use crate::comm::{PushPeriods, RobotParams};
 use crate::geometry::{Ray, unit_at};
 use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{PushPeriods, RobotParams};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 

@@ -1,7 +1,29 @@
-//! Goals, as the deliberative layer gives them and the executive reports on them.
+//! The executive's master: its services, and the goals the deliberative layer gives it.
+//!
+//! | service | pattern | object |
+//! |---|---|---|
+//! | [`GOAL`] | Query | [`Goal`] -> [`GoalReply`]: run a mode, for a while or until preempted |
+//! | [`GOALS`] | Event | [`GoalFilter`] -> [`GoalEvent`]: started, reached, failed, preempted |
+//! | [`DRIVING`] | Push newest | [`WiringChange`]: which behaviour drives, in which mode |
+//!
+//! The master is called [`NAME`] in the default configuration.
 
+use orsa_actors::service::{EventService, PushNewestService, QueryService};
 use orsa_actors::{Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
+
+/// The master's name in the default configuration.
+pub const NAME: &str = "master";
+
+/// Goals from the deliberative layer.
+pub const GOAL: QueryService<Goal, GoalReply> = QueryService::new("goal");
+/// Progress of goals, to the activations whose filter matches.
+pub const GOALS: EventService<GoalFilter, GoalEvent> = EventService::new("goals");
+/// Every change of the behaviour wired to the motors.
+pub const DRIVING: PushNewestService<WiringChange> = PushNewestService::new("driving");
+
+/// The longest goal, s (about a year): longer ones are refused rather than overflow a timer.
+pub const MAX_GOAL_S: f64 = 3.2e7;
 
 /// What the planner asks of the executive: run a mode, for a while or until told otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,9 +1,19 @@
-//! The communication objects of the `nomad200` component, in SI units.
+//! The robot server `nomad200`: its services and their communication objects, in SI units.
 //!
-//! These are what travel through the patterns between the robot and the behaviours:
-//! [`DistanceScan`] (services `distanceson` and `distanceir`), [`ContactScan`] (`bumpers`),
-//! [`BaseState`] (`basestate`), [`NavigationVelocity`] (`navigationvelocity`) and
-//! [`RobotParams`], which describes the robot so that no behaviour hard-codes it.
+//! | service | pattern | object |
+//! |---|---|---|
+//! | [`DISTANCEIR`] | Push timed (40 ms) | [`DistanceScan`] of the infrared ring |
+//! | [`DISTANCESON`] | Push timed (64 ms) | [`DistanceScan`] of the sonar ring |
+//! | [`BUMPERS`] | Push timed (30 ms) | [`ContactScan`] |
+//! | [`BASESTATE`] | Push timed (100 ms) | [`BaseState`] (odometry) |
+//! | [`CONTACT`] | Event, while a bumper is pressed | [`Empty`] -> [`ContactScan`] |
+//! | [`NAVIGATIONVELOCITY`] | Send | [`NavigationVelocity`] from the wired behaviour |
+//! | [`TELEOP`] | Send | [`NavigationVelocity`] from teleoperation, which takes priority |
+//! | [`ROBOTPARAMS`] | Query | [`Empty`] -> [`RobotParams`], so no behaviour hard-codes the robot |
+//! | [`SAFETY`] | Query | [`Empty`] -> [`SafetyCounters`], what the server did with commands |
+//!
+//! The component is called [`NAME`] in the default configuration; a system may host it under
+//! another name, so clients address it as `DISTANCEIR.on(robot_name)`.
 //!
 //! Sensor ring layout, for sonar and infrared alike: sensor `i` faces
 //! `i x 22.5` degrees counter-clockwise from the turret's front (0 front, 4 left, 8 back,
@@ -11,9 +21,32 @@
 //! the body's edge (the sensor face). Bumpers are fixed to the base, which on a synchro-drive
 //! robot never rotates: their angles are relative to the base's orientation at start-up.
 
-use crate::board::{CompassReading, MotorState};
-use orsa_actors::{Timestamp, comm_object};
+use orsa_actors::service::{EventService, PushTimedService, QueryService, SendService};
+use orsa_actors::{Empty, Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
+
+/// The robot server's name in the default configuration.
+pub const NAME: &str = "nomad200";
+
+/// The infrared ring, pushed every 40 ms by default.
+pub const DISTANCEIR: PushTimedService<DistanceScan> = PushTimedService::new("distanceir");
+/// The sonar ring, pushed every 64 ms by default.
+pub const DISTANCESON: PushTimedService<DistanceScan> = PushTimedService::new("distanceson");
+/// The bumper ring, pushed every 30 ms by default.
+pub const BUMPERS: PushTimedService<ContactScan> = PushTimedService::new("bumpers");
+/// Odometry and motion state, pushed every 100 ms by default.
+pub const BASESTATE: PushTimedService<BaseState> = PushTimedService::new("basestate");
+/// Fires to every activation while a bumper is pressed.
+pub const CONTACT: EventService<Empty, ContactScan> = EventService::new("contact");
+/// Velocity commands from the behaviour the master wired to the motors.
+pub const NAVIGATIONVELOCITY: SendService<NavigationVelocity> = SendService::new("navigationvelocity");
+/// Velocity commands from teleoperation: they take priority over `navigationvelocity` while
+/// they keep coming.
+pub const TELEOP: SendService<NavigationVelocity> = SendService::new("teleop");
+/// The robot's geometry, limits, sensor layout and push periods.
+pub const ROBOTPARAMS: QueryService<Empty, RobotParams> = QueryService::new("robotparams");
+/// What the server did with velocity commands.
+pub const SAFETY: QueryService<Empty, SafetyCounters> = QueryService::new("safety");
 
 /// Sensors per ring (sonar and infrared).
 pub const RING_SIZE: usize = 16;
@@ -153,26 +186,6 @@ pub struct BaseState {
 }
 comm_object!(BaseState, "orsa.nomad200.BaseState/1");
 
-impl BaseState {
-    /// The base state from the motor board's encoders and the latest compass sample, stamped
-    /// when the encoders were read.
-    pub fn from_readings(motors: &MotorState, compass: &CompassReading) -> Self {
-        BaseState {
-            stamp: motors.stamp,
-            x_m: motors.x_m,
-            y_m: motors.y_m,
-            heading_rad: motors.heading_rad,
-            v_m_s: motors.velocities.translate_m_s,
-            omega_rad_s: motors.velocities.steer_rad_s,
-            steer_rad: motors.steer_rad,
-            turret_rad: motors.turret_rad,
-            turret_omega_rad_s: motors.velocities.turret_rad_s,
-            compass_rad: compass.heading_rad,
-            compass_valid: compass.valid,
-        }
-    }
-}
-
 /// A velocity command for the base: translate at `v_m_s` and turn steering and turret together
 /// at `omega_rad_s`, so the sensor rings keep facing the direction of travel.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -255,6 +268,32 @@ pub struct RobotParams {
     pub push: PushPeriods,
 }
 comm_object!(RobotParams, "orsa.nomad200.RobotParams/1");
+
+/// What the server did with velocity commands (service `safety`, for reports and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SafetyCounters {
+    /// Commands applied to the motors.
+    pub applied: u64,
+    /// Commands refused because they were older than the timeout on arrival, or older than the
+    /// last command applied.
+    pub stale_refused: u64,
+    /// Commands refused because they were stamped in the future.
+    pub future_refused: u64,
+    /// Times the watchdog stopped the robot for lack of fresh commands.
+    pub timeouts: u64,
+    /// Commands whose values were clamped to the robot's limits.
+    pub clamped: u64,
+    /// Commands the motor board refused (not finite, board gone).
+    pub failed: u64,
+    /// `navigationvelocity` commands ignored because teleoperation held the robot.
+    #[serde(default)]
+    pub overridden: u64,
+    /// Commands older than the timeout when the motor board took them (checked after the
+    /// board answered, apart from the refusal on arrival: a slow board would show here).
+    #[serde(default)]
+    pub stale_applied: u64,
+}
+comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 
 #[cfg(test)]
 mod tests {
@@ -352,26 +391,6 @@ mod tests {
             odometry_resolution_rad: 0.1f64.to_radians(),
             push: PushPeriods::default(),
         });
-    }
-
-    #[test]
-    fn base_state_takes_each_field_from_its_reading() {
-        use crate::board::AxisVelocities;
-        let motors = MotorState {
-            stamp: Timestamp(7),
-            x_m: 1.0,
-            y_m: 2.0,
-            heading_rad: 0.3,
-            steer_rad: 0.25,
-            turret_rad: -0.5,
-            velocities: AxisVelocities { translate_m_s: 0.2, steer_rad_s: 0.1, turret_rad_s: -0.1 },
-            stopped: false,
-        };
-        let compass = CompassReading { stamp: Timestamp(5), heading_rad: 1.5, valid: true };
-        let b = BaseState::from_readings(&motors, &compass);
-        assert_eq!((b.stamp, b.x_m, b.y_m, b.heading_rad), (Timestamp(7), 1.0, 2.0, 0.3));
-        assert_eq!((b.v_m_s, b.omega_rad_s, b.turret_omega_rad_s), (0.2, 0.1, -0.1));
-        assert_eq!((b.steer_rad, b.turret_rad, b.compass_rad, b.compass_valid), (0.25, -0.5, 1.5, true));
     }
 
     #[test]

@@ -1,0 +1,232 @@
+//! The catalog of component kinds: how to make each kind of component from the config.
+//!
+//! A kind is a name (`wallfollow`), the place that hosts it when the system is split over
+//! processes, and a function that makes the component from the parts of the system
+//! ([`Parts`]) and its entry in `[system]` ([`ComponentSpec`]). [`Catalog::builtin`] knows the
+//! corridor mission's five kinds; adding a behaviour is one [`Catalog::register`] and one entry
+//! in the config (see `examples/new_behaviour.rs`).
+
+use super::spec::{ComponentSpec, Place};
+use crate::config::Config;
+use orsa_actors::Registry;
+use orsa_actors::component::{Component, ComponentHandle};
+use orsa_actors::supervision::ChildSpec;
+use orsa_executive::Master;
+use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
+use orsa_hardware::server::Nomad200;
+use orsa_hardware::sim::{SimMotorBoard, SimRobot, SimSensorBoard};
+use orsa_interfaces::nomad200::RobotParams;
+use orsa_planner::Planner;
+use orsa_reactive::{CenterFollow, WallFollow};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The robot's boards, for the process that hosts the robot server.
+#[derive(Debug, Clone)]
+pub struct RobotBoards {
+    /// The sensor board, behind the fault switch.
+    pub sensors: FaultySensorBoard<SimSensorBoard>,
+    /// The motor board, behind the fault switch.
+    pub motors: FaultyMotorBoard<SimMotorBoard>,
+    /// The robot's geometry, limits and sensor layout.
+    pub params: RobotParams,
+}
+
+impl RobotBoards {
+    /// The boards of a simulated robot, behind `faults`, described by `config`.
+    pub fn simulated(sim: &SimRobot, config: &Config, faults: &BoardFaults) -> Self {
+        RobotBoards {
+            sensors: FaultySensorBoard::new(sim.sensor_board(), faults.clone()),
+            motors: FaultyMotorBoard::new(sim.motor_board(), faults.clone()),
+            params: config.sim.robot_params(config.robot.push_periods()),
+        }
+    }
+}
+
+/// What a kind's maker has to make a component from.
+#[derive(Debug, Clone, Copy)]
+pub struct Parts<'a> {
+    /// The configuration of the whole system.
+    pub config: &'a Config,
+    /// Seconds the run lasts (the planner's default mission patrols for as long).
+    pub duration_s: f64,
+    /// The robot's boards, if this process hosts the robot.
+    pub robot: Option<&'a RobotBoards>,
+}
+
+impl Parts<'_> {
+    /// The robot server's name, as every client of it addresses it.
+    pub fn robot_name(&self) -> &str {
+        &self.config.robot.name
+    }
+}
+
+/// Why a component could not be made or started.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{component} ({kind}): {message}")]
+pub struct MakeError {
+    /// The component's name.
+    pub component: String,
+    /// Its kind.
+    pub kind: String,
+    /// What went wrong.
+    pub message: String,
+}
+
+type Make =
+    dyn Fn(&Registry, &Parts<'_>, &ComponentSpec, Duration) -> Result<ChildSpec, String> + Send + Sync;
+
+/// One kind of component.
+#[derive(Clone)]
+pub struct Kind {
+    place: Place,
+    make: Arc<Make>,
+}
+
+impl std::fmt::Debug for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Kind").field("place", &self.place).finish_non_exhaustive()
+    }
+}
+
+impl Kind {
+    /// The place that hosts it unless its entry says otherwise.
+    pub fn place(&self) -> Place {
+        self.place
+    }
+}
+
+/// Every kind of component a system can be made of.
+#[derive(Debug, Clone, Default)]
+pub struct Catalog {
+    kinds: BTreeMap<String, Kind>,
+}
+
+impl Catalog {
+    /// A catalog with no kinds.
+    pub fn empty() -> Self {
+        Catalog::default()
+    }
+
+    /// The corridor mission's kinds: `nomad200` (the robot server, on the robot's boards),
+    /// `wallfollow`, `centerfollow` (behaviours, on the robot), `master` and `planner` (with
+    /// the executive).
+    pub fn builtin() -> Self {
+        let mut c = Catalog::empty();
+        c.register("nomad200", Place::Robot, |parts, spec| {
+            no_params(spec)?;
+            let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
+            let server = Nomad200::new(
+                parts.config.robot.clone(),
+                boards.params.clone(),
+                boards.sensors.clone(),
+                boards.motors.clone(),
+            );
+            Ok(server)
+        });
+        c.register("wallfollow", Place::Robot, |parts, spec| {
+            no_params(spec)?;
+            Ok(WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() })
+        });
+        c.register("centerfollow", Place::Robot, |parts, spec| {
+            no_params(spec)?;
+            Ok(CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() })
+        });
+        c.register("master", Place::Executive, |parts, spec| {
+            no_params(spec)?;
+            let mut params = parts.config.executive.clone();
+            params.robot = parts.robot_name().into();
+            Ok(Master { params })
+        });
+        // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
+        c.register_untimed("planner", Place::Executive, |parts, spec| {
+            no_params(spec)?;
+            let mission = parts.config.planner.mission_for(parts.duration_s);
+            Ok(Planner { mission, executive: orsa_interfaces::executive::NAME.into() })
+        });
+        c
+    }
+
+    /// Adds (or replaces) the kind `kind`, hosted by `place` unless an entry says otherwise:
+    /// `make` makes the component from the system's parts and its entry. Its handler may run
+    /// for at most `supervision.handler_timeout_s` before the instance is deemed hung.
+    pub fn register<C: Component>(
+        &mut self,
+        kind: &str,
+        place: Place,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.insert(kind, place, true, make)
+    }
+
+    /// As [`register`](Self::register), for a kind whose handler may wait longer than the
+    /// handler timeout (it awaits answers inside its handler).
+    pub fn register_untimed<C: Component>(
+        &mut self,
+        kind: &str,
+        place: Place,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.insert(kind, place, false, make)
+    }
+
+    fn insert<C: Component>(
+        &mut self,
+        kind: &str,
+        place: Place,
+        timed: bool,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        let make: Arc<Make> = Arc::new(move |registry, parts, spec, timeout| {
+            let component = make(parts, spec)?;
+            let handle = ComponentHandle::new(registry, &spec.name, component).map_err(|e| e.to_string())?;
+            let handle = if timed { handle.with_handler_timeout(timeout) } else { handle };
+            Ok(handle.child_spec())
+        });
+        self.kinds.insert(kind.to_string(), Kind { place, make });
+        self
+    }
+
+    /// The kind called `kind`.
+    pub fn get(&self, kind: &str) -> Option<&Kind> {
+        self.kinds.get(kind)
+    }
+
+    /// The names of every kind.
+    pub fn kinds(&self) -> Vec<String> {
+        self.kinds.keys().cloned().collect()
+    }
+
+    /// Makes the component `spec` describes, registered in `registry`, ready to be supervised.
+    pub(crate) fn make(
+        &self,
+        registry: &Registry,
+        parts: &Parts<'_>,
+        spec: &ComponentSpec,
+        handler_timeout: Duration,
+    ) -> Result<ChildSpec, MakeError> {
+        let error = |message: String| MakeError {
+            component: spec.name.clone(),
+            kind: spec.kind().to_string(),
+            message,
+        };
+        let kind = self.kinds.get(spec.kind()).ok_or_else(|| error("no such kind in the catalog".into()))?;
+        (kind.make)(registry, parts, spec, handler_timeout).map_err(error)
+    }
+}
+
+/// Built-in kinds take their parameters from their own table of the config.
+fn no_params(spec: &ComponentSpec) -> Result<(), String> {
+    if spec.params.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("a built-in kind takes its parameters from the [{}] table, not from params", spec.kind()))
+    }
+}
+
+/// Reads a kind's own parameters from its entry's `params` (unknown keys and bad values are
+/// errors that name the key), or their defaults where the entry has none.
+pub fn params<P: serde::de::DeserializeOwned>(spec: &ComponentSpec) -> Result<P, String> {
+    toml::Value::Table(spec.params.clone()).try_into::<P>().map_err(|e| format!("params: {}", e.message()))
+}

@@ -1,0 +1,232 @@
+//! Assembling a system, in one place: which components run, in which process, under which
+//! supervisor, in which state and wired how.
+//!
+//! Everything that brings orsa components up goes through here: `orsa run` (every component
+//! in one process), `orsa robot` and `orsa executive` (each hosts the components of its
+//! [`Place`]), the benchmarks and the whole-stack tests. What to run comes from the config's
+//! `[system]` table ([`SystemSpec`]); how to make each kind of component from a [`Catalog`].
+//!
+//! ```text
+//! config [system]  ──►  SystemBuilder ──► one supervisor per process (config [supervision])
+//!                        │  Catalog: kind -> maker          ├── nomad200      (place robot)
+//!                        │  Parts: config, boards, duration ├── wallfollow    (place robot)
+//!                        ▼                                  ├── centerfollow  (place robot)
+//!             states and wiring from the entries            ├── master        (place executive)
+//!                                                           └── planner       (place executive)
+//! ```
+//!
+//! Children start in the order of `[system]`, each once the one before has set up its services.
+//! Because a component keeps its services, wiring and subscriptions across restarts, one-for-one
+//! is enough: a restarted server does not force its clients to restart.
+//!
+//! Modules: [`spec`] (the `[system]` table), [`catalog`] (kinds and how to make them).
+
+pub mod catalog;
+pub mod spec;
+
+pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, params};
+pub use spec::{ComponentSpec, Place, SystemSpec};
+
+use crate::config::Config;
+use orsa_actors::Registry;
+use orsa_actors::state::StateMaster;
+use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorRef, SupervisorSpec};
+use orsa_actors::wiring::WiringMaster;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Why a system could not be brought up.
+#[derive(Debug, thiserror::Error)]
+pub enum AssemblyError {
+    /// The `[system]` table does not describe a system this catalog can make.
+    #[error("{0}")]
+    Invalid(String),
+    /// A component could not be made.
+    #[error("making {0}")]
+    Make(#[from] MakeError),
+    /// The supervisor did not start.
+    #[error("starting the supervisor '{name}': {message}")]
+    Start {
+        /// The supervisor.
+        name: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// A component's state or wiring from its entry could not be set.
+    #[error("configuring {component}: {message}")]
+    Configure {
+        /// The component.
+        component: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// A system brought up in this process.
+#[derive(Debug)]
+pub struct System {
+    /// The supervisor of this process's components.
+    pub supervisor: SupervisorRef,
+    /// The names of the components this process hosts, in start order.
+    pub components: Vec<String>,
+}
+
+impl System {
+    /// Starts describing the system of `config` (its `[system]` table).
+    pub fn builder(config: &Config) -> SystemBuilder<'_> {
+        SystemBuilder {
+            config,
+            catalog: Catalog::builtin(),
+            place: None,
+            robot: None,
+            duration_s: 3600.0,
+            name: "orsa".into(),
+            on_event: None,
+        }
+    }
+
+    /// Stops every component of this process (the robot server stops the motors and waits
+    /// for the axes).
+    pub async fn shutdown(self) {
+        self.supervisor.shutdown().await;
+    }
+}
+
+type EventSink = Arc<dyn Fn(SupervisorEvent) + Send + Sync>;
+
+/// What to bring up: see [`System::builder`].
+pub struct SystemBuilder<'a> {
+    config: &'a Config,
+    catalog: Catalog,
+    place: Option<Place>,
+    robot: Option<RobotBoards>,
+    duration_s: f64,
+    name: String,
+    on_event: Option<EventSink>,
+}
+
+impl std::fmt::Debug for SystemBuilder<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SystemBuilder")
+            .field("place", &self.place)
+            .field("name", &self.name)
+            .field("catalog", &self.catalog.kinds())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> SystemBuilder<'a> {
+    /// Makes components from this catalog (default: [`Catalog::builtin`]).
+    pub fn catalog(mut self, catalog: Catalog) -> Self {
+        self.catalog = catalog;
+        self
+    }
+
+    /// Hosts only the components of `place` (default: all of them).
+    pub fn only(mut self, place: Place) -> Self {
+        self.place = Some(place);
+        self
+    }
+
+    /// The robot's boards, for the robot server.
+    pub fn robot(mut self, boards: RobotBoards) -> Self {
+        self.robot = Some(boards);
+        self
+    }
+
+    /// How long the run lasts, seconds (the planner's default mission; default: an hour).
+    pub fn duration(mut self, seconds: f64) -> Self {
+        self.duration_s = seconds;
+        self
+    }
+
+    /// The supervisor's name (default: `orsa`).
+    pub fn supervisor(mut self, name: &str) -> Self {
+        self.name = name.into();
+        self
+    }
+
+    /// Where the supervisor's events (restarts, giving up) go.
+    pub fn on_event(mut self, sink: impl Fn(SupervisorEvent) + Send + Sync + 'static) -> Self {
+        self.on_event = Some(Arc::new(sink));
+        self
+    }
+
+    /// The place of every component of the system, after checking the `[system]` table
+    /// against the catalog and the executive's modes.
+    pub fn placed(&self) -> Result<Vec<(&'a ComponentSpec, Place)>, AssemblyError> {
+        let spec = &self.config.system;
+        let kinds = self.catalog.kinds();
+        spec.validate(|k| self.catalog.get(k).is_some(), &kinds).map_err(AssemblyError::Invalid)?;
+        if spec.components.iter().any(|c| c.kind() == "master") {
+            for (mode, m) in &self.config.executive.modes {
+                if let Some(b) = m.behaviours.iter().find(|b| !spec.has(b)) {
+                    return Err(AssemblyError::Invalid(format!(
+                        "executive.modes.{mode}.behaviours: '{b}' is not a component of the system \
+                         (system.components)"
+                    )));
+                }
+            }
+        }
+        Ok(spec
+            .components
+            .iter()
+            .map(|c| {
+                let place = c.place.or_else(|| self.catalog.get(c.kind()).map(Kind::place));
+                (c, place.unwrap_or(Place::Robot))
+            })
+            .collect())
+    }
+
+    /// The components this process will host.
+    pub fn hosted(&self) -> Result<Vec<&'a ComponentSpec>, AssemblyError> {
+        Ok(self
+            .placed()?
+            .into_iter()
+            .filter(|(_, p)| self.place.is_none_or(|only| only == *p))
+            .map(|(c, _)| c)
+            .collect())
+    }
+
+    /// Makes the hosted components, starts them under one supervisor on `registry`'s clock
+    /// and sets the states and wiring their entries ask for. Must run inside a tokio runtime.
+    pub async fn start(self, registry: &Registry) -> Result<System, AssemblyError> {
+        let hosted = self.hosted()?;
+        let s = self.config.supervision;
+        let timeout = Duration::from_secs_f64(s.handler_timeout_s);
+        let parts = Parts { config: self.config, duration_s: self.duration_s, robot: self.robot.as_ref() };
+        let mut spec = SupervisorSpec::new(self.name.clone(), Strategy::OneForOne)
+            .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))
+            .with_clock(registry.clock());
+        if let Some(sink) = self.on_event.clone() {
+            spec = spec.with_event_sink(move |e| sink(e));
+        }
+        for c in &hosted {
+            spec = spec.with_child(self.catalog.make(registry, &parts, c, timeout)?);
+        }
+        let supervisor = Supervisor::start(spec)
+            .await
+            .map_err(|e| AssemblyError::Start { name: self.name.clone(), message: e.to_string() })?;
+        for c in &hosted {
+            configure(registry, c).await?;
+        }
+        Ok(System { supervisor, components: hosted.iter().map(|c| c.name.clone()).collect() })
+    }
+}
+
+/// Sets the state and the wiring a component's entry asks for.
+async fn configure(registry: &Registry, c: &ComponentSpec) -> Result<(), AssemblyError> {
+    let error = |message: String| AssemblyError::Configure { component: c.name.clone(), message };
+    if let Some(state) = &c.state {
+        let master = StateMaster::connect(registry, &c.name).map_err(|e| error(e.to_string()))?;
+        master.set_state(state).await.map_err(|e| error(format!("state '{state}': {e}")))?;
+    }
+    let wiring = WiringMaster::new(registry);
+    for (port, target) in c.wiring().map_err(error)? {
+        wiring
+            .connect_named(&c.name, &port, &target)
+            .await
+            .map_err(|e| error(format!("wiring {port} to {target}: {e}")))?;
+    }
+    Ok(())
+}

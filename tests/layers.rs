@@ -1,0 +1,40 @@
+//! The layering rules, checked on the manifests: behaviours, the executive and the planner know
+//! the robot and each other only through `orsa-interfaces`, and the interfaces only through the
+//! framework. A new dependency that breaks a layer fails here, not in review.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// The orsa crates a package depends on, in every dependency table (normal, dev, build).
+fn orsa_dependencies(package: &str) -> BTreeSet<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(package).join("Cargo.toml");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let manifest: toml::Table = toml::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    ["dependencies", "dev-dependencies", "build-dependencies"]
+        .iter()
+        .filter_map(|t| manifest.get(*t).and_then(toml::Value::as_table))
+        .flat_map(|t| t.keys().cloned())
+        .filter(|k| k.starts_with("orsa"))
+        .collect()
+}
+
+fn set(names: &[&str]) -> BTreeSet<String> {
+    names.iter().map(|s| s.to_string()).collect()
+}
+
+#[test]
+fn deciding_layers_depend_only_on_the_framework_and_the_interfaces() {
+    for package in ["reactive", "executive", "planner"] {
+        assert_eq!(
+            orsa_dependencies(package),
+            set(&["orsa-actors", "orsa-interfaces"]),
+            "{package} may depend only on orsa-actors and orsa-interfaces"
+        );
+    }
+}
+
+#[test]
+fn interfaces_depend_only_on_the_framework() {
+    assert_eq!(orsa_dependencies("interfaces"), set(&["orsa-actors"]));
+    assert_eq!(orsa_dependencies("actors"), set(&[]), "the framework depends on no orsa crate");
+}
