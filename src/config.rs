@@ -208,18 +208,20 @@ impl Config {
         self.system.validate(|_| true, &[])?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
         self.planner.validate(&modes)?;
-        let behaviours = self.executive.behaviours();
-        if let Some(unknown) = behaviours.iter().find(|b| !KNOWN_BEHAVIOURS.contains(&b.as_str())) {
-            return Err(format!(
-                "executive.modes: behaviour '{unknown}' is not one this stack runs {KNOWN_BEHAVIOURS:?}"
-            ));
+        // The behaviours a master arbitrates must be components of the system.
+        if self.system.components.iter().any(|c| c.kind() == "master") {
+            for (mode, m) in &self.executive.modes {
+                if let Some(b) = m.behaviours.iter().find(|b| !self.system.has(b)) {
+                    return Err(format!(
+                        "executive.modes.{mode}.behaviours: '{b}' is not a component of the system \
+                         (system.components)"
+                    ));
+                }
+            }
         }
         Ok(())
     }
 }
-
-/// The behaviour components `orsa run` starts.
-pub const KNOWN_BEHAVIOURS: [&str; 2] = ["wallfollow", "centerfollow"];
 
 #[cfg(test)]
 mod tests {

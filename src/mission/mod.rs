@@ -53,6 +53,9 @@ pub struct RunOptions {
     pub record: Option<std::path::PathBuf>,
     /// Break the stack on purpose as this plan says.
     pub faults: Option<crate::faults::FaultPlan>,
+    /// The kinds of component the config's `[system]` table may name (default: the built-in
+    /// ones; a program adds its own, see `examples/new_behaviour.rs`).
+    pub catalog: crate::system::Catalog,
 }
 
 impl RunOptions {
@@ -75,6 +78,7 @@ impl RunOptions {
             progress_every_s: 10.0,
             record: None,
             faults: None,
+            catalog: crate::system::Catalog::builtin(),
         }
     }
 }
@@ -131,13 +135,21 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
     let ev_rec = recording.clone();
     let tap = recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>);
-    let stack = Stack::start(opts.world, &opts.config, opts.seed, opts.duration_s, tap, move |e| {
-        if let Some(r) = &ev_rec {
-            r.supervisor_event(&e);
-        }
-        // The receiver lives until the run ends.
-        let _ = ev_tx.send(e);
-    })
+    let stack = Stack::start_with(
+        opts.catalog,
+        opts.world,
+        &opts.config,
+        opts.seed,
+        opts.duration_s,
+        tap,
+        move |e| {
+            if let Some(r) = &ev_rec {
+                r.supervisor_event(&e);
+            }
+            // The receiver lives until the run ends.
+            let _ = ev_tx.send(e);
+        },
+    )
     .await?;
 
     let plan = opts.faults.clone().map(|plan| {

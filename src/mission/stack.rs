@@ -3,7 +3,7 @@
 //! assembled by [`crate::system`] under one supervisor, on one registry and one clock.
 
 use crate::config::Config;
-use crate::system::{RobotBoards, System};
+use crate::system::{Catalog, RobotBoards, System};
 use orsa_actors::supervision::{SupervisorEvent, SupervisorRef};
 use orsa_actors::{Clock, Registry};
 use orsa_hardware::faulty::BoardFaults;
@@ -47,6 +47,19 @@ impl Stack {
         tap: Option<std::sync::Arc<dyn orsa_actors::tap::Tap>>,
         on_event: impl Fn(SupervisorEvent) + Send + Sync + 'static,
     ) -> Result<Stack, StackError> {
+        Self::start_with(Catalog::builtin(), world, config, seed, duration_s, tap, on_event).await
+    }
+
+    /// As [`start`](Self::start), making the components from `catalog`.
+    pub async fn start_with(
+        catalog: Catalog,
+        world: World,
+        config: &Config,
+        seed: u64,
+        duration_s: f64,
+        tap: Option<std::sync::Arc<dyn orsa_actors::tap::Tap>>,
+        on_event: impl Fn(SupervisorEvent) + Send + Sync + 'static,
+    ) -> Result<Stack, StackError> {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
         registry.set_tap(tap);
@@ -58,6 +71,7 @@ impl Stack {
         let truth = sim.truth();
         let board_faults = BoardFaults::new(seed);
         let system = System::builder(config)
+            .catalog(catalog)
             .robot(RobotBoards::simulated(&sim, config, &board_faults))
             .duration(duration_s)
             .on_event(on_event)

@@ -153,21 +153,11 @@ impl<'a> SystemBuilder<'a> {
     }
 
     /// The place of every component of the system, after checking the `[system]` table
-    /// against the catalog and the executive's modes.
+    /// against the catalog.
     pub fn placed(&self) -> Result<Vec<(&'a ComponentSpec, Place)>, AssemblyError> {
         let spec = &self.config.system;
         let kinds = self.catalog.kinds();
         spec.validate(|k| self.catalog.get(k).is_some(), &kinds).map_err(AssemblyError::Invalid)?;
-        if spec.components.iter().any(|c| c.kind() == "master") {
-            for (mode, m) in &self.config.executive.modes {
-                if let Some(b) = m.behaviours.iter().find(|b| !spec.has(b)) {
-                    return Err(AssemblyError::Invalid(format!(
-                        "executive.modes.{mode}.behaviours: '{b}' is not a component of the system \
-                         (system.components)"
-                    )));
-                }
-            }
-        }
         Ok(spec
             .components
             .iter()

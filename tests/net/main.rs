@@ -5,9 +5,14 @@
 //! These run in real time (zenoh and processes cannot run on a paused clock). Every wait is
 //! for a condition with a deadline; no test sleeps to let something happen.
 
+mod examples;
 mod links;
 mod processes;
 mod security;
+
+#[allow(dead_code, unreachable_pub)]
+#[path = "../../examples/remote_client.rs"]
+mod remote_client;
 
 use orsa::interfaces::nomad200::{self, BaseState};
 use orsa_actors::push_timed::PushTimedClient;

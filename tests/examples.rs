@@ -1,0 +1,49 @@
+//! The examples in `examples/` are built by the test command and run here, each checked for
+//! what it shows. (The remote client is run in `tests/net/`, against a robot process.)
+
+#[allow(dead_code, unreachable_pub)]
+#[path = "../examples/new_component.rs"]
+mod new_component;
+
+#[allow(dead_code, unreachable_pub)]
+#[path = "../examples/new_behaviour.rs"]
+mod new_behaviour;
+
+/// The battery's five services each work, with the figures its 0.1 Wh at 36 W imply.
+#[tokio::test(start_paused = true)]
+async fn a_new_component_serves_each_pattern() {
+    let seen = new_component::run().await.expect("the example runs");
+    // 0.1 Wh at 36 W: 10 s, less the 50 ms drained before the query.
+    assert!((seen.runtime_s - 9.95).abs() < 0.06, "runtime {}", seen.runtime_s);
+    // Every 5th voltage sample, falling as the battery drains, 0.2 V (5 x 0.04 V) apart.
+    assert_eq!(seen.voltages.len(), 4);
+    for w in seen.voltages.windows(2) {
+        assert!((w[0] - w[1] - 0.2).abs() < 1e-9, "{:?}", seen.voltages);
+    }
+    // The single-shot event fires once the charge crosses 50 %: after 5 s, just under half.
+    assert!(seen.low_at.fraction < 0.5 && seen.low_at.fraction > 0.49, "{:?}", seen.low_at);
+    assert!((seen.low_after_s - 5.0).abs() < 0.11, "fired after {} s", seen.low_after_s);
+}
+
+/// One registration and config put `wander` in the mission: the master wires it, it drives
+/// the robot along the corridor, and nothing else does.
+#[tokio::test(start_paused = true)]
+async fn a_new_behaviour_joins_the_mission_through_config_and_one_registration() {
+    let outcome = new_behaviour::run(120.0).await.expect("the example runs");
+    let report = outcome.report;
+    assert_eq!(report.behaviour_share.get("wander").copied(), Some(1.0), "{:?}", report.behaviour_share);
+    assert!(report.distance_m > 5.0, "wander drove only {:.1} m", report.distance_m);
+    assert_eq!(report.integrity.driven_unwired_s, 0.0);
+}
+
+/// The example's config is refused, with the key named, by a catalog that does not know it.
+#[tokio::test(start_paused = true)]
+async fn a_system_naming_an_unknown_kind_is_refused_with_the_key() {
+    let config = orsa::config::Config::from_toml(new_behaviour::CONFIG, "example").expect("parses");
+    let err = orsa::system::System::builder(&config)
+        .start(&orsa::actors::Registry::new())
+        .await
+        .expect_err("wander is not a built-in kind");
+    let text = err.to_string();
+    assert!(text.contains("system.components[1].kind") && text.contains("'wander'"), "{text}");
+}
