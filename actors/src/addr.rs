@@ -4,10 +4,9 @@
 //! [`ServiceAddr`] is the untyped address, the form a user types and the wire carries;
 //! [`crate::service`] builds typed addresses on top of it, so code that names a service gets a
 //! compile error, not a run-time one, when it uses it with the wrong pattern or object.
-//! [`ServiceInfo::check`] is the run-time half of the same check, for addresses that come from
+//! The registry's check of a [`ServiceInfo`] against a client's is the run-time half of the same check, for addresses that come from
 //! outside the program (a command line, a config file, a peer).
 
-use crate::error::{PatternError, PatternResult};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -127,23 +126,9 @@ impl ServiceInfo {
         ServiceInfo { pattern, types: types.iter().map(|t| t.to_string()).collect() }
     }
 
-    fn types_text(&self) -> String {
+    /// The identifiers as a person reads them: `a -> b`.
+    pub fn types_text(&self) -> String {
         self.types.join(" -> ")
-    }
-
-    /// Checks that a client expecting `expected` may use this service at `addr`.
-    pub fn check(&self, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
-        if self == expected {
-            Ok(())
-        } else {
-            Err(PatternError::IncompatibleService {
-                addr: addr.clone(),
-                expected_pattern: expected.pattern,
-                expected: expected.types_text(),
-                found_pattern: self.pattern,
-                found: self.types_text(),
-            })
-        }
     }
 }
 
@@ -159,15 +144,5 @@ mod tests {
         for bad in ["", "nomad200", "/x", "x/", "a/b/c", "a b/c"] {
             assert!(bad.parse::<ServiceAddr>().is_err(), "{bad:?} should not parse");
         }
-    }
-
-    #[test]
-    fn info_mismatch_names_both_sides() {
-        let addr = ServiceAddr::new("a", "b");
-        let found = ServiceInfo::new(PatternKind::Send, &["x/1"]);
-        let expected = ServiceInfo::new(PatternKind::Send, &["y/1"]);
-        let err = found.check(&addr, &expected).expect_err("must mismatch");
-        let text = err.to_string();
-        assert!(text.contains("a/b") && text.contains("x/1") && text.contains("y/1"), "{text}");
     }
 }

@@ -36,6 +36,7 @@ use crate::service::EventService;
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::Stamped;
 use crate::state::Cancel;
+pub use crate::transport::EventMode;
 use crate::transport::{ByteSink, Served, Subscription};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
@@ -46,16 +47,6 @@ use tokio::sync::mpsc;
 
 pub(crate) fn info<P: CommObject, E: CommObject>() -> ServiceInfo {
     ServiceInfo::new(PatternKind::Event, &[P::ID, E::ID])
-}
-
-/// How often an activation fires.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EventMode {
-    /// Once, then the activation ends.
-    Single,
-    /// Every time the condition holds, until deactivated.
-    Continuous,
 }
 
 /// Identifies one activation at one event server.

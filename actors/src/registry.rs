@@ -275,7 +275,7 @@ impl Registry {
         let Some(service) = self.local(addr) else {
             return Ok(None);
         };
-        service.info.check(addr, expected)?;
+        check(&service.info, addr, expected)?;
         match service.endpoint.downcast::<E>() {
             Ok(e) => Ok(Some(e)),
             // Same identifiers but another Rust type: two types claim one identifier.
@@ -306,7 +306,7 @@ impl Registry {
         if let Some(transport) = self.transport()
             && let Some(info) = transport.lookup(addr)
         {
-            info.check(addr, expected)?;
+            check(&info, addr, expected)?;
             return Ok(Resolved::Remote(Remote { addr: addr.clone(), transport, registry: self.clone() }));
         }
         Err(self.not_found(addr))
@@ -327,5 +327,35 @@ impl Registry {
 impl Default for Registry {
     fn default() -> Self {
         Self::new()
+    }
+}
+/// Checks that a client expecting `expected` may use the service `found` at `addr`.
+pub fn check(found: &ServiceInfo, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
+    if found == expected {
+        Ok(())
+    } else {
+        Err(PatternError::IncompatibleService {
+            addr: addr.clone(),
+            expected_pattern: expected.pattern,
+            expected: expected.types_text(),
+            found_pattern: found.pattern,
+            found: found.types_text(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::addr::PatternKind;
+
+    #[test]
+    fn info_mismatch_names_both_sides() {
+        let addr = ServiceAddr::new("a", "b");
+        let found = ServiceInfo::new(PatternKind::Send, &["x/1"]);
+        let expected = ServiceInfo::new(PatternKind::Send, &["y/1"]);
+        let err = check(&found, &addr, &expected).expect_err("must mismatch");
+        let text = err.to_string();
+        assert!(text.contains("a/b") && text.contains("x/1") && text.contains("y/1"), "{text}");
     }
 }

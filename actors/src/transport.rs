@@ -19,11 +19,21 @@
 
 use crate::addr::{ServiceAddr, ServiceInfo};
 use crate::error::{PatternError, PatternResult};
-use crate::event::EventMode;
 use futures::future::BoxFuture;
 use std::num::NonZeroU32;
 use std::sync::Arc;
 use std::time::Duration;
+
+/// How often an Event activation fires (part of the seam's vocabulary: activations cross it;
+/// the Event pattern re-exports it as `event::EventMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EventMode {
+    /// Once, then the activation ends.
+    Single,
+    /// Every time the condition holds, until deactivated.
+    Continuous,
+}
 
 /// Where a transport delivers bytes that arrive for a subscription or an activation. It
 /// answers `false` when its receiver is gone for good (the transport may then end the stream).
