@@ -10,9 +10,9 @@
 //! `PROPTEST_CASES` to explore further.
 
 use ciborium::value::Value;
+use orsa_actors::ServiceAddr;
 use orsa_actors::event::{EventMode, EventServer};
 use orsa_actors::query::{QueryRequest, QueryServer};
-use orsa_actors::registry::ServiceAddr;
 use orsa_actors::send::SendServer;
 use orsa_actors::state::{StateRequest, StateSlave, StateSpec, StateStatus};
 use orsa_actors::transport::ByteSink;
@@ -271,7 +271,7 @@ fn stamped_encodings<T: CommObject>(
 ) -> BoxedStrategy<Vec<u8>> {
     (any::<u64>(), 0..u64::MAX / 2, value)
         .prop_map(move |(seq, stamp, value)| {
-            encode_stamped(&Stamped { seq, stamp: Timestamp(stamp), value }, &clock)
+            encode_stamped(&Stamped { seq, sent_at: Timestamp(stamp), value }, &clock)
         })
         .boxed()
 }
@@ -292,7 +292,7 @@ fn decodes_stably<T: CommObject>(
             let back = decode_stamped::<T>(&again, T::ID, clock)
                 .map_err(|e| TestCaseError::fail(format!("a re-encoded {} does not decode: {e}", T::ID)))?;
             prop_assert_eq!(back.seq, msg.seq);
-            prop_assert_eq!(back.stamp, msg.stamp);
+            prop_assert_eq!(back.sent_at, msg.sent_at);
             prop_assert!(same(&back.value, &msg.value), "{:?} came back as {:?}", msg.value, back.value);
             prop_assert_eq!(encode_stamped(&back, clock), again, "the encoding is not a fixed point");
             // Without a clock (no stamp mapping) the same bytes decode too.
@@ -560,7 +560,8 @@ fn send_server_delivers_what_decodes_and_refuses_the_rest() {
     let registry = Registry::with_clock(test_clock());
     let (tx, rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<Pose>>();
     let _server =
-        SendServer::<Pose>::register(&registry, ("robot", "pose"), Sink::channel(tx)).expect("server");
+        SendServer::<Pose>::register(&registry, ServiceAddr::new("robot", "pose"), Sink::channel(tx))
+            .expect("server");
     let served = served(&registry, "robot/pose");
     let rx = Mutex::new(rx);
     let clock = registry.clock();
@@ -574,7 +575,7 @@ fn send_server_delivers_what_decodes_and_refuses_the_rest() {
                 let want =
                     expected.map_err(|e| TestCaseError::fail(format!("accepted bytes that fail: {e}")))?;
                 prop_assert_eq!(got.seq, want.seq);
-                prop_assert_eq!(got.stamp, want.stamp);
+                prop_assert_eq!(got.sent_at, want.sent_at);
                 prop_assert!(same_pose(&got.value, &want.value));
             }
             Err(e) => {
@@ -598,7 +599,8 @@ fn query_server_answers_every_request_with_a_reply() {
         let _ = q.answer(n);
         Ok(())
     });
-    let _server = QueryServer::<Pose, u64>::register(&registry, ("calc", "labels"), answer).expect("server");
+    let _server = QueryServer::<Pose, u64>::register(&registry, ServiceAddr::new("calc", "labels"), answer)
+        .expect("server");
     let served = served(&registry, "calc/labels");
     let clock = registry.clock();
     let valid = stamped_encodings(pose(), clock);
@@ -682,7 +684,8 @@ fn wiring_slave_answers_every_request_with_a_reply() {
     let registry = rt.block_on(async { Registry::with_clock(test_clock()) });
     let (tx, _rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
     let _speed =
-        SendServer::<f64>::register(&registry, ("robot", "speed"), Sink::channel(tx)).expect("server");
+        SendServer::<f64>::register(&registry, ServiceAddr::new("robot", "speed"), Sink::channel(tx))
+            .expect("server");
     let slave = WiringSlave::register(&registry, "behaviour").expect("slave");
     let _vel = slave.send_port::<f64>("vel").expect("port");
     let served = served(&registry, "behaviour/wiring");
@@ -736,11 +739,12 @@ fn event_server_activates_what_decodes_and_refuses_the_rest() {
     let rt = paused_runtime();
     let _enter = rt.enter();
     let registry = Registry::with_clock(test_clock());
-    let server =
-        EventServer::<Pose, u64, u64>::register(&registry, ("robot", "near"), |p: &mut Pose, s: &u64| {
-            (p.label.len() as u64 <= *s).then_some(*s)
-        })
-        .expect("server");
+    let server = EventServer::<Pose, u64, u64>::register(
+        &registry,
+        ServiceAddr::new("robot", "near"),
+        |p: &mut Pose, s: &u64| (p.label.len() as u64 <= *s).then_some(*s),
+    )
+    .expect("server");
     let served = served(&registry, "robot/near");
     let clock = registry.clock();
     let valid = (0..u64::MAX / 2, ".{0,8}", any::<f64>())
@@ -798,7 +802,7 @@ fn operations_a_service_does_not_have_are_refused() {
     let _enter = rt.enter();
     let registry = Registry::with_clock(test_clock());
     let (tx, _rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&registry, ("a", "send"), Sink::channel(tx)).expect("send");
+    SendServer::<u64>::register(&registry, ServiceAddr::new("a", "send"), Sink::channel(tx)).expect("send");
     StateSlave::register(&registry, "a", StateSpec::new()).expect("state");
     let served_send = served(&registry, "a/send");
     let served_state = served(&registry, "a/state");

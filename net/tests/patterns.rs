@@ -12,6 +12,11 @@ use orsa_actors::{PatternError, Registry, ServiceAddr, Sink, Stamped};
 use orsa_net::{NetOptions, ZenohTransport};
 use std::time::Duration;
 
+/// An untyped address, as a person would type it (the patterns' run-time check across processes).
+fn addr(text: &str) -> ServiceAddr {
+    text.parse().expect("a valid address")
+}
+
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
 }
@@ -41,22 +46,22 @@ const WAIT: Duration = Duration::from_secs(10);
 async fn send_query_and_push_cross_sessions_with_the_local_api() {
     let (a, _ta, b, tb) = pair("t_sqp").await;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
     let (qtx, mut qrx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::<u64, u64>::register(&a, "calc/square", Sink::channel(qtx)).expect("query server");
+    QueryServer::<u64, u64>::register(&a, addr("calc/square"), Sink::channel(qtx)).expect("query server");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n * n);
         }
     });
-    let push = PushNewestServer::<u64>::register(&a, "odo/ticks").expect("push server");
+    let push = PushNewestServer::<u64>::register(&a, addr("odo/ticks")).expect("push server");
     let addrs: Vec<ServiceAddr> =
         ["robot/speed", "calc/square", "odo/ticks"].iter().map(|s| s.parse().expect("addr")).collect();
     tb.wait_for(&addrs, WAIT).await.expect("discovered");
 
     // Send: delivered in order with the sender's sequence numbers.
-    let send = SendClient::<f64>::connect(&b, "robot/speed").expect("remote send client");
+    let send = SendClient::<f64>::connect(&b, addr("robot/speed")).expect("remote send client");
     assert!(send.is_remote());
     for v in [0.1, 0.2, 0.3] {
         send.send(v).expect("send");
@@ -67,22 +72,26 @@ async fn send_query_and_push_cross_sessions_with_the_local_api() {
     }
 
     // Query: answered across the link.
-    let query = QueryClient::<u64, u64>::connect(&b, "calc/square").expect("remote query client");
+    let query = QueryClient::<u64, u64>::connect(&b, addr("calc/square")).expect("remote query client");
     assert_eq!(query.query(12, Some(WAIT)).await, Ok(144));
 
     // Wrong types are refused before a byte is sent, as in process.
     assert!(matches!(
-        SendClient::<u64>::connect(&b, "robot/speed"),
+        SendClient::<u64>::connect(&b, addr("robot/speed")),
         Err(PatternError::IncompatibleService { .. })
     ));
-    assert!(matches!(SendClient::<f64>::connect(&b, "robot/nothing"), Err(PatternError::UnknownService(_))));
+    assert!(matches!(
+        SendClient::<f64>::connect(&b, addr("robot/nothing")),
+        Err(PatternError::UnknownService(_))
+    ));
 
     // Push newest with every-n-th counted at the source: n = 3 gets the 3rd, 6th, 9th.
-    let client = PushNewestClient::<u64>::connect(&b, "odo/ticks").expect("remote push client");
+    let client = PushNewestClient::<u64>::connect(&b, addr("odo/ticks")).expect("remote push client");
     let (utx, mut urx) = tokio::sync::mpsc::unbounded_channel();
-    let every3 = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&b, "odo/ticks");
+    let every3 = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&b, addr("odo/ticks"));
     assert!(every3.is_err(), "a push newest service is not a push timed one");
-    let forwarded = PushNewestClient::<u64>::connect_to(&b, "odo/ticks", Sink::channel(utx)).expect("client");
+    let forwarded =
+        PushNewestClient::<u64>::connect_to(&b, addr("odo/ticks"), Sink::channel(utx)).expect("client");
     client.subscribe().expect("subscribe");
     forwarded.subscribe().expect("subscribe");
     // The subscription reaches the source asynchronously.
@@ -120,7 +129,7 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
     let (tick_tx, mut ticks) = tokio::sync::mpsc::unbounded_channel::<Tick>();
     let server = PushTimedServer::<u64>::register(
         &a,
-        "nomad200/counter",
+        addr("nomad200/counter"),
         Duration::from_millis(2),
         Sink::channel(tick_tx),
     )
@@ -134,7 +143,7 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
     tb.wait_for(&["nomad200/counter".parse().expect("addr")], WAIT).await.expect("discovered");
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let client =
-        PushTimedClient::<u64>::connect_to(&b, "nomad200/counter", Sink::channel(tx)).expect("client");
+        PushTimedClient::<u64>::connect_to(&b, addr("nomad200/counter"), Sink::channel(tx)).expect("client");
     client.subscribe(10).expect("subscribe");
     let mut waited = 0;
     while server.stats().subscribers < 1 {
@@ -167,16 +176,17 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn events_state_and_wiring_cross_sessions() {
     let (a, _ta, b, tb) = pair("t_esw").await;
-    let events = EventServer::<f64, f64, f64>::register(&a, "nomad200/near", |limit: &mut f64, d: &f64| {
-        (*d < *limit).then_some(*d)
-    })
-    .expect("event server");
+    let events =
+        EventServer::<f64, f64, f64>::register(&a, addr("nomad200/near"), |limit: &mut f64, d: &f64| {
+            (*d < *limit).then_some(*d)
+        })
+        .expect("event server");
     let slave = StateSlave::register(&a, "wallfollow", StateSpec::new().main_state("active", &["drive"]))
         .expect("state slave");
     let wiring = WiringSlave::register(&a, "wallfollow").expect("wiring slave");
     let port = wiring.send_port::<f64>("vel").expect("port");
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
     let addrs: Vec<ServiceAddr> = ["nomad200/near", "wallfollow/state", "wallfollow/wiring"]
         .iter()
         .map(|s| s.parse().expect("addr"))
@@ -184,7 +194,7 @@ async fn events_state_and_wiring_cross_sessions() {
     tb.wait_for(&addrs, WAIT).await.expect("discovered");
 
     // Event, single shot: fires once, with the client's activation id, then ends.
-    let client = EventClient::<f64, f64>::connect(&b, "nomad200/near").expect("event client");
+    let client = EventClient::<f64, f64>::connect(&b, addr("nomad200/near")).expect("event client");
     let mut near = client.activate(EventMode::Single, 0.5).expect("activate");
     let mut waited = 0;
     while events.activations() < 1 {
@@ -218,7 +228,7 @@ async fn events_state_and_wiring_cross_sessions() {
     // Wiring: a remote master wires the slave's port to a service local to the slave.
     let wm = WiringMaster::new(&b);
     assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
-    wm.connect("wallfollow", "vel", "robot/speed").await.expect("wire");
+    wm.connect_named("wallfollow", "vel", &addr("robot/speed")).await.expect("wire");
     port.send(0.25).expect("wired");
     assert_eq!(rx.recv().await.expect("delivered").value, 0.25);
     assert_eq!(
@@ -226,13 +236,13 @@ async fn events_state_and_wiring_cross_sessions() {
         Some("robot/speed".parse().expect("addr"))
     );
     assert_eq!(
-        wm.connect("wallfollow", "speed", "robot/speed").await,
+        wm.connect_named("wallfollow", "speed", &addr("robot/speed")).await,
         Err(PatternError::UnknownPort { component: "wallfollow".into(), port: "speed".into() })
     );
-    wm.disconnect("wallfollow", "vel").await.expect("unwire");
+    wm.disconnect_named("wallfollow", "vel").await.expect("unwire");
     assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
     assert_eq!(
-        wm.connect("ghost", "vel", "robot/speed").await,
+        wm.connect_named("ghost", "vel", &addr("robot/speed")).await,
         Err(PatternError::UnknownComponent("ghost".into()))
     );
 }
@@ -241,7 +251,7 @@ async fn events_state_and_wiring_cross_sessions() {
 async fn undecodable_messages_are_counted_and_dropped() {
     let (a, ta, _b, tb) = pair("t_bad").await;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, "robot/speed", Sink::channel(tx)).expect("send server");
+    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
     tb.wait_for(&["robot/speed".parse().expect("addr")], WAIT).await.expect("discovered");
     let key = ta.keys().send(&"robot/speed".parse().expect("addr"));
     use zenoh::Wait as _;
@@ -249,7 +259,7 @@ async fn undecodable_messages_are_counted_and_dropped() {
         tb.session().put(&key, garbage.to_vec()).wait().expect("put");
     }
     // A good message after the garbage still arrives: nothing crashed, nothing was lost.
-    let good = SendClient::<f64>::connect(&_b, "robot/speed").expect("client");
+    let good = SendClient::<f64>::connect(&_b, addr("robot/speed")).expect("client");
     good.send(0.5).expect("send");
     let got = tokio::time::timeout(WAIT, rx.recv()).await.expect("in time").expect("delivered");
     assert_eq!(got.value, 0.5);
@@ -261,30 +271,30 @@ async fn a_cut_link_drops_holds_and_withholds_both_ways_while_the_sessions_stay_
     let (a, ta, b, tb) = pair("t_cut").await;
     // Hosted by a (role robot), used by b (role executive).
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&a, "robot/cmd", Sink::channel(tx)).expect("send server");
+    SendServer::<u64>::register(&a, addr("robot/cmd"), Sink::channel(tx)).expect("send server");
     let (qtx, mut qrx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::<u64, u64>::register(&a, "robot/echo", Sink::channel(qtx)).expect("query server");
+    QueryServer::<u64, u64>::register(&a, addr("robot/echo"), Sink::channel(qtx)).expect("query server");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n);
         }
     });
-    let push = PushNewestServer::<u64>::register(&a, "robot/odo").expect("push server");
+    let push = PushNewestServer::<u64>::register(&a, addr("robot/odo")).expect("push server");
     // Hosted by b, used by a.
     let (btx, mut brx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&b, "exec/note", Sink::channel(btx)).expect("send server");
+    SendServer::<u64>::register(&b, addr("exec/note"), Sink::channel(btx)).expect("send server");
     let addrs: Vec<ServiceAddr> =
         ["robot/cmd", "robot/echo", "robot/odo"].iter().map(|s| s.parse().expect("addr")).collect();
     tb.wait_for(&addrs, WAIT).await.expect("b sees a");
     ta.wait_for(&["exec/note".parse().expect("addr")], WAIT).await.expect("a sees b");
     assert!(ta.wait_for_role("executive", WAIT).await);
 
-    let cmd = SendClient::<u64>::connect(&b, "robot/cmd").expect("client");
-    let echo = QueryClient::<u64, u64>::connect(&b, "robot/echo").expect("client");
-    let note = SendClient::<u64>::connect(&a, "exec/note").expect("client");
+    let cmd = SendClient::<u64>::connect(&b, addr("robot/cmd")).expect("client");
+    let echo = QueryClient::<u64, u64>::connect(&b, addr("robot/echo")).expect("client");
+    let note = SendClient::<u64>::connect(&a, addr("exec/note")).expect("client");
     let (otx, mut orx) = tokio::sync::mpsc::unbounded_channel::<orsa_actors::Update<u64>>();
-    let odo = PushNewestClient::<u64>::connect_to(&b, "robot/odo", Sink::channel(otx)).expect("client");
+    let odo = PushNewestClient::<u64>::connect_to(&b, addr("robot/odo"), Sink::channel(otx)).expect("client");
     odo.subscribe().expect("subscribe");
     // Everything flows before the cut (the subscription is in place once a value arrives).
     cmd.send(1).expect("send");

@@ -2,11 +2,13 @@
 //! failing handler reach the next instance, stale push updates do not; the ledger counts what arrived, what arrived twice,
 //! what a fault dropped, what the sender was told failed, and what vanished.
 
+use crate::addr;
 use orsa_actors::component::ComponentHandle;
 use orsa_actors::fault::{HandlerFault, MessageFault};
 use orsa_actors::ledger::DeliveryCounts;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::send::SendClient;
+use orsa_actors::service::SendService;
 use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorSpec};
 use orsa_actors::{Component, ComponentError, Ctx, Registry, ServiceAddr, Stamped, Update};
 use std::time::Duration;
@@ -23,8 +25,8 @@ impl Component for Sink2 {
     type Msg = Msg;
     type State = ();
     async fn setup(&self, ctx: &Ctx<Msg>) -> Result<(), ComponentError> {
-        ctx.send_server::<u64>("input", Msg::Input)?;
-        ctx.subscribe_newest::<u64>("sensor/reading", Msg::Reading)?;
+        ctx.send_server(SendService::<u64>::new("input"), Msg::Input)?;
+        ctx.subscribe_newest::<u64>(addr("sensor/reading"), Msg::Reading)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<Msg>, _: &mut (), m: Msg) -> Result<(), ComponentError> {
@@ -48,7 +50,7 @@ struct Rig {
 async fn rig() -> Rig {
     let registry = Registry::new();
     registry.ledger().enable(true);
-    let sensor = PushNewestServer::<u64>::register(&registry, "sensor/reading").expect("sensor");
+    let sensor = PushNewestServer::<u64>::register(&registry, addr("sensor/reading")).expect("sensor");
     let (tx, out) = mpsc::unbounded_channel();
     let handle = ComponentHandle::new(&registry, "sink", Sink2(tx))
         .expect("add")
@@ -63,7 +65,7 @@ async fn rig() -> Rig {
         .with_child(handle.child_spec());
     // The supervisor lives as long as the runtime: the test ends it.
     std::mem::forget(Supervisor::start(spec).await.expect("supervisor"));
-    let input = SendClient::<u64>::connect(&registry, "sink/input").expect("client");
+    let input = SendClient::<u64>::connect(&registry, addr("sink/input")).expect("client");
     Rig { registry, handle, out, events, sensor, input }
 }
 
@@ -152,7 +154,7 @@ async fn ledger_the_receiver_tells_duplicates_and_the_plan_owns_its_drops() {
     r.registry.faults().set_message_fault(&addr, None);
     r.input.send(4).expect("send");
     // A replayed message (same sender, same number) is a duplicate too.
-    r.input.send_stamped(Stamped { seq: 4, stamp: r.registry.now(), value: 4 }).expect("send");
+    r.input.send_stamped(Stamped { seq: 4, sent_at: r.registry.now(), value: 4 }).expect("send");
     let got: Vec<u64> = take(&mut r.out, 5).await.into_iter().map(|(_, v)| v).collect();
     assert_eq!(got, vec![1, 1, 4, 4, 3], "the delayed one last");
     let c = counts(&r.registry, "sink/input");

@@ -1,5 +1,7 @@
+use crate::addr;
 use orsa_actors::component::spawn;
 use orsa_actors::push_timed::{PushTimedClient, PushTimedServer, Tick};
+use orsa_actors::service::PushTimedService;
 use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, Sink, Update};
 use std::time::Duration;
 use tokio::sync::mpsc;
@@ -11,7 +13,11 @@ impl Component for Ir {
     type Msg = Tick;
     type State = PushTimedServer<u64>;
     async fn setup(&self, ctx: &Ctx<Tick>) -> Result<Self::State, ComponentError> {
-        let s = ctx.push_timed_server::<u64>("distanceir", Duration::from_millis(40), |t| t)?;
+        let s = ctx.push_timed_server(
+            PushTimedService::<u64>::new("distanceir"),
+            Duration::from_millis(40),
+            |t| t,
+        )?;
         s.start();
         *self.0.lock() = Some(s.clone());
         Ok(s)
@@ -24,7 +30,7 @@ impl Component for Ir {
 
 fn counted(registry: &Registry, every: u32) -> (PushTimedClient<u64>, mpsc::UnboundedReceiver<Update<u64>>) {
     let (tx, rx) = mpsc::unbounded_channel();
-    let c = PushTimedClient::connect_to(registry, "ir/distanceir", Sink::channel(tx)).expect("connect");
+    let c = PushTimedClient::connect_to(registry, addr("ir/distanceir"), Sink::channel(tx)).expect("connect");
     c.subscribe(every).expect("subscribe");
     (c, rx)
 }
@@ -65,7 +71,7 @@ async fn push_timed_first_update_comes_one_period_after_start_with_its_stamp() {
         Duration::from_millis(400),
         "the original's 10 x 40 ms = one scan per 400 ms"
     );
-    assert_eq!(u.stamp.as_nanos(), 400_000_000);
+    assert_eq!(u.sent_at.as_nanos(), 400_000_000);
 }
 
 #[tokio::test(start_paused = true)]
@@ -74,7 +80,7 @@ async fn push_timed_stop_and_start() {
     let (tick_tx, mut ticks) = mpsc::unbounded_channel::<Tick>();
     let server = PushTimedServer::<u64>::register(
         &registry,
-        "s/t",
+        addr("s/t"),
         Duration::from_millis(100),
         Sink::channel(tick_tx),
     )
@@ -85,7 +91,7 @@ async fn push_timed_stop_and_start() {
             producer.put(t.seq);
         }
     });
-    let client = PushTimedClient::<u64>::connect(&registry, "s/t").expect("connect");
+    let client = PushTimedClient::<u64>::connect(&registry, addr("s/t")).expect("connect");
     client.subscribe(1).expect("subscribe");
     assert!(!server.is_active());
     assert!(matches!(client.get_update_wait().await, Err(PatternError::NotActive(_))), "stopped server");
@@ -112,10 +118,11 @@ async fn push_timed_stop_and_start() {
 async fn push_timed_rejects_zero_every_and_zero_period() {
     let registry = Registry::new();
     let _ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
-    let c = PushTimedClient::<u64>::connect(&registry, "ir/distanceir").expect("connect");
+    let c = PushTimedClient::<u64>::connect(&registry, addr("ir/distanceir")).expect("connect");
     assert!(matches!(c.subscribe(0), Err(PatternError::InvalidArgument(_))));
     let (tx, _rx) = mpsc::unbounded_channel();
-    let err = PushTimedServer::<u64>::register(&registry, "x/y", Duration::ZERO, Sink::channel(tx)).err();
+    let err =
+        PushTimedServer::<u64>::register(&registry, addr("x/y"), Duration::ZERO, Sink::channel(tx)).err();
     assert!(matches!(err, Some(PatternError::InvalidArgument(_))));
 }
 
@@ -146,7 +153,7 @@ async fn push_timed_a_tick_handler_may_stop_its_own_server() {
         }
         Ok(())
     });
-    let server = PushTimedServer::<u64>::register(&registry, "s/t", Duration::from_millis(10), sink)
+    let server = PushTimedServer::<u64>::register(&registry, addr("s/t"), Duration::from_millis(10), sink)
         .expect("register");
     *slot.lock() = Some(server.clone());
     server.start();
@@ -159,7 +166,8 @@ async fn push_timed_a_tick_handler_may_stop_its_own_server() {
 async fn push_timed_rejects_a_period_too_long_to_schedule() {
     let registry = Registry::new();
     let (tx, _rx) = mpsc::unbounded_channel();
-    let err = PushTimedServer::<u64>::register(&registry, "x/y", Duration::MAX, Sink::channel(tx)).err();
+    let err =
+        PushTimedServer::<u64>::register(&registry, addr("x/y"), Duration::MAX, Sink::channel(tx)).err();
     assert!(matches!(err, Some(PatternError::InvalidArgument(m)) if m.contains("at most")));
 }
 
@@ -169,7 +177,7 @@ impl Component for Listener {
     type Msg = Update<u64>;
     type State = ();
     async fn setup(&self, ctx: &Ctx<Update<u64>>) -> Result<(), ComponentError> {
-        ctx.subscribe_timed::<u64>("ir/distanceir", 1, |u| u)?;
+        ctx.subscribe_timed::<u64>(addr("ir/distanceir"), 1, |u| u)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<Update<u64>>, _: &mut (), _: Update<u64>) -> Result<(), ComponentError> {

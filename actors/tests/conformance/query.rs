@@ -1,14 +1,16 @@
+use crate::addr;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::query::{QueryClient, QueryRequest, QueryServer, Responder};
+use orsa_actors::service::{QueryService, SendService};
 use orsa_actors::state::StateMaster;
 use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, ServiceAddr, Sink};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
 /// Answers `n` with `n * n` at once.
-fn squarer(registry: &Registry, addr: &str) {
+fn squarer(registry: &Registry, at: &str) {
     let (tx, mut rx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(registry, addr, Sink::channel(tx)).expect("register");
+    QueryServer::register(registry, addr(at), Sink::channel(tx)).expect("register");
     tokio::spawn(async move {
         while let Some(q) = rx.recv().await {
             let n = q.request.value;
@@ -21,7 +23,7 @@ fn squarer(registry: &Registry, addr: &str) {
 async fn query_answers_the_request() {
     let registry = Registry::new();
     squarer(&registry, "calc/square");
-    let client = QueryClient::<u64, u64>::connect(&registry, "calc/square").expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/square")).expect("connect");
     assert_eq!(client.query(12, None).await, Ok(144));
     assert_eq!(client.query(3, Some(Duration::from_millis(5))).await, Ok(9));
 }
@@ -30,8 +32,8 @@ async fn query_answers_the_request() {
 async fn query_times_out_exactly_on_the_paused_clock() {
     let registry = Registry::new();
     let (tx, _keep) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, "calc/never", Sink::channel(tx)).expect("register");
-    let client = QueryClient::<u64, u64>::connect(&registry, "calc/never").expect("connect");
+    QueryServer::register(&registry, addr("calc/never"), Sink::channel(tx)).expect("register");
+    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/never")).expect("connect");
     let start = tokio::time::Instant::now();
     assert_eq!(client.query(1, Some(Duration::from_millis(250))).await, Err(PatternError::Timeout));
     assert_eq!(start.elapsed(), Duration::from_millis(250));
@@ -41,7 +43,7 @@ async fn query_times_out_exactly_on_the_paused_clock() {
 async fn query_request_now_collect_later_in_any_order() {
     let registry = Registry::new();
     squarer(&registry, "calc/square");
-    let client = QueryClient::<u64, u64>::connect(&registry, "calc/square").expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/square")).expect("connect");
     let mut a = client.request(2).expect("request");
     let b = client.request(3).expect("request");
     assert_eq!(a.try_receive(), Ok(None), "nothing has run yet");
@@ -53,13 +55,13 @@ async fn query_request_now_collect_later_in_any_order() {
 async fn query_dropped_without_answer_is_no_answer() {
     let registry = Registry::new();
     let (tx, mut rx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, "calc/rude", Sink::channel(tx)).expect("register");
+    QueryServer::register(&registry, addr("calc/rude"), Sink::channel(tx)).expect("register");
     tokio::spawn(async move {
         while let Some(q) = rx.recv().await {
             drop(q);
         }
     });
-    let client = QueryClient::<u64, u64>::connect(&registry, "calc/rude").expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/rude")).expect("connect");
     assert_eq!(client.query(1, None).await, Err(PatternError::NoAnswer(ServiceAddr::new("calc", "rude"))));
 }
 
@@ -73,7 +75,7 @@ impl Component for Deferred {
     type Msg = DeferredMsg;
     type State = Option<(u64, Responder<u64>)>;
     async fn setup(&self, ctx: &Ctx<DeferredMsg>) -> Result<Self::State, ComponentError> {
-        ctx.query_server::<u64, u64>("pair", DeferredMsg::Ask)?;
+        ctx.query_server(QueryService::<u64, u64>::new("pair"), DeferredMsg::Ask)?;
         Ok(None)
     }
     async fn handle(
@@ -99,7 +101,7 @@ impl Component for Deferred {
 async fn query_server_may_answer_later_after_other_messages() {
     let registry = Registry::new();
     let _c = spawn(&registry, "deferred", Deferred).await.expect("spawn");
-    let client = QueryClient::<u64, u64>::connect(&registry, "deferred/pair").expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, addr("deferred/pair")).expect("connect");
     let first = client.request(40).expect("request");
     tokio::time::advance(Duration::from_millis(100)).await;
     let second = client.query(2, Some(Duration::from_secs(1))).await;
@@ -116,8 +118,8 @@ impl Component for Forwarder {
     type Msg = ForwarderMsg;
     type State = QueryClient<u64, u64>;
     async fn setup(&self, ctx: &Ctx<ForwarderMsg>) -> Result<Self::State, ComponentError> {
-        ctx.query_server::<u64, u64>("plus_one_squared", ForwarderMsg::Ask)?;
-        Ok(ctx.query_client("calc/square")?)
+        ctx.query_server(QueryService::<u64, u64>::new("plus_one_squared"), ForwarderMsg::Ask)?;
+        Ok(ctx.query_client(addr("calc/square"))?)
     }
     async fn handle(
         &self,
@@ -139,7 +141,8 @@ async fn query_nested_inside_a_handler_and_from_many_clients() {
     let _f = spawn(&registry, "fwd", Forwarder).await.expect("spawn");
     let mut waits = Vec::new();
     for i in 0..50u64 {
-        let client = QueryClient::<u64, u64>::connect(&registry, "fwd/plus_one_squared").expect("connect");
+        let client =
+            QueryClient::<u64, u64>::connect(&registry, addr("fwd/plus_one_squared")).expect("connect");
         waits.push(tokio::spawn(async move { (i, client.query(i, Some(Duration::from_secs(5))).await) }));
     }
     for w in waits {
@@ -159,7 +162,7 @@ impl Component for Blocked {
     type Msg = BlockedMsg;
     type State = ();
     async fn setup(&self, ctx: &Ctx<BlockedMsg>) -> Result<(), ComponentError> {
-        ctx.send_server::<orsa_actors::Empty>("go", |_| BlockedMsg::Go)?;
+        ctx.send_server(SendService::<orsa_actors::Empty>::new("go"), |_| BlockedMsg::Go)?;
         Ok(())
     }
     async fn handle(
@@ -168,7 +171,7 @@ impl Component for Blocked {
         _: &mut (),
         _msg: BlockedMsg,
     ) -> Result<(), ComponentError> {
-        let client = ctx.query_client::<u64, u64>("calc/never")?;
+        let client = ctx.query_client::<u64, u64>(addr("calc/never"))?;
         let _ = self.result.send(client.query(1, None).await);
         Ok(())
     }
@@ -178,11 +181,11 @@ impl Component for Blocked {
 async fn query_blocked_in_a_component_is_cancelled_by_deactivation() {
     let registry = Registry::new();
     let (qtx, _keep) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, "calc/never", Sink::channel(qtx)).expect("register");
+    QueryServer::register(&registry, addr("calc/never"), Sink::channel(qtx)).expect("register");
     let (tx, mut rx) = mpsc::unbounded_channel();
     let c: ComponentHandle<Blocked> =
         spawn(&registry, "blocked", Blocked { result: tx }).await.expect("spawn");
-    orsa_actors::send::SendClient::connect(&registry, "blocked/go")
+    orsa_actors::send::SendClient::connect(&registry, addr("blocked/go"))
         .expect("connect")
         .send(orsa_actors::Empty {})
         .expect("send");

@@ -1,3 +1,4 @@
+use crate::addr;
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
 use orsa_actors::state::{StateMaster, StateSlave, StateSpec};
 use orsa_actors::{PatternError, Registry};
@@ -149,14 +150,14 @@ async fn state_deactivation_aborts_blocking_calls_with_cancelled() {
     let registry = Registry::new();
     let slave = slave(&registry);
     let master = StateMaster::connect(&registry, "wallfollow").expect("master");
-    let _server = PushNewestServer::<u64>::register(&registry, "nomad200/ir").expect("register");
+    let _server = PushNewestServer::<u64>::register(&registry, addr("nomad200/ir")).expect("register");
     // An activity waiting for a substate, and one waiting for data: both blocking calls.
     let h = slave.handle();
     let acquiring = tokio::spawn(async move { h.acquire("drive").await.map(|_| ()) });
     let cancel = slave.cancel_token();
     let registry2 = registry.clone();
     let waiting = tokio::spawn(async move {
-        let c = PushNewestClient::<u64>::connect(&registry2, "nomad200/ir")?;
+        let c = PushNewestClient::<u64>::connect(&registry2, addr("nomad200/ir"))?;
         c.subscribe()?;
         cancel.guard(c.get_update_wait()).await.map(|_| ())
     });

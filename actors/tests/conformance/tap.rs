@@ -1,3 +1,4 @@
+use crate::addr;
 use orsa_actors::event::{EventClient, EventMode, EventServer};
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
 use orsa_actors::query::{QueryClient, QueryRequest, QueryServer};
@@ -27,34 +28,35 @@ async fn tap_sees_every_pattern_message_once_with_its_topic() {
     registry.set_tap(Some(log.clone()));
 
     let (stx, _srx) = mpsc::unbounded_channel();
-    SendServer::<u64>::register(&registry, "robot/speed", Sink::channel(stx)).expect("send");
-    SendClient::<u64>::connect(&registry, "robot/speed").expect("c").send(7).expect("send");
+    SendServer::<u64>::register(&registry, addr("robot/speed"), Sink::channel(stx)).expect("send");
+    SendClient::<u64>::connect(&registry, addr("robot/speed")).expect("c").send(7).expect("send");
 
     let (qtx, mut qrx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, "calc/square", Sink::channel(qtx)).expect("query");
+    QueryServer::register(&registry, addr("calc/square"), Sink::channel(qtx)).expect("query");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n * n);
         }
     });
-    QueryClient::<u64, u64>::connect(&registry, "calc/square")
+    QueryClient::<u64, u64>::connect(&registry, addr("calc/square"))
         .expect("c")
         .query(3, None)
         .await
         .expect("answer");
 
-    let push = PushNewestServer::<u64>::register(&registry, "odo/ticks").expect("push");
+    let push = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("push");
     let subs: Vec<_> =
-        (0..3).map(|_| PushNewestClient::<u64>::connect(&registry, "odo/ticks").expect("c")).collect();
+        (0..3).map(|_| PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("c")).collect();
     for s in &subs {
         s.subscribe().expect("subscribe");
     }
     push.put(5);
 
-    let ev = EventServer::<u64, u64, u64>::register(&registry, "alarm/high", |l, v| (*v > *l).then_some(*v))
-        .expect("ev");
-    let _a = EventClient::<u64, u64>::connect(&registry, "alarm/high")
+    let ev =
+        EventServer::<u64, u64, u64>::register(&registry, addr("alarm/high"), |l, v| (*v > *l).then_some(*v))
+            .expect("ev");
+    let _a = EventClient::<u64, u64>::connect(&registry, addr("alarm/high"))
         .expect("c")
         .activate(EventMode::Single, 1)
         .expect("a");
@@ -63,7 +65,7 @@ async fn tap_sees_every_pattern_message_once_with_its_topic() {
     StateSlave::register(&registry, "beh", StateSpec::new().main_state("active", &["go"])).expect("state");
     StateMaster::connect(&registry, "beh").expect("m").set_state("active").await.expect("set");
     WiringSlave::register(&registry, "beh2").expect("w").send_port::<u64>("vel").expect("port");
-    WiringMaster::new(&registry).connect("beh2", "vel", "robot/speed").await.expect("wire");
+    WiringMaster::new(&registry).connect_named("beh2", "vel", &addr("robot/speed")).await.expect("wire");
 
     registry.set_tap(None);
     push.put(6);

@@ -1,3 +1,4 @@
+use crate::addr;
 use crate::{Velocity, drain};
 use orsa_actors::send::SendServer;
 use orsa_actors::wiring::{WiringMaster, WiringSlave};
@@ -11,8 +12,8 @@ fn motor(
     name: &str,
 ) -> (SendServer<Velocity>, mpsc::UnboundedReceiver<Stamped<Velocity>>) {
     let (tx, rx) = mpsc::unbounded_channel();
-    let s =
-        SendServer::register(registry, (name, "navigationvelocity"), Sink::channel(tx)).expect("register");
+    let s = SendServer::register(registry, ServiceAddr::new(name, "navigationvelocity"), Sink::channel(tx))
+        .expect("register");
     (s, rx)
 }
 
@@ -30,9 +31,9 @@ async fn wiring_connects_disconnects_and_reconnects_a_port() {
     let master = WiringMaster::new(&registry);
 
     assert_eq!(port.send(vel(0.1)), Err(PatternError::Disconnected("vel".into())));
-    master.connect("wallfollow", "vel", "robot_a/navigationvelocity").await.expect("connect");
+    master.connect_named("wallfollow", "vel", &addr("robot_a/navigationvelocity")).await.expect("connect");
     port.send(vel(0.1)).expect("send");
-    master.connect("wallfollow", "vel", "robot_b/navigationvelocity").await.expect("rewire");
+    master.connect_named("wallfollow", "vel", &addr("robot_b/navigationvelocity")).await.expect("rewire");
     port.send(vel(0.2)).expect("send");
     assert_eq!(drain(&mut ra).iter().map(|m| m.v_m_s).collect::<Vec<_>>(), vec![0.1]);
     assert_eq!(drain(&mut rb).iter().map(|m| m.v_m_s).collect::<Vec<_>>(), vec![0.2]);
@@ -40,7 +41,7 @@ async fn wiring_connects_disconnects_and_reconnects_a_port() {
         master.ports("wallfollow").await.expect("ports")[0].target,
         Some(ServiceAddr::new("robot_b", "navigationvelocity"))
     );
-    master.disconnect("wallfollow", "vel").await.expect("disconnect");
+    master.disconnect_named("wallfollow", "vel").await.expect("disconnect");
     assert_eq!(port.send(vel(0.3)), Err(PatternError::Disconnected("vel".into())));
     assert_eq!(master.ports("wallfollow").await.expect("ports")[0].target, None);
 }
@@ -50,26 +51,26 @@ async fn wiring_errors_name_the_port_or_service_and_keep_the_old_connection() {
     let registry = Registry::new();
     let (_a, mut ra) = motor(&registry, "robot");
     let (tx, _rx) = mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&registry, "robot/speed", Sink::channel(tx)).expect("register");
+    SendServer::<f64>::register(&registry, addr("robot/speed"), Sink::channel(tx)).expect("register");
     let slave = WiringSlave::register(&registry, "wallfollow").expect("register");
     let port = slave.send_port::<Velocity>("vel").expect("port");
     let master = WiringMaster::new(&registry);
-    master.connect("wallfollow", "vel", "robot/navigationvelocity").await.expect("connect");
+    master.connect_named("wallfollow", "vel", &addr("robot/navigationvelocity")).await.expect("connect");
 
     assert_eq!(
-        master.connect("wallfollow", "speed", "robot/navigationvelocity").await,
+        master.connect_named("wallfollow", "speed", &addr("robot/navigationvelocity")).await,
         Err(PatternError::UnknownPort { component: "wallfollow".into(), port: "speed".into() })
     );
     assert!(matches!(
-        master.connect("wallfollow", "vel", "robot/speed").await,
+        master.connect_named("wallfollow", "vel", &addr("robot/speed")).await,
         Err(PatternError::IncompatibleService { .. })
     ));
     assert_eq!(
-        master.connect("wallfollow", "vel", "robot/nothing").await,
+        master.connect_named("wallfollow", "vel", &addr("robot/nothing")).await,
         Err(PatternError::UnknownService(ServiceAddr::new("robot", "nothing")))
     );
     assert_eq!(
-        master.connect("ghost", "vel", "robot/speed").await,
+        master.connect_named("ghost", "vel", &addr("robot/speed")).await,
         Err(PatternError::UnknownComponent("ghost".into()))
     );
     port.send(vel(0.25)).expect("still wired to the old service");
@@ -104,13 +105,13 @@ async fn wiring_rewiring_under_traffic_never_delivers_after_disconnect() {
     let servers = [("robot_a/navigationvelocity", &a), ("robot_b/navigationvelocity", &b)];
     for round in 0..400 {
         let (target, server) = servers[round % 2];
-        master.connect("behaviour", "vel", target).await.expect("connect");
+        master.connect_named("behaviour", "vel", &addr(target)).await.expect("connect");
         // Let traffic reach the port's new target.
         let before = server.received();
         while server.received() < before + 5 {
             std::thread::yield_now();
         }
-        master.disconnect("behaviour", "vel").await.expect("disconnect");
+        master.disconnect_named("behaviour", "vel").await.expect("disconnect");
         let after_disconnect = (a.received(), b.received());
         // Senders keep going; none of it may reach either motor.
         for _ in 0..200 {
