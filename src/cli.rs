@@ -42,30 +42,6 @@ pub enum Command {
     Wire(crate::remote::WireArgs),
     /// Show or set a component's main state (a master command).
     State(crate::remote::StateArgs),
-    /// Measure orsa against the raw parts it is built on, and how it scales (BENCHMARKS.md).
-    Bench(BenchArgs),
-}
-
-/// Arguments of `orsa bench`.
-#[derive(Debug, clap::Args)]
-pub struct BenchArgs {
-    /// A smaller run, under two minutes.
-    #[arg(long)]
-    pub quick: bool,
-    /// Write every figure as JSON here.
-    #[arg(long, value_name = "PATH.json")]
-    pub json: Option<PathBuf>,
-    /// Write the tables as Markdown here (as in BENCHMARKS.md); they are printed either way.
-    #[arg(long, value_name = "PATH.md")]
-    pub markdown: Option<PathBuf>,
-    /// Internal: run as the peer process of the cross-process bench, connecting to this
-    /// endpoint (`orsa bench` starts it by itself).
-    #[arg(long, hide = true, value_name = "ENDPOINT", conflicts_with = "sim_part")]
-    pub peer: Option<String>,
-    /// Internal: run one simulation part of the bench in this process and print its figures
-    /// (`orsa bench` starts one process per part by itself).
-    #[arg(long, hide = true, value_name = "SPEC")]
-    pub sim_part: Option<String>,
 }
 
 /// Arguments of `orsa run`.
@@ -123,11 +99,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Echo(args) => crate::remote::echo(args),
         Command::Wire(args) => crate::remote::wire(args),
         Command::State(args) => crate::remote::state(args),
-        Command::Bench(args) => run_bench(args),
     }
 }
 
-pub(crate) fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
+/// Creates the folder `path` will be written in, if it is missing; the error names it.
+pub fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create the folder", dir.display()))?;
@@ -216,29 +192,6 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
             anyhow::bail!("the run finished and its report was written, but its recording failed: {e}")
         }
         None => {}
-    }
-    Ok(())
-}
-
-fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
-    if let Some(endpoint) = &args.peer {
-        return crate::bench::serve_peer(endpoint);
-    }
-    if let Some(spec) = &args.sim_part {
-        return crate::bench::serve_sim_part(spec);
-    }
-    for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
-        ensure_parent(p)?;
-    }
-    let report = crate::bench::run(&crate::bench::BenchOptions { quick: args.quick })?;
-    let markdown = crate::bench::render_markdown(&report);
-    say(&markdown);
-    if let Some(p) = &args.json {
-        std::fs::write(p, serde_json::to_string_pretty(&report)?)
-            .with_context(|| format!("{}: cannot write the figures", p.display()))?;
-    }
-    if let Some(p) = &args.markdown {
-        std::fs::write(p, &markdown).with_context(|| format!("{}: cannot write the tables", p.display()))?;
     }
     Ok(())
 }

@@ -6,18 +6,25 @@
 //!
 //! This facade re-exports the layers, one crate each:
 //! - [`actors`]: the framework core: patterns, components, supervision, registry, clock.
+//! - [`interfaces`]: every communication object and one typed descriptor per service.
 //! - [`hardware`]: the Nomad 200 behind board traits, its simulator and its robot server.
 //! - [`reactive`]: behaviour components (wall following, center following).
 //! - [`executive`]: the master that arbitrates behaviours by Wiring and State.
 //! - [`planner`]: the deliberative layer that issues goals.
 //!
-//! [`system`] assembles a system from the config, in one place (every command and test uses
-//! it). [`mission`] runs the corridor mission and measures it; [`config`] is the stack's one config
-//! file; [`record`] writes runs as MCAP and [`plot`] draws them. [`remote`] runs the robot, the
-//! executive and teleoperation as separate processes over zenoh (crate `orsa-net`). [`bench`](mod@bench)
-//! measures orsa against the raw parts it is built on. [`faults`] reads fault plans and breaks a
-//! running stack on purpose. [`cli`] holds the `orsa`
-//! command line; the binary only parses arguments and calls it.
+//! Its own modules:
+//! - [`system`]: assembles a system from the config, in one place (every command, the
+//!   benchmarks and the whole-stack tests use it); new kinds of component register there.
+//! - [`mission`]: runs the corridor mission and measures it; [`config`]: the stack's one
+//!   config file.
+//! - [`record`]: writes runs as MCAP; [`plot`]: draws them.
+//! - [`remote`]: the robot, the executive, teleoperation and the tools as separate processes
+//!   over zenoh (crate `orsa-net`).
+//! - [`faults`]: reads fault plans and breaks a running stack on purpose.
+//! - [`cli`]: the `orsa` command line; the binary only parses arguments and calls it.
+//!
+//! The benchmark harness is the crate `orsa-bench` (`cargo run --release -p orsa-bench`), and
+//! `examples/` shows how to add a component, a behaviour and a remote client.
 
 pub use orsa_actors as actors;
 pub use orsa_executive as executive;
@@ -26,7 +33,6 @@ pub use orsa_interfaces as interfaces;
 pub use orsa_planner as planner;
 pub use orsa_reactive as reactive;
 
-pub mod bench;
 pub mod cli;
 pub mod config;
 pub mod faults;

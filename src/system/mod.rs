@@ -78,6 +78,7 @@ impl System {
             config,
             catalog: Catalog::builtin(),
             place: None,
+            names: None,
             robot: None,
             duration_s: 3600.0,
             name: "orsa".into(),
@@ -99,6 +100,7 @@ pub struct SystemBuilder<'a> {
     config: &'a Config,
     catalog: Catalog,
     place: Option<Place>,
+    names: Option<Vec<String>>,
     robot: Option<RobotBoards>,
     duration_s: f64,
     name: String,
@@ -125,6 +127,13 @@ impl<'a> SystemBuilder<'a> {
     /// Hosts only the components of `place` (default: all of them).
     pub fn only(mut self, place: Place) -> Self {
         self.place = Some(place);
+        self
+    }
+
+    /// Hosts only these components of the system, in the system's order (default: those of
+    /// the place, or all); for a program that splits a system its own way (the benchmarks).
+    pub fn select(mut self, names: &[&str]) -> Self {
+        self.names = Some(names.iter().map(|n| n.to_string()).collect());
         self
     }
 
@@ -170,10 +179,16 @@ impl<'a> SystemBuilder<'a> {
 
     /// The components this process will host.
     pub fn hosted(&self) -> Result<Vec<&'a ComponentSpec>, AssemblyError> {
+        if let Some(missing) = self.names.iter().flatten().find(|n| !self.config.system.has(n)) {
+            return Err(AssemblyError::Invalid(format!(
+                "'{missing}' is not a component of the system (system.components)"
+            )));
+        }
         Ok(self
             .placed()?
             .into_iter()
             .filter(|(_, p)| self.place.is_none_or(|only| only == *p))
+            .filter(|(c, _)| self.names.as_ref().is_none_or(|names| names.contains(&c.name)))
             .map(|(c, _)| c)
             .collect())
     }

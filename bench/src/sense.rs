@@ -32,21 +32,19 @@
 
 use super::net::{PeerReply, PeerRequest, WireStep};
 use super::{SenseToAct, say, stats};
-use crate::config::Config;
 use anyhow::{Context as _, anyhow};
-use orsa_actors::component::ComponentHandle;
+use orsa::config::Config;
+use orsa::system::{Catalog, Place, System};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryClient;
-use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
 use orsa_actors::{Clock, Component, ComponentError, Ctx, Empty, Registry, Timestamp};
 use orsa_executive::Master;
 use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
 use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::{SimNomad200, SimRobot};
+use orsa_hardware::sim::{SimMotorBoard, SimNomad200, SimRobot, SimSensorBoard};
 use orsa_hardware::world::World;
 use orsa_interfaces::behaviour::BehaviourStatus;
 use orsa_interfaces::nomad200::SafetyCounters;
-use orsa_planner::Planner;
 use orsa_reactive::components::{CenterFollowMsg, WallFollowMsg};
 use orsa_reactive::{CenterFollow, WallFollow};
 use parking_lot::Mutex;
@@ -108,6 +106,51 @@ impl<M: MotorBoard> MotorBoard for TimedMotors<M> {
     }
     async fn read_state(&self) -> Result<MotorState, BoardError> {
         self.inner.read_state().await
+    }
+}
+
+/// The bench's catalog: the robot server on a motor board that notes each command (if this
+/// process hosts the robot), both behaviours traced, and the master; all without the handler
+/// timeout, as measured since the bench began.
+fn catalog(
+    robot: Option<(SimSensorBoard, TimedMotors<SimMotorBoard>)>,
+    steps: &Arc<Mutex<Vec<Step>>>,
+) -> Catalog {
+    let mut c = Catalog::builtin();
+    if let Some((sensors, motors)) = robot {
+        c.register_untimed("nomad200", Place::Robot, move |parts, _| {
+            let config = parts.config;
+            let params = config.sim.robot_params(config.robot.push_periods());
+            Ok(Nomad200::new(config.robot.clone(), params, sensors.clone(), motors.clone()))
+        });
+    }
+    let s = Arc::clone(steps);
+    c.register_untimed("wallfollow", Place::Robot, move |parts, _| {
+        let inner = WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() };
+        Ok(Traced { inner, steps: Arc::clone(&s) })
+    });
+    let s = Arc::clone(steps);
+    c.register_untimed("centerfollow", Place::Robot, move |parts, _| {
+        let inner = CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() };
+        Ok(Traced { inner, steps: Arc::clone(&s) })
+    });
+    c.register_untimed("master", Place::Executive, |parts, _| {
+        let mut params = parts.config.executive.clone();
+        params.robot = parts.robot_name().into();
+        Ok(Master { params })
+    });
+    c
+}
+
+/// Counts the supervisor's restarts into `restarts`.
+fn count_restarts(
+    restarts: &Arc<std::sync::atomic::AtomicU64>,
+) -> impl Fn(orsa_actors::supervision::SupervisorEvent) + Send + Sync + 'static {
+    let r = Arc::clone(restarts);
+    move |e| {
+        if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
+            r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
     }
 }
 
@@ -293,40 +336,15 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
     let robot_params = config.sim.robot_params(config.robot.push_periods());
     let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
     let robot = config.robot.name.clone();
-
-    let server = Nomad200::new(config.robot.clone(), robot_params, sim.sensor_board(), motors);
-    let nomad = ComponentHandle::new(&registry, &robot, server)?;
-    let wall = Traced {
-        inner: WallFollow { params: config.wallfollow, robot: robot.clone() },
-        steps: Arc::clone(&steps),
-    };
-    let wall = ComponentHandle::new(&registry, WallFollow::NAME, wall)?;
-    let center = Traced {
-        inner: CenterFollow { params: config.centerfollow, robot: robot.clone() },
-        steps: Arc::clone(&steps),
-    };
-    let center = ComponentHandle::new(&registry, CenterFollow::NAME, center)?;
-    let mut exec = config.executive.clone();
-    exec.robot = robot.clone();
-    let master = ComponentHandle::new(&registry, "master", Master { params: exec })?;
-    let planner = Planner { mission: config.planner.mission_for(duration_s), executive: "master".into() };
-    let planner = ComponentHandle::new(&registry, "planner", planner)?;
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
-    let r = Arc::clone(&restarts);
-    let spec = SupervisorSpec::new("orsa", Strategy::OneForOne)
-        .with_intensity(10, Duration::from_secs(60))
-        .with_clock(clock)
-        .with_event_sink(move |e| {
-            if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
-                r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            }
-        })
-        .with_child(nomad.child_spec())
-        .with_child(wall.child_spec())
-        .with_child(center.child_spec())
-        .with_child(master.child_spec())
-        .with_child(planner.child_spec());
-    let supervisor = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the stack: {e}"))?;
+    let supervisor = System::builder(&config)
+        .catalog(catalog(Some((sim.sensor_board(), motors)), &steps))
+        .duration(duration_s)
+        .on_event(count_restarts(&restarts))
+        .start(&registry)
+        .await
+        .context("starting the stack")?
+        .supervisor;
 
     // The first second brings everything up and gets the robot moving; it is not measured.
     let settle = Duration::from_secs(1);
@@ -387,32 +405,19 @@ impl PeerBehaviours {
         if let Err(missing) = transport.wait_for(&needed, Duration::from_secs(30)).await {
             anyhow::bail!("the robot's services {missing:?} did not appear within 30 s");
         }
-        let config = Config::default();
+        let mut config = Config::default();
+        config.robot.name = robot.to_string();
         let steps = Arc::new(Mutex::new(Vec::new()));
-        let wall = Traced {
-            inner: WallFollow { params: config.wallfollow, robot: robot.to_string() },
-            steps: Arc::clone(&steps),
-        };
-        let wall = ComponentHandle::new(registry, WallFollow::NAME, wall)?;
-        let center = Traced {
-            inner: CenterFollow { params: config.centerfollow, robot: robot.to_string() },
-            steps: Arc::clone(&steps),
-        };
-        let center = ComponentHandle::new(registry, CenterFollow::NAME, center)?;
         let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
-        let r = Arc::clone(&restarts);
-        let spec = SupervisorSpec::new("behaviours", Strategy::OneForOne)
-            .with_intensity(10, Duration::from_secs(60))
-            .with_clock(registry.clock())
-            .with_event_sink(move |e| {
-                if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
-                    r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                }
-            })
-            .with_child(wall.child_spec())
-            .with_child(center.child_spec());
-        let supervisor =
-            Supervisor::start(spec).await.map_err(|e| anyhow!("starting the behaviours: {e}"))?;
+        let supervisor = System::builder(&config)
+            .catalog(catalog(None, &steps))
+            .select(&[WallFollow::NAME, CenterFollow::NAME])
+            .supervisor("behaviours")
+            .on_event(count_restarts(&restarts))
+            .start(registry)
+            .await
+            .context("starting the behaviours")?
+            .supervisor;
         Ok(PeerBehaviours { supervisor, steps, clock: registry.clock(), restarts })
     }
 
@@ -475,22 +480,17 @@ pub(crate) async fn across(
     let robot_params = config.sim.robot_params(config.robot.push_periods());
     let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
     let robot = config.robot.name.clone();
-    let server = Nomad200::new(config.robot.clone(), robot_params, sim.sensor_board(), motors);
-    let nomad = ComponentHandle::new(registry, &robot, server)?;
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
-    let sink = |r: Arc<std::sync::atomic::AtomicU64>| {
-        move |e: orsa_actors::supervision::SupervisorEvent| {
-            if e.kind == orsa_actors::supervision::SupervisorEventKind::Restarted {
-                r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            }
-        }
-    };
-    let spec = SupervisorSpec::new("robot", Strategy::OneForOne)
-        .with_intensity(10, Duration::from_secs(60))
-        .with_clock(clock)
-        .with_event_sink(sink(Arc::clone(&restarts)))
-        .with_child(nomad.child_spec());
-    let robot_sup = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the robot: {e}"))?;
+    let steps = Arc::new(Mutex::new(Vec::new()));
+    let robot_sup = System::builder(&config)
+        .catalog(catalog(Some((sim.sensor_board(), motors)), &steps))
+        .select(&[config.robot.name.as_str()])
+        .supervisor("robot")
+        .on_event(count_restarts(&restarts))
+        .start(registry)
+        .await
+        .context("starting the robot")?
+        .supervisor;
 
     let out = async {
         match control
@@ -513,19 +513,16 @@ pub(crate) async fn across(
         if let Err(missing) = transport.wait_for(&needed, Duration::from_secs(30)).await {
             anyhow::bail!("the behaviours' services {missing:?} did not appear within 30 s");
         }
-        let mut exec = config.executive.clone();
-        exec.robot = robot.clone();
-        let master = ComponentHandle::new(registry, "master", Master { params: exec })?;
-        let planner =
-            Planner { mission: config.planner.mission_for(duration_s + 5.0), executive: "master".into() };
-        let planner = ComponentHandle::new(registry, "planner", planner)?;
-        let spec = SupervisorSpec::new("executive", Strategy::OneForOne)
-            .with_intensity(10, Duration::from_secs(60))
-            .with_clock(clock)
-            .with_event_sink(sink(Arc::clone(&restarts)))
-            .with_child(master.child_spec())
-            .with_child(planner.child_spec());
-        let exec_sup = Supervisor::start(spec).await.map_err(|e| anyhow!("starting the executive: {e}"))?;
+        let exec_sup = System::builder(&config)
+            .catalog(catalog(None, &steps))
+            .select(&["master", "planner"])
+            .duration(duration_s + 5.0)
+            .supervisor("executive")
+            .on_event(count_restarts(&restarts))
+            .start(registry)
+            .await
+            .context("starting the executive")?
+            .supervisor;
 
         // Bringing everything up and getting the robot moving is not measured.
         tokio::time::sleep(Duration::from_secs(2)).await;

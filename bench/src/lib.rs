@@ -1,4 +1,8 @@
-//! `orsa bench`: what orsa costs, measured side by side with raw baselines in one run.
+//! # orsa-bench: what orsa costs, measured side by side with raw baselines in one run
+//!
+//! The benchmark harness, a workspace member of its own so that the `orsa` binary carries only
+//! what a user runs. `cargo run --release -p orsa-bench` (`--quick`, `--json PATH`,
+//! `--markdown PATH`) runs it; BENCHMARKS.md has the figures.
 //!
 //! Every figure comes with the baseline it is judged against, measured in the same run a moment
 //! apart (in the same process, or for the simulation parts each in a fresh process of its own,
@@ -22,6 +26,10 @@
 //! would tax orsa's stamps and not the raw baselines. The simulation parts, which pause it, each
 //! run in a fresh process of their own (see `part`), as a user's program would.
 
+//! Modules: `inproc` (in-process patterns against raw ractor and tokio), `fanout`, `sense`
+//! (sense to act), `net` and `peer` (across processes), `sim` and `part` (simulation speed and
+//! scale, each part in a fresh process), `probe` and `stats` (timing), `render` (the tables).
+
 mod fanout;
 mod inproc;
 mod net;
@@ -39,14 +47,14 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-/// Runs the peer process of the cross-process bench (`orsa bench --peer ENDPOINT`, which
-/// `orsa bench` starts by itself) until the bench process tells it to leave or goes away.
+/// Runs the peer process of the cross-process bench (`orsa-bench --peer ENDPOINT`, which
+/// `orsa-bench` starts by itself) until the bench process tells it to leave or goes away.
 pub fn serve_peer(endpoint: &str) -> anyhow::Result<()> {
     peer::run(endpoint)
 }
 
 /// Runs one simulation part of the bench in this process and prints its figures
-/// (`orsa bench --sim-part SPEC`, which `orsa bench` starts by itself: each simulation part
+/// (`orsa-bench --sim-part SPEC`, which `orsa-bench` starts by itself: each simulation part
 /// runs in a fresh process).
 pub fn serve_sim_part(spec: &str) -> anyhow::Result<()> {
     part::serve(spec)
@@ -56,12 +64,12 @@ pub fn serve_sim_part(spec: &str) -> anyhow::Result<()> {
 /// part) given its argument: this binary in the product, the test harness in tests.
 pub(crate) type Launcher = fn(&str) -> anyhow::Result<std::process::Command>;
 
-/// This binary again, `bench FLAG VALUE` (a hidden flag that makes it a helper process).
+/// This binary again, `orsa-bench FLAG VALUE` (a hidden flag that makes it a helper process).
 pub(crate) fn this_program(flag: &str, value: &str) -> anyhow::Result<std::process::Command> {
     use anyhow::Context as _;
     let exe = std::env::current_exe().context("cannot find this program to start a bench process")?;
     let mut c = std::process::Command::new(exe);
-    c.args(["bench", flag, value]);
+    c.args([flag, value]);
     Ok(c)
 }
 
@@ -335,7 +343,7 @@ pub struct Machine {
     pub optimized: bool,
 }
 
-/// Everything one `orsa bench` run measured.
+/// Everything one `orsa-bench` run measured.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BenchReport {
     /// In-process push, publish to handler, p50, ns (current-thread runtime, back-to-back).
@@ -383,6 +391,12 @@ pub struct BenchReport {
     pub scale: Vec<ScaleRow>,
     /// The targets, judged.
     pub targets: Vec<TargetCheck>,
+}
+
+/// Prints a line to stdout; a reader that went away (`orsa-bench | head`) is not an error.
+pub fn print(text: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
 }
 
 /// Progress, to stderr.

@@ -214,7 +214,7 @@ const PEER_ENV: &str = "ORSA_BENCH_TEST_PEER";
 /// In tests this binary is the test harness, which has no `bench --peer`: the peer is this
 /// harness again, running only [`peer_process`].
 fn test_launcher(endpoint: &str) -> anyhow::Result<std::process::Command> {
-    this_harness("bench::tests::peer_process", PEER_ENV, endpoint)
+    this_harness("tests::peer_process", PEER_ENV, endpoint)
 }
 
 /// This test harness again, running only the ignored test `test`, with `env` set to `value`.
@@ -424,7 +424,7 @@ const SIM_PART_ENV: &str = "ORSA_BENCH_TEST_SIM_PART";
 
 /// In tests the child is this harness again, running only [`sim_part_process`].
 fn sim_part_launcher(spec: &str) -> anyhow::Result<std::process::Command> {
-    this_harness("bench::tests::sim_part_process", SIM_PART_ENV, spec)
+    this_harness("tests::sim_part_process", SIM_PART_ENV, spec)
 }
 
 #[test]

@@ -21,10 +21,10 @@
 //!   the stack's work or data.
 
 use super::{MissionRtf, ScaleRow};
-use crate::config::Config;
-use crate::mission::stack::Stack;
-use crate::mission::{self, RunOptions};
 use anyhow::{Context as _, anyhow};
+use orsa::config::Config;
+use orsa::mission::stack::Stack;
+use orsa::mission::{self, RunOptions};
 use orsa_actors::supervision::SupervisorEventKind;
 use orsa_hardware::world::World;
 use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef};

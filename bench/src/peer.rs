@@ -1,4 +1,4 @@
-//! The peer process of the cross-process bench (`orsa bench --peer ENDPOINT`, a hidden flag):
+//! The peer process of the cross-process bench (`orsa-bench --peer ENDPOINT`, a hidden flag):
 //! it connects to the bench process, offers two Push newest services and two raw zenoh
 //! publishers, and sends one sample whenever a go arrives (see [`super::net`]). On request it
 //! also runs both behaviours, traced, against the robot in the bench process (sense to act
@@ -189,7 +189,7 @@ async fn serve(endpoint: String) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `main` for `endpoint`, reporting failures with context (used by `orsa bench --peer`).
+/// Runs `main` for `endpoint`, reporting failures with context (used by `orsa-bench --peer`).
 pub(crate) fn run(endpoint: &str) -> anyhow::Result<()> {
     main(endpoint).with_context(|| format!("bench peer for {endpoint}"))
 }

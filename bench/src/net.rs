@@ -1,8 +1,8 @@
 //! Across processes: orsa's push over zenoh against raw zenoh publish/subscribe of the same
 //! payload, between the same two processes, on the same two zenoh sessions, in the same run.
 //!
-//! `orsa bench` listens on a loopback port picked at run time and starts a second process, the
-//! *peer* (this binary, `orsa bench --peer tcp/127.0.0.1:PORT`, a hidden flag; see
+//! `orsa-bench` listens on a loopback port picked at run time and starts a second process, the
+//! *peer* (this binary, `orsa-bench --peer tcp/127.0.0.1:PORT`, a hidden flag; see
 //! [`super::peer`]), which connects to it. Both open orsa's [`ZenohTransport`] (peer mode,
 //! explicit endpoints, so multicast scouting is off) on a key prefix named after the port, and
 //! both run a two-worker tokio runtime (zenoh needs the multi-thread scheduler).

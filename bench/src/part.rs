@@ -1,4 +1,4 @@
-//! The simulation parts run each in a fresh process of its own (`orsa bench --sim-part SPEC`,
+//! The simulation parts run each in a fresh process of its own (`orsa-bench --sim-part SPEC`,
 //! a hidden flag), as a user's `orsa run` or N-robot program would.
 //!
 //! In the bench process they would run after every other part, in a heap those parts left
@@ -114,7 +114,7 @@ impl Part {
 pub(crate) fn serve(spec: &str) -> anyhow::Result<()> {
     let out = Part::parse(spec)?.run_here()?;
     let json = serde_json::to_string(&out).context("cannot write the part's figures")?;
-    crate::cli::say(&format!("{RESULT_PREFIX}{json}"));
+    crate::print(&format!("{RESULT_PREFIX}{json}"));
     Ok(())
 }
 

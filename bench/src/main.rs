@@ -1,0 +1,61 @@
+//! `orsa-bench`: measures orsa against the raw parts it is built on (BENCHMARKS.md).
+//!
+//! Thin: arguments, logging, then [`orsa_bench::run`].
+
+use anyhow::Context as _;
+use clap::Parser;
+use std::path::PathBuf;
+
+/// Measure orsa against the raw parts it is built on (ractor, tokio, zenoh), and how it scales.
+#[derive(Debug, Parser)]
+#[command(name = "orsa-bench", version)]
+struct Args {
+    /// A smaller run, under two minutes: fewer samples, shorter simulated spans.
+    #[arg(long)]
+    quick: bool,
+    /// Write every figure as JSON here.
+    #[arg(long, value_name = "PATH.json")]
+    json: Option<PathBuf>,
+    /// Write the tables as Markdown here (as in BENCHMARKS.md); they are printed either way.
+    #[arg(long, value_name = "PATH.md")]
+    markdown: Option<PathBuf>,
+    /// Internal: run as the peer process of the cross-process bench, connecting to this
+    /// endpoint (the bench starts it by itself).
+    #[arg(long, hide = true, value_name = "ENDPOINT", conflicts_with = "sim_part")]
+    peer: Option<String>,
+    /// Internal: run one simulation part in this process and print its figures (the bench
+    /// starts one process per part by itself).
+    #[arg(long, hide = true, value_name = "SPEC")]
+    sim_part: Option<String>,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    if let Some(endpoint) = &args.peer {
+        return orsa_bench::serve_peer(endpoint);
+    }
+    if let Some(spec) = &args.sim_part {
+        return orsa_bench::serve_sim_part(spec);
+    }
+    for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
+        orsa::cli::ensure_parent(p)?;
+    }
+    let report = orsa_bench::run(&orsa_bench::BenchOptions { quick: args.quick })?;
+    let markdown = orsa_bench::render_markdown(&report);
+    orsa_bench::print(&markdown);
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("{}: cannot write the figures", p.display()))?;
+    }
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &markdown).with_context(|| format!("{}: cannot write the tables", p.display()))?;
+    }
+    Ok(())
+}
