@@ -5,7 +5,8 @@
 //! the cut kept from crossing. The checks on a message's path, which know a sender by the zenoh
 //! id in its attachment and its role by its process token, are methods of [`Inner`] here.
 
-use crate::{Audience, Inner};
+use crate::serve::Audience;
+use crate::session::Inner;
 use orsa_actors::addr::ServiceAddr;
 use parking_lot::{Mutex, RwLock};
 use serde::{Deserialize, Serialize};

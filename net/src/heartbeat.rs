@@ -2,7 +2,9 @@
 //! [`NetOptions::heartbeat`](crate::NetOptions::heartbeat) is set, and how a peer watches them
 //! ([`ZenohTransport::on_heartbeat`]).
 
-use crate::{Entity, Inner, NetError, ZenohTransport};
+use crate::serve::Entity;
+use crate::session::Inner;
+use crate::{NetError, ZenohTransport};
 use orsa_actors::wire::{decode, encode};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;

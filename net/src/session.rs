@@ -1,0 +1,538 @@
+//! The zenoh session and discovery: opening it, announcing this process and its services,
+//! following peers' tokens (services and processes appearing and going), renewing what this
+//! process holds at a peer when its service comes back, and the transport's traffic figures.
+
+use crate::gate::Gate;
+use crate::gate::LinkCutStats;
+use crate::keys::{Announced, Keys, Process};
+use crate::options::{NetError, NetOptions};
+use crate::serve::{Export, Outlet};
+use orsa_actors::addr::ServiceAddr;
+use orsa_actors::wire::{Reply, decode, encode};
+use orsa_actors::{PatternError, PatternResult, Registry};
+use parking_lot::{Mutex, RwLock};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+use zenoh::sample::SampleKind;
+
+/// Traffic figures of one transport.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NetStats {
+    /// Messages published (send, push streams, firings).
+    pub published: u64,
+    /// Messages received from peers (send, stream updates, firings, requests).
+    pub received: u64,
+    /// Messages from peers that failed to decode (dropped, counted, logged).
+    pub decode_errors: u64,
+}
+
+/// A subscription or activation this process holds at a peer, kept to renew it when the
+/// service reappears.
+pub(crate) struct Held {
+    pub(crate) addr: ServiceAddr,
+    pub(crate) key: String,
+    pub(crate) payload: Vec<u8>,
+}
+
+pub(crate) type ProcessLost = Box<dyn Fn(&Process) + Send + Sync>;
+
+pub(crate) struct Inner {
+    pub(crate) session: zenoh::Session,
+    pub(crate) keys: Keys,
+    pub(crate) zid: String,
+    /// This process's zenoh id as the attachment of everything it sends.
+    pub(crate) me: zenoh::bytes::ZBytes,
+    pub(crate) gate: Gate,
+    pub(crate) registry: Registry,
+    pub(crate) runtime: tokio::runtime::Handle,
+    /// Services announced by peers.
+    pub(crate) remote: RwLock<BTreeMap<ServiceAddr, Announced>>,
+    /// Processes announced by peers (and this one).
+    pub(crate) processes: RwLock<BTreeMap<String, String>>,
+    pub(crate) exports: Mutex<BTreeMap<ServiceAddr, Arc<Export>>>,
+    pub(crate) senders: Mutex<HashMap<ServiceAddr, Arc<Outlet>>>,
+    pub(crate) held: Mutex<BTreeMap<u64, Held>>,
+    pub(crate) next_id: AtomicU64,
+    pub(crate) published: AtomicU64,
+    pub(crate) received: AtomicU64,
+    pub(crate) decode_errors: AtomicU64,
+    pub(crate) discovery: tokio::sync::watch::Sender<u64>,
+    pub(crate) on_process_lost: Mutex<Vec<ProcessLost>>,
+    pub(crate) on_process_found: Mutex<Vec<ProcessLost>>,
+}
+
+/// orsa's zenoh transport. Cheap to clone.
+#[derive(Clone)]
+pub struct ZenohTransport {
+    pub(crate) inner: Arc<Inner>,
+    _entities: Arc<Vec<Box<dyn std::any::Any + Send + Sync>>>,
+}
+
+impl std::fmt::Debug for ZenohTransport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ZenohTransport").field("zid", &self.inner.zid).finish_non_exhaustive()
+    }
+}
+
+pub(crate) fn link(e: impl std::fmt::Display) -> PatternError {
+    PatternError::Link(e.to_string())
+}
+
+impl ZenohTransport {
+    /// Opens a zenoh session with `options`, announces this process as `role`, starts
+    /// discovery, and installs the transport on `registry` (which offers peers every service
+    /// hosted here). Needs a multi-thread tokio runtime.
+    pub async fn open(registry: &Registry, options: &NetOptions, role: &str) -> Result<Self, NetError> {
+        let keys = Keys::new(&options.prefix).map_err(NetError::Config)?;
+        let config = options.zenoh_config()?;
+        let session = zenoh::open(config).await.map_err(|e| NetError::Open(e.to_string()))?;
+        let zid = session.zid().to_string();
+        let runtime = tokio::runtime::Handle::current();
+        let inner = Arc::new(Inner {
+            session,
+            keys,
+            me: zenoh::bytes::ZBytes::from(zid.clone()),
+            zid,
+            gate: Gate::default(),
+            registry: registry.clone(),
+            runtime,
+            remote: RwLock::new(BTreeMap::new()),
+            processes: RwLock::new(BTreeMap::new()),
+            exports: Mutex::new(BTreeMap::new()),
+            senders: Mutex::new(HashMap::new()),
+            held: Mutex::new(BTreeMap::new()),
+            next_id: AtomicU64::new(1),
+            published: AtomicU64::new(0),
+            received: AtomicU64::new(0),
+            decode_errors: AtomicU64::new(0),
+            discovery: tokio::sync::watch::Sender::new(0),
+            on_process_lost: Mutex::new(Vec::new()),
+            on_process_found: Mutex::new(Vec::new()),
+        });
+        let mut entities: Vec<Box<dyn std::any::Any + Send + Sync>> = Vec::new();
+        // The heartbeat starts before the process token is declared: a peer that sees this
+        // process also hears it beat.
+        if let Some(period) = options.heartbeat {
+            entities.push(Box::new(inner.start_heartbeat(role, period).await?));
+        }
+        let proc_key = inner.keys.process_token(&inner.zid, role);
+        entities.push(Box::new(
+            inner
+                .session
+                .liveliness()
+                .declare_token(proc_key)
+                .await
+                .map_err(|e| NetError::Open(e.to_string()))?,
+        ));
+        let weak = Arc::downgrade(&inner);
+        let services = inner
+            .session
+            .liveliness()
+            .declare_subscriber(inner.keys.all_services())
+            .history(true)
+            .callback(move |sample| {
+                if let Some(inner) = weak.upgrade() {
+                    inner.on_service_token(sample.key_expr().as_str(), sample.kind());
+                }
+            })
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        entities.push(Box::new(services));
+        let weak = Arc::downgrade(&inner);
+        let procs = inner
+            .session
+            .liveliness()
+            .declare_subscriber(inner.keys.all_processes())
+            .history(true)
+            .callback(move |sample| {
+                if let Some(inner) = weak.upgrade() {
+                    inner.on_process_token(sample.key_expr().as_str(), sample.kind());
+                }
+            })
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        entities.push(Box::new(procs));
+        let weak = Arc::downgrade(&inner);
+        let stats = inner
+            .session
+            .declare_queryable(inner.keys.stats(&inner.zid))
+            .callback(move |query| {
+                let Some(inner) = weak.upgrade() else { return };
+                let Some(query) = inner.admit_query(query) else { return };
+                let figures = NetStats {
+                    published: inner.published.load(Ordering::Relaxed),
+                    received: inner.received.load(Ordering::Relaxed),
+                    decode_errors: inner.decode_errors.load(Ordering::Relaxed)
+                        + inner.registry.decode_errors(),
+                };
+                // Reply on this process's own key, so a wildcard query tells the processes apart.
+                let key = inner.keys.stats(&inner.zid);
+                let bytes = encode(&Reply::from_result(Ok::<_, PatternError>(figures)));
+                inner.runtime.spawn(async move {
+                    if let Err(e) = query.reply(key, bytes).await {
+                        tracing::debug!("cannot reply with the stats: {e}");
+                    }
+                });
+            })
+            .await
+            .map_err(|e| NetError::Open(e.to_string()))?;
+        entities.push(Box::new(stats));
+        let transport = ZenohTransport { inner, _entities: Arc::new(entities) };
+        registry.set_transport(Arc::new(transport.clone()));
+        tracing::info!(zid = %transport.inner.zid, role, "zenoh transport open");
+        Ok(transport)
+    }
+
+    /// This process's zenoh id.
+    pub fn zid(&self) -> &str {
+        &self.inner.zid
+    }
+
+    /// The key expressions in use.
+    pub fn keys(&self) -> &Keys {
+        &self.inner.keys
+    }
+
+    /// The zenoh session (for raw zenoh traffic beside orsa's, e.g. benchmarks).
+    pub fn session(&self) -> &zenoh::Session {
+        &self.inner.session
+    }
+
+    /// Services announced by peers.
+    pub fn remote_services(&self) -> Vec<Announced> {
+        self.inner.remote.read().values().cloned().collect()
+    }
+
+    /// Live processes (zenoh id, role), this one included.
+    pub fn processes(&self) -> Vec<Process> {
+        self.inner
+            .processes
+            .read()
+            .iter()
+            .map(|(zid, role)| Process { zid: zid.clone(), role: role.clone() })
+            .collect()
+    }
+
+    /// Traffic figures.
+    pub fn stats(&self) -> NetStats {
+        NetStats {
+            published: self.inner.published.load(Ordering::Relaxed),
+            received: self.inner.received.load(Ordering::Relaxed),
+            decode_errors: self.inner.decode_errors.load(Ordering::Relaxed)
+                + self.inner.registry.decode_errors(),
+        }
+    }
+
+    /// The traffic figures of every live process (this one included), by zenoh id.
+    pub async fn all_stats(&self, timeout: Duration) -> BTreeMap<String, NetStats> {
+        let mut out = BTreeMap::new();
+        let Ok(replies) = self
+            .inner
+            .session
+            .get(self.inner.keys.all_stats())
+            .attachment(self.inner.me.clone())
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(timeout)
+            .await
+        else {
+            return out;
+        };
+        while let Ok(reply) = replies.recv_async().await {
+            let Ok(sample) = reply.result() else { continue };
+            let zid = sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_string();
+            if !self.inner.admit_from(&zid) {
+                continue;
+            }
+            match decode::<Reply<NetStats>>(&sample.payload().to_bytes(), "orsa.NetStats/1") {
+                Ok(Reply::Ok(s)) => {
+                    out.insert(zid, s);
+                }
+                Ok(Reply::Err(f)) => tracing::warn!("stats of {zid}: {}", f.message),
+                Err(e) => self.inner.bad(&zid, &e),
+            }
+        }
+        out
+    }
+
+    /// Calls `f` whenever a peer process disappears (its liveliness token is gone).
+    pub fn on_process_lost(&self, f: impl Fn(&Process) + Send + Sync + 'static) {
+        self.inner.on_process_lost.lock().push(Box::new(f));
+    }
+
+    /// Calls `f` whenever a peer process appears.
+    pub fn on_process_found(&self, f: impl Fn(&Process) + Send + Sync + 'static) {
+        self.inner.on_process_found.lock().push(Box::new(f));
+    }
+
+    /// Cuts (`cut = true`) or restores the link between this process and every process of
+    /// `role` (`executive`, `teleop`, `tool`, ...), while the zenoh session stays up: for fault
+    /// injection, a partition that zenoh's lease does not see, since liveliness tokens stay.
+    ///
+    /// While a role is cut, this process:
+    /// - drops on arrival every message, stream update, firing, heartbeat and reply that a
+    ///   process of that role sent (known by the sender's zenoh id in the attachment, and its
+    ///   role by its process token);
+    /// - holds unanswered every request (Query, State, Wiring, subscription and activation
+    ///   control) from such a process, as if it were lost: the requester times out;
+    /// - does not send what is addressed to a service such a process hosts: a Send message is
+    ///   lost, a request fails with [`PatternError::Timeout`] after its timeout, a
+    ///   subscription or activation request is not sent (it is sent again on restore);
+    /// - does not publish stream updates and firings whose every subscriber is such a process.
+    ///
+    /// Limits: the session, its liveliness tokens and zenoh's keep-alives go on (that is the
+    /// point); a push stream shared by a cut and an uncut subscriber (same service, same
+    /// every-n-th) still reaches both; this process's own heartbeat still goes out to every
+    /// peer; a message without the sender's id (a client that is not orsa's) is not gated; a
+    /// process whose token this process has not seen is not recognised. The cut is one
+    /// process's view: peers of the cut role still talk to each other.
+    pub fn cut_link(&self, role: &str, cut: bool) {
+        let inner = &self.inner;
+        if !inner.gate.set(role, cut) {
+            return;
+        }
+        tracing::info!(role, cut, "link cut");
+        if !cut {
+            // Requests held while cut are answered with nothing: the requesters have timed out.
+            inner.gate.release(role);
+            // Subscriptions and activations held at that role's services are asked for again.
+            let hosts: BTreeSet<String> = inner
+                .processes
+                .read()
+                .iter()
+                .filter(|(_, r)| r.as_str() == role)
+                .map(|(z, _)| z.clone())
+                .collect();
+            let addrs: Vec<ServiceAddr> = inner
+                .remote
+                .read()
+                .values()
+                .filter(|a| hosts.contains(&a.host))
+                .map(|a| a.addr.clone())
+                .collect();
+            for a in addrs {
+                inner.renew(&a);
+            }
+        }
+    }
+
+    /// The roles whose link is cut now.
+    pub fn cut_roles(&self) -> Vec<String> {
+        self.inner.gate.roles()
+    }
+
+    /// What link cuts kept from crossing so far.
+    pub fn link_cut_stats(&self) -> LinkCutStats {
+        self.inner.gate.stats()
+    }
+
+    /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
+    pub async fn wait_gone(&self, addr: &ServiceAddr, timeout: Duration) -> bool {
+        let mut changes = self.inner.discovery.subscribe();
+        let present = || self.inner.remote.read().contains_key(addr);
+        let wait = async {
+            while present() {
+                if changes.changed().await.is_err() {
+                    return;
+                }
+            }
+        };
+        tokio::time::timeout(timeout, wait).await.is_ok() && !present()
+    }
+
+    /// Waits until every address in `addrs` is announced by a peer (or hosted here), at most
+    /// `timeout`; answers the ones still missing on timeout.
+    pub async fn wait_for(&self, addrs: &[ServiceAddr], timeout: Duration) -> Result<(), Vec<ServiceAddr>> {
+        let mut changes = self.inner.discovery.subscribe();
+        let missing = || -> Vec<ServiceAddr> {
+            addrs
+                .iter()
+                .filter(|a| {
+                    self.inner.registry.local(a).is_none() && !self.inner.remote.read().contains_key(*a)
+                })
+                .cloned()
+                .collect()
+        };
+        let wait = async {
+            loop {
+                if missing().is_empty() {
+                    return;
+                }
+                if changes.changed().await.is_err() {
+                    return;
+                }
+            }
+        };
+        match tokio::time::timeout(timeout, wait).await {
+            Ok(()) if missing().is_empty() => Ok(()),
+            _ => Err(missing()),
+        }
+    }
+
+    /// Waits until a process with `role` is live, at most `timeout`.
+    pub async fn wait_for_role(&self, role: &str, timeout: Duration) -> bool {
+        let mut changes = self.inner.discovery.subscribe();
+        let present = || self.inner.processes.read().values().any(|r| r == role);
+        let wait = async {
+            while !present() {
+                if changes.changed().await.is_err() {
+                    return;
+                }
+            }
+        };
+        tokio::time::timeout(timeout, wait).await.is_ok() && present()
+    }
+
+    /// Closes the session: peers see this process's tokens disappear.
+    pub async fn close(self) {
+        if let Err(e) = self.inner.session.close().await {
+            tracing::warn!("closing the zenoh session: {e}");
+        }
+    }
+}
+
+impl Inner {
+    pub(crate) fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
+        self.decode_errors.fetch_add(1, Ordering::Relaxed);
+        tracing::warn!("dropped an undecodable message on {from}: {e}");
+    }
+
+    pub(crate) fn on_service_token(self: &Arc<Self>, key: &str, kind: SampleKind) {
+        let Some(a) = self.keys.parse_service_token(key) else {
+            tracing::warn!("ignoring a malformed service token '{key}'");
+            return;
+        };
+        if a.host == self.zid {
+            return;
+        }
+        let addr = a.addr.clone();
+        match kind {
+            SampleKind::Put => {
+                self.remote.write().insert(addr.clone(), a);
+                self.renew(&addr);
+            }
+            SampleKind::Delete => {
+                let mut remote = self.remote.write();
+                if remote.get(&addr).is_some_and(|r| r.host == a.host) {
+                    remote.remove(&addr);
+                }
+            }
+        }
+        self.discovery.send_modify(|v| *v += 1);
+    }
+
+    pub(crate) fn on_process_token(self: &Arc<Self>, key: &str, kind: SampleKind) {
+        let Some(p) = self.keys.parse_process_token(key) else {
+            tracing::warn!("ignoring a malformed process token '{key}'");
+            return;
+        };
+        match kind {
+            SampleKind::Put => {
+                let new = self.processes.write().insert(p.zid.clone(), p.role.clone()).is_none();
+                if new && p.zid != self.zid {
+                    for f in self.on_process_found.lock().iter() {
+                        f(&p);
+                    }
+                }
+            }
+            SampleKind::Delete => {
+                self.processes.write().remove(&p.zid);
+                // What the lost process held here ends now.
+                let exports: Vec<Arc<Export>> = self.exports.lock().values().cloned().collect();
+                for e in exports {
+                    e.streams.lock().retain(|_, s| {
+                        let mut clients = s.clients.lock();
+                        clients.retain(|(c, _)| *c != p.zid);
+                        !clients.is_empty()
+                    });
+                    e.activations.lock().retain(|(c, _), _| *c != p.zid);
+                }
+                tracing::info!(zid = %p.zid, role = %p.role, "peer process lost");
+                for f in self.on_process_lost.lock().iter() {
+                    f(&p);
+                }
+            }
+        }
+        self.discovery.send_modify(|v| *v += 1);
+    }
+
+    /// Sends again the subscriptions and activations held at `addr` (its host restarted or
+    /// was just discovered). The source treats a repeated request as the same one.
+    pub(crate) fn renew(self: &Arc<Self>, addr: &ServiceAddr) {
+        let again: Vec<(String, Vec<u8>)> = self
+            .held
+            .lock()
+            .values()
+            .filter(|h| h.addr == *addr)
+            .map(|h| (h.key.clone(), h.payload.clone()))
+            .collect();
+        for (key, payload) in again {
+            self.control(addr, key, payload);
+        }
+    }
+
+    /// Sends a control request in the background; failures are logged (renewal repeats it
+    /// when the service reappears).
+    /// Not sent while the service's host is cut off (it is sent again when the link is
+    /// restored).
+    pub(crate) fn control(self: &Arc<Self>, addr: &ServiceAddr, key: String, payload: Vec<u8>) {
+        if self.withhold_to(addr) {
+            return;
+        }
+        let inner = Arc::clone(self);
+        self.runtime.spawn(async move {
+            match inner.get(&key, payload, Duration::from_secs(5)).await {
+                Ok(bytes) => {
+                    if let Err(e) = orsa_actors::wire::decode_reply::<()>(
+                        &inner.registry.clock(),
+                        &bytes,
+                        &ServiceAddr::new("peer", "control"),
+                        "control reply",
+                    ) {
+                        tracing::warn!("{key}: {e}");
+                    }
+                }
+                Err(e) => tracing::debug!("{key}: {e}"),
+            }
+        });
+    }
+
+    pub(crate) async fn get(&self, key: &str, payload: Vec<u8>, timeout: Duration) -> PatternResult<Vec<u8>> {
+        let replies = self
+            .session
+            .get(key)
+            .payload(payload)
+            .attachment(self.me.clone())
+            .timeout(timeout)
+            .await
+            .map_err(link)?;
+        match replies.recv_async().await {
+            Ok(reply) => match reply.result() {
+                Ok(sample) => {
+                    self.received.fetch_add(1, Ordering::Relaxed);
+                    Ok(sample.payload().to_bytes().into_owned())
+                }
+                Err(e) => {
+                    let why = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
+                    // zenoh answers a query whose timeout ran out while its queryable held it
+                    // with an error reply saying so: that is a timeout, not a broken link.
+                    if why == "Timeout" {
+                        Err(PatternError::Timeout)
+                    } else {
+                        Err(PatternError::Link(format!("{key}: {why}")))
+                    }
+                }
+            },
+            // No reply before the timeout: nobody serves the key, or it took too long.
+            Err(_) => Err(PatternError::Timeout),
+        }
+    }
+
+    pub(crate) fn hold(self: &Arc<Self>, id: u64, addr: &ServiceAddr, key: String, payload: Vec<u8>) -> u64 {
+        self.held.lock().insert(id, Held { addr: addr.clone(), key: key.clone(), payload: payload.clone() });
+        self.control(addr, key, payload);
+        id
+    }
+}
