@@ -1,5 +1,8 @@
 //! Fault plans: what to break, when, and for how long; and the task that breaks it.
 //!
+//! (About 700 lines: the plan's format, its checks and the task that carries it out are one
+//! concept; a split into plan and run is due when it grows again.)
+//!
 //! A plan is a TOML file of `[[fault]]` tables (see `config/faults.example.toml`):
 //!
 //! ```toml

@@ -1,5 +1,9 @@
 //! Components: named, supervised actors that host services, activities, state and wiring.
 //!
+//! (About 700 lines, over the usual 500: it is one concept, the component's shell, its `Ctx`
+//! and the actor that runs its instances, and splitting it would spread one lifecycle over
+//! several files.)
+//!
 //! A component is what the original system called a component: a unit whose interface is a list
 //! of services, each a pattern plus a communication object. In orsa it has two parts:
 //! - a **shell** that lives as long as the component is part of the system: its name in the

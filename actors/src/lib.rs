@@ -26,6 +26,8 @@
 //! - [`registry`]: the directory of one system that resolves addresses; [`transport`]: the seam
 //!   for other processes, and [`wire`]: the CBOR encoding of what crosses it.
 //! - [`prelude`]: what a component author needs, in one `use`.
+//! - [`ledger`]: the delivery ledger, a receipt per message settled once (delivered, lost, ...).
+//! - `push` (private): the core Push newest and Push timed share.
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
