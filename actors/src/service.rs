@@ -22,6 +22,34 @@
 //! # let _ = THROTTLE;
 //! ```
 //!
+//! A client of another object type, or a port wired to a service of another object, does not
+//! compile:
+//!
+//! ```compile_fail
+//! # use orsa_actors::{Registry, push_timed::PushTimedClient, service::PushTimedService};
+//! # fn f(registry: &Registry) {
+//! const SPEED: PushTimedService<f64> = PushTimedService::new("speed");
+//! let client = PushTimedClient::<u64>::connect(registry, SPEED.on("engine")); // u64 is not f64
+//! # }
+//! ```
+//!
+//! ```compile_fail
+//! # use orsa_actors::{Registry, push_newest::PushNewestClient, service::PushTimedService};
+//! # fn f(registry: &Registry) {
+//! const SPEED: PushTimedService<f64> = PushTimedService::new("speed");
+//! let client = PushNewestClient::<f64>::connect(registry, SPEED.on("engine")); // not Push newest
+//! # }
+//! ```
+//!
+//! ```compile_fail
+//! # use orsa_actors::{Registry, wiring::WiringMaster, service::{SendPortDesc, SendService}};
+//! # async fn f(registry: &Registry) {
+//! const VEL: SendPortDesc<f64> = SendPortDesc::new("vel");
+//! const COUNT: SendService<u64> = SendService::new("count");
+//! WiringMaster::new(registry).connect("behaviour", VEL, COUNT.on("robot")).await; // f64 port, u64 service
+//! # }
+//! ```
+//!
 //! Strings remain only where a person types an address (the command line, a config file): there
 //! it is parsed once into a [`ServiceAddr`], which every client also accepts and which the
 //! registry checks against the descriptor's [`ServiceInfo`] when the client connects.
