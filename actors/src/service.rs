@@ -71,10 +71,11 @@ pub trait Descriptor: Copy + Send + Sync + 'static {
     fn info(&self) -> ServiceInfo;
 }
 
-macro_rules! descriptor {
+/// What service and port descriptors have in common: a name and the types they are of.
+macro_rules! named_type {
     (
         $(#[$doc:meta])*
-        $name:ident < $($t:ident),+ >, $kind:expr
+        $name:ident < $($t:ident),+ >, $what:literal
     ) => {
         $(#[$doc])*
         pub struct $name<$($t),+> {
@@ -83,19 +84,14 @@ macro_rules! descriptor {
         }
 
         impl<$($t),+> $name<$($t),+> {
-            /// The descriptor of the service called `name`.
+            #[doc = concat!("The descriptor of the ", $what, " called `name`.")]
             pub const fn new(name: &'static str) -> Self {
                 $name { name, _types: PhantomData }
             }
 
-            /// The service's name within its component.
+            #[doc = concat!("The ", $what, "'s name within its component.")]
             pub const fn name(&self) -> &'static str {
                 self.name
-            }
-
-            /// This service hosted by `component`: the typed address a client connects to.
-            pub fn on(self, component: impl Into<String>) -> Addr<Self> {
-                Addr { component: component.into(), service: self }
             }
         }
 
@@ -110,6 +106,22 @@ macro_rules! descriptor {
         impl<$($t),+> fmt::Debug for $name<$($t),+> {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 write!(f, "{}({})", stringify!($name), self.name)
+            }
+        }
+    };
+}
+
+macro_rules! descriptor {
+    (
+        $(#[$doc:meta])*
+        $name:ident < $($t:ident),+ >, $kind:expr
+    ) => {
+        named_type!($(#[$doc])* $name<$($t),+>, "service");
+
+        impl<$($t),+> $name<$($t),+> {
+            /// This service hosted by `component`: the typed address a client connects to.
+            pub fn on(self, component: impl Into<String>) -> Addr<Self> {
+                Addr { component: component.into(), service: self }
             }
         }
 
@@ -215,37 +227,7 @@ macro_rules! port_descriptor {
         $(#[$doc:meta])*
         $name:ident < $($t:ident),+ > => $target:ident
     ) => {
-        $(#[$doc])*
-        pub struct $name<$($t),+> {
-            name: &'static str,
-            _types: PhantomData<fn() -> ($($t,)+)>,
-        }
-
-        impl<$($t),+> $name<$($t),+> {
-            /// The descriptor of the port called `name`.
-            pub const fn new(name: &'static str) -> Self {
-                $name { name, _types: PhantomData }
-            }
-
-            /// The port's name within its component.
-            pub const fn name(&self) -> &'static str {
-                self.name
-            }
-        }
-
-        impl<$($t),+> Clone for $name<$($t),+> {
-            fn clone(&self) -> Self {
-                *self
-            }
-        }
-
-        impl<$($t),+> Copy for $name<$($t),+> {}
-
-        impl<$($t),+> fmt::Debug for $name<$($t),+> {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                write!(f, "{}({})", stringify!($name), self.name)
-            }
-        }
+        named_type!($(#[$doc])* $name<$($t),+>, "port");
 
         impl<$($t: CommObject),+> PortDescriptor for $name<$($t),+> {
             type Target = $target<$($t),+>;
