@@ -74,8 +74,13 @@ pub struct MakeError {
     pub message: String,
 }
 
-type Make =
-    dyn Fn(&Registry, &Parts<'_>, &ComponentSpec, Duration) -> Result<ChildSpec, String> + Send + Sync;
+/// What a made component leaves the system: how to supervise it, and how to take it out again.
+pub(crate) struct Made {
+    pub(crate) child: ChildSpec,
+    pub(crate) remove: Box<dyn Fn() + Send + Sync>,
+}
+
+type Make = dyn Fn(&Registry, &Parts<'_>, &ComponentSpec, Duration) -> Result<Made, String> + Send + Sync;
 
 /// One kind of component.
 #[derive(Clone)]
@@ -182,7 +187,8 @@ impl Catalog {
             let component = make(parts, spec)?;
             let handle = ComponentHandle::new(registry, &spec.name, component).map_err(|e| e.to_string())?;
             let handle = if timed { handle.with_handler_timeout(timeout) } else { handle };
-            Ok(handle.child_spec())
+            let child = handle.child_spec();
+            Ok(Made { child, remove: Box::new(move || handle.remove()) })
         });
         self.kinds.insert(kind.to_string(), Kind { place, make });
         self
@@ -205,7 +211,7 @@ impl Catalog {
         parts: &Parts<'_>,
         spec: &ComponentSpec,
         handler_timeout: Duration,
-    ) -> Result<ChildSpec, MakeError> {
+    ) -> Result<Made, MakeError> {
         let error = |message: String| MakeError {
             component: spec.name.clone(),
             kind: spec.kind().to_string(),

@@ -63,12 +63,18 @@ pub enum AssemblyError {
 }
 
 /// A system brought up in this process.
-#[derive(Debug)]
 pub struct System {
     /// The supervisor of this process's components.
     pub supervisor: SupervisorRef,
     /// The names of the components this process hosts, in start order.
     pub components: Vec<String>,
+    removers: Vec<Box<dyn Fn() + Send + Sync>>,
+}
+
+impl std::fmt::Debug for System {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("System").field("components", &self.components).finish_non_exhaustive()
+    }
 }
 
 impl System {
@@ -87,9 +93,12 @@ impl System {
     }
 
     /// Stops every component of this process (the robot server stops the motors and waits
-    /// for the axes).
+    /// for the axes) and takes them out of the registry.
     pub async fn shutdown(self) {
         self.supervisor.shutdown().await;
+        for remove in &self.removers {
+            remove();
+        }
     }
 }
 
@@ -206,16 +215,37 @@ impl<'a> SystemBuilder<'a> {
         if let Some(sink) = self.on_event.clone() {
             spec = spec.with_event_sink(move |e| sink(e));
         }
+        // Whatever fails, nothing made is left registered and nothing started is left running.
+        let mut removers: Vec<Box<dyn Fn() + Send + Sync>> = Vec::new();
+        let undo = |removers: &[Box<dyn Fn() + Send + Sync>]| removers.iter().for_each(|r| r());
         for c in &hosted {
-            spec = spec.with_child(self.catalog.make(registry, &parts, c, timeout)?);
+            match self.catalog.make(registry, &parts, c, timeout) {
+                Ok(made) => {
+                    spec = spec.with_child(made.child);
+                    removers.push(made.remove);
+                }
+                Err(e) => {
+                    undo(&removers);
+                    return Err(e.into());
+                }
+            }
         }
-        let supervisor = Supervisor::start(spec)
-            .await
-            .map_err(|e| AssemblyError::Start { name: self.name.clone(), message: e.to_string() })?;
+        let supervisor = match Supervisor::start(spec).await {
+            Ok(s) => s,
+            Err(e) => {
+                undo(&removers);
+                return Err(AssemblyError::Start { name: self.name.clone(), message: e.to_string() });
+            }
+        };
+        let components = hosted.iter().map(|c| c.name.clone()).collect();
+        let system = System { supervisor, components, removers };
         for c in &hosted {
-            configure(registry, c).await?;
+            if let Err(e) = configure(registry, c).await {
+                system.shutdown().await;
+                return Err(e);
+            }
         }
-        Ok(System { supervisor, components: hosted.iter().map(|c| c.name.clone()).collect() })
+        Ok(system)
     }
 }
 
