@@ -1,10 +1,12 @@
 //! The link cut: fault injection that cuts this process off from the processes of a role while
 //! the zenoh session stays up (see [`ZenohTransport::cut_link`](crate::ZenohTransport::cut_link)).
 //!
-//! [`Gate`] holds the cut roles, the requests held from cut processes and the counts of what
-//! the cut kept from crossing. The checks on a message's path, which know a sender by the zenoh
-//! id in its attachment and its role by its process token, are methods of [`Inner`] here.
+//! [`ZenohTransport`]'s methods that cut, restore and report the cut are here. [`Gate`] holds
+//! the cut roles, the requests held from cut processes and the counts of what the cut kept from
+//! crossing. The checks on a message's path, which know a sender by the zenoh id in its
+//! attachment and its role by its process token, are methods of [`Inner`] here.
 
+use crate::ZenohTransport;
 use crate::serve::Audience;
 use crate::session::Inner;
 use orsa_actors::addr::ServiceAddr;
@@ -96,6 +98,70 @@ impl Gate {
             dropped_in: self.dropped_in.load(Ordering::Relaxed),
             withheld_out: self.withheld_out.load(Ordering::Relaxed),
         }
+    }
+}
+
+impl ZenohTransport {
+    /// Cuts (`cut = true`) or restores the link between this process and every process of
+    /// `role` (`executive`, `teleop`, `tool`, ...), while the zenoh session stays up: for fault
+    /// injection, a partition that zenoh's lease does not see, since liveliness tokens stay.
+    ///
+    /// While a role is cut, this process:
+    /// - drops on arrival every message, stream update, firing, heartbeat and reply that a
+    ///   process of that role sent (known by the sender's zenoh id in the attachment, and its
+    ///   role by its process token);
+    /// - holds unanswered every request (Query, State, Wiring, subscription and activation
+    ///   control) from such a process, as if it were lost: the requester times out;
+    /// - does not send what is addressed to a service such a process hosts: a Send message is
+    ///   lost, a request fails with [`PatternError::Timeout`](orsa_actors::PatternError::Timeout)
+    ///   after its timeout, a subscription or activation request is not sent (it is sent again
+    ///   on restore);
+    /// - does not publish stream updates and firings whose every subscriber is such a process.
+    ///
+    /// Limits: the session, its liveliness tokens and zenoh's keep-alives go on (that is the
+    /// point); a push stream shared by a cut and an uncut subscriber (same service, same
+    /// every-n-th) still reaches both; this process's own heartbeat still goes out to every
+    /// peer; a message without the sender's id (a client that is not orsa's) is not gated; a
+    /// process whose token this process has not seen is not recognised. The cut is one
+    /// process's view: peers of the cut role still talk to each other.
+    pub fn cut_link(&self, role: &str, cut: bool) {
+        let inner = &self.inner;
+        if !inner.gate.set(role, cut) {
+            return;
+        }
+        tracing::info!(role, cut, "link cut");
+        if !cut {
+            // Requests held while cut are answered with nothing: the requesters have timed out.
+            inner.gate.release(role);
+            // Subscriptions and activations held at that role's services are asked for again.
+            let hosts: BTreeSet<String> = inner
+                .processes
+                .read()
+                .iter()
+                .filter(|(_, r)| r.as_str() == role)
+                .map(|(z, _)| z.clone())
+                .collect();
+            let addrs: Vec<ServiceAddr> = inner
+                .remote
+                .read()
+                .values()
+                .filter(|a| hosts.contains(&a.host))
+                .map(|a| a.addr.clone())
+                .collect();
+            for a in addrs {
+                inner.renew(&a);
+            }
+        }
+    }
+
+    /// The roles whose link is cut now.
+    pub fn cut_roles(&self) -> Vec<String> {
+        self.inner.gate.roles()
+    }
+
+    /// What link cuts kept from crossing so far.
+    pub fn link_cut_stats(&self) -> LinkCutStats {
+        self.inner.gate.stats()
     }
 }
 

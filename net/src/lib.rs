@@ -29,16 +29,18 @@
 //! while the zenoh session stays up (fault injection, see [`gate`](ZenohTransport::cut_link)).
 //! A process may also publish a heartbeat ([`NetOptions::heartbeat`], [`ZenohTransport::on_heartbeat`])
 //! so that a peer notices a silent link faster than zenoh's lease.
-
-//! Modules, one concern each:
-//! - `control`: the control messages peers exchange ([`SubscribeRequest`], [`ActivateRequest`]);
-//! - `session`: the zenoh session and discovery ([`ZenohTransport::open`], peers' tokens,
-//!   [`NetStats`]);
-//! - `serve`: offering this process's services to peers (queryables, push streams,
-//!   activations, publishers);
-//! - `transport`: the client side, orsa's `Transport` seam over zenoh;
-//! - `keys`: the key expressions; `options`: how to join ([`NetOptions`]); `gate`: cutting
-//!   links on purpose ([`ZenohTransport::cut_link`]); `heartbeat`: the executive's heartbeat.
+//!
+//! ## Modules
+//!
+//! One concern each:
+//! - `control`: the control messages peers exchange ([`SubscribeRequest`], [`ActivateRequest`]).
+//! - `session`: the zenoh session and discovery ([`ZenohTransport::open`], peers' tokens, [`NetStats`]).
+//! - `serve`: offering this process's services to peers (queryables, push streams, activations, outlets).
+//! - `transport`: the client side, orsa's `Transport` seam over zenoh (send, request, subscribe, activate).
+//! - `gate`: cutting links on purpose ([`ZenohTransport::cut_link`], [`LinkCutStats`]).
+//! - `heartbeat`: the heartbeat a process publishes and peers watch ([`ZenohTransport::on_heartbeat`]).
+//! - `keys`: the key expressions every pattern travels on ([`Keys`]).
+//! - `options`: how a process joins the zenoh network ([`NetOptions`], [`NetError`]).
 
 mod control;
 mod gate;

@@ -296,7 +296,8 @@ pub(crate) enum Audience {
 /// publisher is matched, puts go through the session instead, which does not filter; after
 /// that, through the publisher. (The first Sends and pushes still lost now and then after
 /// discovery were dropped by zenoh's congestion control, not by the filter: the publisher was
-/// matched within microseconds; see the queue size in [`NetOptions::zenoh_config`].)
+/// matched within microseconds; see the queue size in
+/// [`NetOptions::zenoh_config`](crate::NetOptions::zenoh_config).)
 pub(crate) struct Outlet {
     pub(crate) publisher: zenoh::pubsub::Publisher<'static>,
     pub(crate) congestion: CongestionControl,

@@ -3,7 +3,6 @@
 //! process holds at a peer when its service comes back, and the transport's traffic figures.
 
 use crate::gate::Gate;
-use crate::gate::LinkCutStats;
 use crate::keys::{Announced, Keys, Process};
 use crate::options::{NetError, NetOptions};
 use crate::serve::{Export, Outlet};
@@ -12,7 +11,7 @@ use orsa_actors::wire::{Reply, decode, encode};
 use orsa_actors::{PatternError, PatternResult, Registry};
 use parking_lot::{Mutex, RwLock};
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -265,67 +264,6 @@ impl ZenohTransport {
     /// Calls `f` whenever a peer process appears.
     pub fn on_process_found(&self, f: impl Fn(&Process) + Send + Sync + 'static) {
         self.inner.on_process_found.lock().push(Box::new(f));
-    }
-
-    /// Cuts (`cut = true`) or restores the link between this process and every process of
-    /// `role` (`executive`, `teleop`, `tool`, ...), while the zenoh session stays up: for fault
-    /// injection, a partition that zenoh's lease does not see, since liveliness tokens stay.
-    ///
-    /// While a role is cut, this process:
-    /// - drops on arrival every message, stream update, firing, heartbeat and reply that a
-    ///   process of that role sent (known by the sender's zenoh id in the attachment, and its
-    ///   role by its process token);
-    /// - holds unanswered every request (Query, State, Wiring, subscription and activation
-    ///   control) from such a process, as if it were lost: the requester times out;
-    /// - does not send what is addressed to a service such a process hosts: a Send message is
-    ///   lost, a request fails with [`PatternError::Timeout`] after its timeout, a
-    ///   subscription or activation request is not sent (it is sent again on restore);
-    /// - does not publish stream updates and firings whose every subscriber is such a process.
-    ///
-    /// Limits: the session, its liveliness tokens and zenoh's keep-alives go on (that is the
-    /// point); a push stream shared by a cut and an uncut subscriber (same service, same
-    /// every-n-th) still reaches both; this process's own heartbeat still goes out to every
-    /// peer; a message without the sender's id (a client that is not orsa's) is not gated; a
-    /// process whose token this process has not seen is not recognised. The cut is one
-    /// process's view: peers of the cut role still talk to each other.
-    pub fn cut_link(&self, role: &str, cut: bool) {
-        let inner = &self.inner;
-        if !inner.gate.set(role, cut) {
-            return;
-        }
-        tracing::info!(role, cut, "link cut");
-        if !cut {
-            // Requests held while cut are answered with nothing: the requesters have timed out.
-            inner.gate.release(role);
-            // Subscriptions and activations held at that role's services are asked for again.
-            let hosts: BTreeSet<String> = inner
-                .processes
-                .read()
-                .iter()
-                .filter(|(_, r)| r.as_str() == role)
-                .map(|(z, _)| z.clone())
-                .collect();
-            let addrs: Vec<ServiceAddr> = inner
-                .remote
-                .read()
-                .values()
-                .filter(|a| hosts.contains(&a.host))
-                .map(|a| a.addr.clone())
-                .collect();
-            for a in addrs {
-                inner.renew(&a);
-            }
-        }
-    }
-
-    /// The roles whose link is cut now.
-    pub fn cut_roles(&self) -> Vec<String> {
-        self.inner.gate.roles()
-    }
-
-    /// What link cuts kept from crossing so far.
-    pub fn link_cut_stats(&self) -> LinkCutStats {
-        self.inner.gate.stats()
     }
 
     /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
