@@ -25,7 +25,7 @@
 //! clock, every later read of tokio's clock takes a slower path (tokio's `test-util`), which
 //! would tax orsa's stamps and not the raw baselines. The simulation parts, which pause it, each
 //! run in a fresh process of their own (see `part`), as a user's program would.
-
+//!
 //! Modules: `inproc` (in-process patterns against raw ractor and tokio), `fanout`, `sense`
 //! (sense to act), `net` and `peer` (across processes), `sim` and `part` (simulation speed and
 //! scale, each part in a fresh process), `probe` and `stats` (timing), `render` (the tables).
@@ -605,9 +605,9 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         orsa_version: env!("CARGO_PKG_VERSION").to_string(),
         machine: machine(),
         command: if opts.quick {
-            "cargo run --release -- bench --quick"
+            "cargo run --release -p orsa-bench -- --quick"
         } else {
-            "cargo run --release -- bench"
+            "cargo run --release -p orsa-bench"
         }
         .to_string(),
         wall_s: 0.0,

@@ -251,7 +251,7 @@ pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 // ---- the peer process ------------------------------------------------------------------------
 
-/// This binary, `bench --peer ENDPOINT`.
+/// This binary, `orsa-bench --peer ENDPOINT`.
 pub(crate) fn exe_launcher(endpoint: &str) -> anyhow::Result<Command> {
     super::this_program("--peer", endpoint)
 }

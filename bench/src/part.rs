@@ -118,7 +118,7 @@ pub(crate) fn serve(spec: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// This binary, `bench --sim-part SPEC`.
+/// This binary, `orsa-bench --sim-part SPEC`.
 pub(crate) fn exe_launcher(spec: &str) -> anyhow::Result<Command> {
     super::this_program("--sim-part", spec)
 }

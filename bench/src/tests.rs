@@ -47,7 +47,7 @@ fn sample_report() -> BenchReport {
         quick: true,
         orsa_version: "0".into(),
         machine: machine(),
-        command: "cargo run --release -- bench --quick".into(),
+        command: "cargo run --release -p orsa-bench -- --quick".into(),
         wall_s: 1.0,
         latency: vec![
             row(inproc::ORSA_PUSH, Some(inproc::RACTOR_CAST), 1200.0, Some(1.2)),
@@ -211,7 +211,7 @@ fn sense_to_act_attributes_commands_in_a_short_real_time_run() {
 /// The environment variable that makes [`peer_process`] serve as the peer.
 const PEER_ENV: &str = "ORSA_BENCH_TEST_PEER";
 
-/// In tests this binary is the test harness, which has no `bench --peer`: the peer is this
+/// In tests this binary is the test harness, which has no `--peer`: the peer is this
 /// harness again, running only [`peer_process`].
 fn test_launcher(endpoint: &str) -> anyhow::Result<std::process::Command> {
     this_harness("tests::peer_process", PEER_ENV, endpoint)
