@@ -14,6 +14,7 @@ use orsa_actors::ServiceAddr;
 use orsa_actors::event::{EventMode, EventServer};
 use orsa_actors::query::{QueryRequest, QueryServer};
 use orsa_actors::send::SendServer;
+use orsa_actors::service::{EventService, QueryService, SendService};
 use orsa_actors::state::{StateRequest, StateSlave, StateSpec, StateStatus};
 use orsa_actors::transport::ByteSink;
 use orsa_actors::wire::{
@@ -33,6 +34,17 @@ use std::sync::{Arc, Mutex};
 
 /// The UNIX time of the test clocks' epoch (2024-01-01), so stamps are mapped as between hosts.
 const EPOCH_UNIX_NS: u64 = 1_704_067_200_000_000_000;
+
+/// Poses sent to a robot.
+const POSE: SendService<Pose> = SendService::new("pose");
+/// The length of a pose's label.
+const LABELS: QueryService<Pose, u64> = QueryService::new("labels");
+/// Speed commands to a robot: the one target a behaviour's `vel` port can have.
+const SPEED: SendService<f64> = SendService::new("speed");
+/// Fires to activations whose pose's label is no longer than the state.
+const NEAR: EventService<Pose, u64> = EventService::new("near");
+/// A plain Send service, for the operations it does not have.
+const SEND: SendService<u64> = SendService::new("send");
 
 /// A runner for `cases` cases (unless `PROPTEST_CASES` says otherwise), with a fixed seed
 /// unless `PROPTEST_RNG_SEED` gives one, writing no regression files.
@@ -560,8 +572,7 @@ fn send_server_delivers_what_decodes_and_refuses_the_rest() {
     let registry = Registry::with_clock(test_clock());
     let (tx, rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<Pose>>();
     let _server =
-        SendServer::<Pose>::register(&registry, ServiceAddr::new("robot", "pose"), Sink::channel(tx))
-            .expect("server");
+        SendServer::<Pose>::register(&registry, POSE.on("robot"), Sink::channel(tx)).expect("server");
     let served = served(&registry, "robot/pose");
     let rx = Mutex::new(rx);
     let clock = registry.clock();
@@ -599,8 +610,7 @@ fn query_server_answers_every_request_with_a_reply() {
         let _ = q.answer(n);
         Ok(())
     });
-    let _server = QueryServer::<Pose, u64>::register(&registry, ServiceAddr::new("calc", "labels"), answer)
-        .expect("server");
+    let _server = QueryServer::<Pose, u64>::register(&registry, LABELS.on("calc"), answer).expect("server");
     let served = served(&registry, "calc/labels");
     let clock = registry.clock();
     let valid = stamped_encodings(pose(), clock);
@@ -684,8 +694,7 @@ fn wiring_slave_answers_every_request_with_a_reply() {
     let registry = rt.block_on(async { Registry::with_clock(test_clock()) });
     let (tx, _rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
     let _speed =
-        SendServer::<f64>::register(&registry, ServiceAddr::new("robot", "speed"), Sink::channel(tx))
-            .expect("server");
+        SendServer::<f64>::register(&registry, SPEED.on("robot"), Sink::channel(tx)).expect("server");
     let slave = WiringSlave::register(&registry, "behaviour").expect("slave");
     let _vel = slave.send_port::<f64>("vel").expect("port");
     let served = served(&registry, "behaviour/wiring");
@@ -739,12 +748,11 @@ fn event_server_activates_what_decodes_and_refuses_the_rest() {
     let rt = paused_runtime();
     let _enter = rt.enter();
     let registry = Registry::with_clock(test_clock());
-    let server = EventServer::<Pose, u64, u64>::register(
-        &registry,
-        ServiceAddr::new("robot", "near"),
-        |p: &mut Pose, s: &u64| (p.label.len() as u64 <= *s).then_some(*s),
-    )
-    .expect("server");
+    let server =
+        EventServer::<Pose, u64, u64>::register(&registry, NEAR.on("robot"), |p: &mut Pose, s: &u64| {
+            (p.label.len() as u64 <= *s).then_some(*s)
+        })
+        .expect("server");
     let served = served(&registry, "robot/near");
     let clock = registry.clock();
     let valid = (0..u64::MAX / 2, ".{0,8}", any::<f64>())
@@ -802,7 +810,7 @@ fn operations_a_service_does_not_have_are_refused() {
     let _enter = rt.enter();
     let registry = Registry::with_clock(test_clock());
     let (tx, _rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&registry, ServiceAddr::new("a", "send"), Sink::channel(tx)).expect("send");
+    SendServer::<u64>::register(&registry, SEND.on("a"), Sink::channel(tx)).expect("send");
     StateSlave::register(&registry, "a", StateSpec::new()).expect("state");
     let served_send = served(&registry, "a/send");
     let served_state = served(&registry, "a/state");

@@ -6,16 +6,35 @@ use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
 use orsa_actors::push_timed::{PushTimedClient, PushTimedServer, Tick};
 use orsa_actors::query::{QueryClient, QueryRequest, QueryServer};
 use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::service::{
+    EventService, PushNewestService, PushTimedService, QueryService, SendPortDesc, SendService,
+};
 use orsa_actors::state::{StateMaster, StateSlave, StateSpec};
 use orsa_actors::wiring::{WiringMaster, WiringSlave};
 use orsa_actors::{PatternError, Registry, ServiceAddr, Sink, Stamped};
 use orsa_net::{NetOptions, ZenohTransport};
 use std::time::Duration;
 
-/// An untyped address, as a person would type it (the patterns' run-time check across processes).
-fn addr(text: &str) -> ServiceAddr {
-    text.parse().expect("a valid address")
-}
+/// Speed commands to a robot.
+const SPEED: SendService<f64> = SendService::new("speed");
+/// Squares a number.
+const SQUARE: QueryService<u64, u64> = QueryService::new("square");
+/// Odometry ticks.
+const TICKS: PushNewestService<u64> = PushNewestService::new("ticks");
+/// A timed tick count.
+const COUNTER: PushTimedService<u64> = PushTimedService::new("counter");
+/// Distances, fired to activations whose threshold they are below.
+const NEAR: EventService<f64, f64> = EventService::new("near");
+/// A behaviour's speed output.
+const VEL: SendPortDesc<f64> = SendPortDesc::new("vel");
+/// Commands to the robot, across a link that gets cut.
+const CMD: SendService<u64> = SendService::new("cmd");
+/// Echoes a number, across a link that gets cut.
+const ECHO: QueryService<u64, u64> = QueryService::new("echo");
+/// The robot's odometry, across a link that gets cut.
+const ODO: PushNewestService<u64> = PushNewestService::new("odo");
+/// Notes to the executive, across a link that gets cut.
+const NOTE: SendService<u64> = SendService::new("note");
 
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
@@ -46,22 +65,21 @@ const WAIT: Duration = Duration::from_secs(10);
 async fn send_query_and_push_cross_sessions_with_the_local_api() {
     let (a, _ta, b, tb) = pair("t_sqp").await;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
+    SendServer::<f64>::register(&a, SPEED.on("robot"), Sink::channel(tx)).expect("send server");
     let (qtx, mut qrx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::<u64, u64>::register(&a, addr("calc/square"), Sink::channel(qtx)).expect("query server");
+    QueryServer::<u64, u64>::register(&a, SQUARE.on("calc"), Sink::channel(qtx)).expect("query server");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n * n);
         }
     });
-    let push = PushNewestServer::<u64>::register(&a, addr("odo/ticks")).expect("push server");
-    let addrs: Vec<ServiceAddr> =
-        ["robot/speed", "calc/square", "odo/ticks"].iter().map(|s| s.parse().expect("addr")).collect();
+    let push = PushNewestServer::<u64>::register(&a, TICKS.on("odo")).expect("push server");
+    let addrs = [SPEED.on("robot").untyped(), SQUARE.on("calc").untyped(), TICKS.on("odo").untyped()];
     tb.wait_for(&addrs, WAIT).await.expect("discovered");
 
     // Send: delivered in order with the sender's sequence numbers.
-    let send = SendClient::<f64>::connect(&b, addr("robot/speed")).expect("remote send client");
+    let send = SendClient::<f64>::connect(&b, SPEED.on("robot")).expect("remote send client");
     assert!(send.is_remote());
     for v in [0.1, 0.2, 0.3] {
         send.send(v).expect("send");
@@ -72,26 +90,27 @@ async fn send_query_and_push_cross_sessions_with_the_local_api() {
     }
 
     // Query: answered across the link.
-    let query = QueryClient::<u64, u64>::connect(&b, addr("calc/square")).expect("remote query client");
+    let query = QueryClient::<u64, u64>::connect(&b, SQUARE.on("calc")).expect("remote query client");
     assert_eq!(query.query(12, Some(WAIT)).await, Ok(144));
 
-    // Wrong types are refused before a byte is sent, as in process.
+    // Wrong types are refused before a byte is sent, as in process (untyped addresses, as a
+    // person typed them: the check is the registry's, not the compiler's).
     assert!(matches!(
-        SendClient::<u64>::connect(&b, addr("robot/speed")),
+        SendClient::<u64>::connect(&b, SPEED.on("robot").untyped()),
         Err(PatternError::IncompatibleService { .. })
     ));
     assert!(matches!(
-        SendClient::<f64>::connect(&b, addr("robot/nothing")),
+        SendClient::<f64>::connect(&b, ServiceAddr::new("robot", "nothing")),
         Err(PatternError::UnknownService(_))
     ));
 
     // Push newest with every-n-th counted at the source: n = 3 gets the 3rd, 6th, 9th.
-    let client = PushNewestClient::<u64>::connect(&b, addr("odo/ticks")).expect("remote push client");
+    let client = PushNewestClient::<u64>::connect(&b, TICKS.on("odo")).expect("remote push client");
     let (utx, mut urx) = tokio::sync::mpsc::unbounded_channel();
-    let every3 = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&b, addr("odo/ticks"));
+    let every3 = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&b, TICKS.on("odo").untyped());
     assert!(every3.is_err(), "a push newest service is not a push timed one");
     let forwarded =
-        PushNewestClient::<u64>::connect_to(&b, addr("odo/ticks"), Sink::channel(utx)).expect("client");
+        PushNewestClient::<u64>::connect_to(&b, TICKS.on("odo"), Sink::channel(utx)).expect("client");
     client.subscribe().expect("subscribe");
     forwarded.subscribe().expect("subscribe");
     // The subscription reaches the source asynchronously.
@@ -129,7 +148,7 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
     let (tick_tx, mut ticks) = tokio::sync::mpsc::unbounded_channel::<Tick>();
     let server = PushTimedServer::<u64>::register(
         &a,
-        addr("nomad200/counter"),
+        COUNTER.on("nomad200"),
         Duration::from_millis(2),
         Sink::channel(tick_tx),
     )
@@ -140,10 +159,10 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
             producer.put(t.seq);
         }
     });
-    tb.wait_for(&["nomad200/counter".parse().expect("addr")], WAIT).await.expect("discovered");
+    tb.wait_for(&[COUNTER.on("nomad200").untyped()], WAIT).await.expect("discovered");
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let client =
-        PushTimedClient::<u64>::connect_to(&b, addr("nomad200/counter"), Sink::channel(tx)).expect("client");
+        PushTimedClient::<u64>::connect_to(&b, COUNTER.on("nomad200"), Sink::channel(tx)).expect("client");
     client.subscribe(10).expect("subscribe");
     let mut waited = 0;
     while server.stats().subscribers < 1 {
@@ -177,24 +196,25 @@ async fn push_timed_every_nth_is_counted_at_the_source() {
 async fn events_state_and_wiring_cross_sessions() {
     let (a, _ta, b, tb) = pair("t_esw").await;
     let events =
-        EventServer::<f64, f64, f64>::register(&a, addr("nomad200/near"), |limit: &mut f64, d: &f64| {
+        EventServer::<f64, f64, f64>::register(&a, NEAR.on("nomad200"), |limit: &mut f64, d: &f64| {
             (*d < *limit).then_some(*d)
         })
         .expect("event server");
     let slave = StateSlave::register(&a, "wallfollow", StateSpec::new().main_state("active", &["drive"]))
         .expect("state slave");
     let wiring = WiringSlave::register(&a, "wallfollow").expect("wiring slave");
-    let port = wiring.send_port::<f64>("vel").expect("port");
+    let port = wiring.send_port::<f64>(VEL.name()).expect("port");
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
-    let addrs: Vec<ServiceAddr> = ["nomad200/near", "wallfollow/state", "wallfollow/wiring"]
-        .iter()
-        .map(|s| s.parse().expect("addr"))
-        .collect();
+    SendServer::<f64>::register(&a, SPEED.on("robot"), Sink::channel(tx)).expect("send server");
+    let addrs = [
+        NEAR.on("nomad200").untyped(),
+        ServiceAddr::new("wallfollow", "state"),
+        ServiceAddr::new("wallfollow", "wiring"),
+    ];
     tb.wait_for(&addrs, WAIT).await.expect("discovered");
 
     // Event, single shot: fires once, with the client's activation id, then ends.
-    let client = EventClient::<f64, f64>::connect(&b, addr("nomad200/near")).expect("event client");
+    let client = EventClient::<f64, f64>::connect(&b, NEAR.on("nomad200")).expect("event client");
     let mut near = client.activate(EventMode::Single, 0.5).expect("activate");
     let mut waited = 0;
     while events.activations() < 1 {
@@ -228,21 +248,21 @@ async fn events_state_and_wiring_cross_sessions() {
     // Wiring: a remote master wires the slave's port to a service local to the slave.
     let wm = WiringMaster::new(&b);
     assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
-    wm.connect_named("wallfollow", "vel", &addr("robot/speed")).await.expect("wire");
+    wm.connect("wallfollow", VEL, SPEED.on("robot")).await.expect("wire");
     port.send(0.25).expect("wired");
     assert_eq!(rx.recv().await.expect("delivered").value, 0.25);
     assert_eq!(
         wm.ports("wallfollow").await.expect("ports")[0].target,
-        Some("robot/speed".parse().expect("addr"))
+        Some(ServiceAddr::new("robot", "speed"))
     );
     assert_eq!(
-        wm.connect_named("wallfollow", "speed", &addr("robot/speed")).await,
+        wm.connect_named("wallfollow", "speed", &SPEED.on("robot").untyped()).await,
         Err(PatternError::UnknownPort { component: "wallfollow".into(), port: "speed".into() })
     );
-    wm.disconnect_named("wallfollow", "vel").await.expect("unwire");
+    wm.disconnect("wallfollow", VEL).await.expect("unwire");
     assert!(matches!(port.send(0.1), Err(PatternError::Disconnected(_))));
     assert_eq!(
-        wm.connect_named("ghost", "vel", &addr("robot/speed")).await,
+        wm.connect("ghost", VEL, SPEED.on("robot")).await,
         Err(PatternError::UnknownComponent("ghost".into()))
     );
 }
@@ -251,15 +271,15 @@ async fn events_state_and_wiring_cross_sessions() {
 async fn undecodable_messages_are_counted_and_dropped() {
     let (a, ta, _b, tb) = pair("t_bad").await;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
-    SendServer::<f64>::register(&a, addr("robot/speed"), Sink::channel(tx)).expect("send server");
-    tb.wait_for(&["robot/speed".parse().expect("addr")], WAIT).await.expect("discovered");
-    let key = ta.keys().send(&"robot/speed".parse().expect("addr"));
+    SendServer::<f64>::register(&a, SPEED.on("robot"), Sink::channel(tx)).expect("send server");
+    tb.wait_for(&[SPEED.on("robot").untyped()], WAIT).await.expect("discovered");
+    let key = ta.keys().send(&SPEED.on("robot").untyped());
     use zenoh::Wait as _;
     for garbage in [&b"\xff\x00garbage"[..], b"", b"\xa1\x63seq\x01"] {
         tb.session().put(&key, garbage.to_vec()).wait().expect("put");
     }
     // A good message after the garbage still arrives: nothing crashed, nothing was lost.
-    let good = SendClient::<f64>::connect(&_b, addr("robot/speed")).expect("client");
+    let good = SendClient::<f64>::connect(&_b, SPEED.on("robot")).expect("client");
     good.send(0.5).expect("send");
     let got = tokio::time::timeout(WAIT, rx.recv()).await.expect("in time").expect("delivered");
     assert_eq!(got.value, 0.5);
@@ -271,30 +291,29 @@ async fn a_cut_link_drops_holds_and_withholds_both_ways_while_the_sessions_stay_
     let (a, ta, b, tb) = pair("t_cut").await;
     // Hosted by a (role robot), used by b (role executive).
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&a, addr("robot/cmd"), Sink::channel(tx)).expect("send server");
+    SendServer::<u64>::register(&a, CMD.on("robot"), Sink::channel(tx)).expect("send server");
     let (qtx, mut qrx) = tokio::sync::mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::<u64, u64>::register(&a, addr("robot/echo"), Sink::channel(qtx)).expect("query server");
+    QueryServer::<u64, u64>::register(&a, ECHO.on("robot"), Sink::channel(qtx)).expect("query server");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n);
         }
     });
-    let push = PushNewestServer::<u64>::register(&a, addr("robot/odo")).expect("push server");
+    let push = PushNewestServer::<u64>::register(&a, ODO.on("robot")).expect("push server");
     // Hosted by b, used by a.
     let (btx, mut brx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&b, addr("exec/note"), Sink::channel(btx)).expect("send server");
-    let addrs: Vec<ServiceAddr> =
-        ["robot/cmd", "robot/echo", "robot/odo"].iter().map(|s| s.parse().expect("addr")).collect();
+    SendServer::<u64>::register(&b, NOTE.on("exec"), Sink::channel(btx)).expect("send server");
+    let addrs = [CMD.on("robot").untyped(), ECHO.on("robot").untyped(), ODO.on("robot").untyped()];
     tb.wait_for(&addrs, WAIT).await.expect("b sees a");
-    ta.wait_for(&["exec/note".parse().expect("addr")], WAIT).await.expect("a sees b");
+    ta.wait_for(&[NOTE.on("exec").untyped()], WAIT).await.expect("a sees b");
     assert!(ta.wait_for_role("executive", WAIT).await);
 
-    let cmd = SendClient::<u64>::connect(&b, addr("robot/cmd")).expect("client");
-    let echo = QueryClient::<u64, u64>::connect(&b, addr("robot/echo")).expect("client");
-    let note = SendClient::<u64>::connect(&a, addr("exec/note")).expect("client");
+    let cmd = SendClient::<u64>::connect(&b, CMD.on("robot")).expect("client");
+    let echo = QueryClient::<u64, u64>::connect(&b, ECHO.on("robot")).expect("client");
+    let note = SendClient::<u64>::connect(&a, NOTE.on("exec")).expect("client");
     let (otx, mut orx) = tokio::sync::mpsc::unbounded_channel::<orsa_actors::Update<u64>>();
-    let odo = PushNewestClient::<u64>::connect_to(&b, addr("robot/odo"), Sink::channel(otx)).expect("client");
+    let odo = PushNewestClient::<u64>::connect_to(&b, ODO.on("robot"), Sink::channel(otx)).expect("client");
     odo.subscribe().expect("subscribe");
     // Everything flows before the cut (the subscription is in place once a value arrives).
     cmd.send(1).expect("send");

@@ -1,11 +1,16 @@
-use crate::addr;
 use orsa_actors::event::{EventClient, EventMode, EventServer};
+use orsa_actors::service::EventService;
 use orsa_actors::{PatternError, Registry, Sink};
 use tokio::sync::mpsc;
 
+/// Distances, fired to activations whose threshold they are below.
+const NEAR: EventService<f64, f64> = EventService::new("near");
+/// Bumper states, fired to activations whose parameters say so.
+const BUMPED: EventService<OnChange, bool> = EventService::new("bumped");
+
 /// Fires the distance when it is below the activation's threshold.
 fn near(registry: &Registry) -> EventServer<f64, f64, f64> {
-    EventServer::register(registry, addr("nomad200/near"), |limit: &mut f64, d: &f64| {
+    EventServer::register(registry, NEAR.on("nomad200"), |limit: &mut f64, d: &f64| {
         (*d < *limit).then_some(*d)
     })
     .expect("register")
@@ -15,7 +20,7 @@ fn near(registry: &Registry) -> EventServer<f64, f64, f64> {
 async fn event_single_fires_once_then_ends() {
     let registry = Registry::new();
     let server = near(&registry);
-    let client = EventClient::<f64, f64>::connect(&registry, addr("nomad200/near")).expect("connect");
+    let client = EventClient::<f64, f64>::connect(&registry, NEAR.on("nomad200")).expect("connect");
     let mut a = client.activate(EventMode::Single, 0.5).expect("activate");
     assert_eq!(server.put(&0.9), 0);
     assert_eq!(server.put(&0.4), 1);
@@ -30,7 +35,7 @@ async fn event_single_fires_once_then_ends() {
 async fn event_continuous_fires_on_every_match_until_deactivated() {
     let registry = Registry::new();
     let server = near(&registry);
-    let client = EventClient::<f64, f64>::connect(&registry, addr("nomad200/near")).expect("connect");
+    let client = EventClient::<f64, f64>::connect(&registry, NEAR.on("nomad200")).expect("connect");
     let (tx, mut rx) = mpsc::unbounded_channel();
     let id = client.activate_to(EventMode::Continuous, 0.5, Sink::channel(tx)).expect("activate");
     for d in [0.6, 0.4, 0.45, 0.7, 0.1] {
@@ -50,7 +55,7 @@ async fn event_continuous_fires_on_every_match_until_deactivated() {
 async fn event_fires_only_to_the_activations_whose_condition_holds() {
     let registry = Registry::new();
     let server = near(&registry);
-    let c = EventClient::<f64, f64>::connect(&registry, addr("nomad200/near")).expect("connect");
+    let c = EventClient::<f64, f64>::connect(&registry, NEAR.on("nomad200")).expect("connect");
     let mut close = c.activate(EventMode::Continuous, 0.2).expect("activate");
     let mut far = c.activate(EventMode::Continuous, 1.0).expect("activate");
     assert_eq!(server.put(&0.5), 1);
@@ -67,7 +72,8 @@ async fn event_fires_only_to_the_activations_whose_condition_holds() {
 async fn event_client_type_is_checked() {
     let registry = Registry::new();
     let _server = near(&registry);
-    let err = EventClient::<u64, f64>::connect(&registry, addr("nomad200/near")).err();
+    // Untyped, as an address a person typed: the registry, not the compiler, refuses it.
+    let err = EventClient::<u64, f64>::connect(&registry, NEAR.on("nomad200").untyped()).err();
     assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
 }
 
@@ -82,13 +88,13 @@ orsa_actors::comm_object!(OnChange, "orsa.test.OnChange/1");
 async fn event_test_may_keep_state_in_its_parameters_to_fire_on_change() {
     let registry = Registry::new();
     let server =
-        EventServer::<OnChange, bool, bool>::register(&registry, addr("nomad200/bumped"), |p, pressed| {
+        EventServer::<OnChange, bool, bool>::register(&registry, BUMPED.on("nomad200"), |p, pressed| {
             let changed = p.last != Some(*pressed);
             p.last = Some(*pressed);
             changed.then_some(*pressed)
         })
         .expect("register");
-    let client = EventClient::<OnChange, bool>::connect(&registry, addr("nomad200/bumped")).expect("connect");
+    let client = EventClient::<OnChange, bool>::connect(&registry, BUMPED.on("nomad200")).expect("connect");
     let mut a = client.activate(EventMode::Continuous, OnChange::default()).expect("activate");
     let fired: usize = [false, false, true, true, true, false, false].iter().map(|s| server.put(s)).sum();
     assert_eq!(fired, 3, "first state, press, release");
@@ -103,7 +109,7 @@ async fn event_test_may_keep_state_in_its_parameters_to_fire_on_change() {
 async fn event_sinks_and_tests_may_use_the_server_without_deadlock() {
     let registry = Registry::new();
     let server = near(&registry);
-    let client = EventClient::<f64, f64>::connect(&registry, addr("nomad200/near")).expect("connect");
+    let client = EventClient::<f64, f64>::connect(&registry, NEAR.on("nomad200")).expect("connect");
     let inner = server.clone();
     let c2 = client.clone();
     let sink = Sink::from_fn(move |f: orsa_actors::event::Fired<f64>| {

@@ -2,18 +2,24 @@
 //! logged with the moment they were seen and the moment the component was back; message faults
 //! lose, delay or duplicate exactly the messages they should.
 
-use crate::addr;
 use orsa_actors::component::ComponentHandle;
 use orsa_actors::fault::{FaultEventKind, HandlerFault, MessageFault};
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
 use orsa_actors::send::{SendClient, SendServer};
-use orsa_actors::service::SendService;
+use orsa_actors::service::{PushNewestService, SendService};
 use orsa_actors::supervision::{
     Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorRef, SupervisorSpec,
 };
-use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, ServiceAddr, Sink, Stamped};
+use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, Sink, Stamped};
 use std::time::Duration;
 use tokio::sync::mpsc;
+
+/// The numbers the echo component is sent.
+const INPUT: SendService<u64> = SendService::new("input");
+/// Speed commands to a robot.
+const SPEED: SendService<u64> = SendService::new("speed");
+/// Odometry ticks.
+const TICKS: PushNewestService<u64> = PushNewestService::new("ticks");
 
 /// Echoes every number it is sent to a channel.
 struct Echo(mpsc::UnboundedSender<u64>);
@@ -21,7 +27,7 @@ impl Component for Echo {
     type Msg = Stamped<u64>;
     type State = ();
     async fn setup(&self, ctx: &Ctx<Stamped<u64>>) -> Result<(), ComponentError> {
-        ctx.send_server(SendService::<u64>::new("input"), |m| m)?;
+        ctx.send_server(INPUT, |m| m)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<Stamped<u64>>, _: &mut (), m: Stamped<u64>) -> Result<(), ComponentError> {
@@ -73,7 +79,7 @@ fn kinds(registry: &Registry) -> Vec<(String, FaultEventKind)> {
 #[tokio::test(start_paused = true)]
 async fn fault_a_hung_handler_is_detected_by_its_watchdog_and_restarted() {
     let (registry, echo, mut out, mut events, _sup) = supervised_echo().await;
-    let client = SendClient::<u64>::connect(&registry, addr("echo/input")).expect("client");
+    let client = SendClient::<u64>::connect(&registry, INPUT.on("echo")).expect("client");
     let first = echo.instance().expect("running").get_id();
     registry.faults().arm("echo", HandlerFault::Hang);
     let armed_at = registry.now();
@@ -103,7 +109,7 @@ async fn fault_a_hung_handler_is_detected_by_its_watchdog_and_restarted() {
 #[tokio::test(start_paused = true)]
 async fn fault_a_panicking_handler_and_a_killed_instance_are_restarted() {
     let (registry, echo, mut out, mut events, _sup) = supervised_echo().await;
-    let client = SendClient::<u64>::connect(&registry, addr("echo/input")).expect("client");
+    let client = SendClient::<u64>::connect(&registry, INPUT.on("echo")).expect("client");
     registry.faults().arm("echo", HandlerFault::Panic);
     client.send(1).expect("send"); // lost with the panicking instance
     restarted(&mut events).await;
@@ -126,9 +132,9 @@ async fn fault_a_panicking_handler_and_a_killed_instance_are_restarted() {
 async fn fault_messages_are_dropped_delayed_and_duplicated_exactly_while_set() {
     let registry = Registry::new();
     let (tx, mut rx) = mpsc::unbounded_channel::<Stamped<u64>>();
-    SendServer::<u64>::register(&registry, addr("robot/speed"), Sink::channel(tx)).expect("server");
-    let client = SendClient::<u64>::connect(&registry, addr("robot/speed")).expect("client");
-    let speed = addr("robot/speed");
+    SendServer::<u64>::register(&registry, SPEED.on("robot"), Sink::channel(tx)).expect("server");
+    let client = SendClient::<u64>::connect(&registry, SPEED.on("robot")).expect("client");
+    let speed = SPEED.on("robot").untyped();
     let faults = registry.faults();
     let drain = |rx: &mut mpsc::UnboundedReceiver<Stamped<u64>>| {
         std::iter::from_fn(|| rx.try_recv().ok()).map(|m| m.value).collect::<Vec<_>>()
@@ -152,12 +158,12 @@ async fn fault_messages_are_dropped_delayed_and_duplicated_exactly_while_set() {
     assert_eq!((counts[0].1.dropped, counts[0].1.duplicated, counts[0].1.delayed), (1, 1, 1));
 
     // Push updates: a dropped update reaches no subscriber and "newest" still moves on.
-    let push = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("push");
+    let push = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("push");
     let (utx, mut urx) = mpsc::unbounded_channel();
-    let sub = PushNewestClient::<u64>::connect_to(&registry, addr("odo/ticks"), Sink::channel(utx))
-        .expect("client");
+    let sub =
+        PushNewestClient::<u64>::connect_to(&registry, TICKS.on("odo"), Sink::channel(utx)).expect("client");
     sub.subscribe().expect("subscribe");
-    let ticks: ServiceAddr = "odo/ticks".parse().expect("addr");
+    let ticks = TICKS.on("odo").untyped();
     faults.set_message_fault(&ticks, Some(MessageFault::Drop));
     push.put(1);
     faults.set_message_fault(&ticks, Some(MessageFault::Duplicate));
@@ -173,9 +179,9 @@ async fn fault_messages_are_dropped_delayed_and_duplicated_exactly_while_set() {
 async fn fault_a_client_newest_value_skips_lost_updates_and_survives_its_subscription() {
     let registry = Registry::new();
     let faults = registry.faults();
-    let push = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("push");
-    let client = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("client");
-    let ticks: ServiceAddr = "odo/ticks".parse().expect("addr");
+    let push = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("push");
+    let client = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("client");
+    let ticks = TICKS.on("odo").untyped();
     client.subscribe().expect("subscribe");
     push.put(1);
     assert_eq!(client.get_update().expect("update").value, 1);

@@ -2,17 +2,21 @@
 //! failing handler reach the next instance, stale push updates do not; the ledger counts what arrived, what arrived twice,
 //! what a fault dropped, what the sender was told failed, and what vanished.
 
-use crate::addr;
 use orsa_actors::component::ComponentHandle;
 use orsa_actors::fault::{HandlerFault, MessageFault};
 use orsa_actors::ledger::DeliveryCounts;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::send::SendClient;
-use orsa_actors::service::SendService;
+use orsa_actors::service::{Addr, Descriptor, PushNewestService, SendService};
 use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorSpec};
-use orsa_actors::{Component, ComponentError, Ctx, Registry, ServiceAddr, Stamped, Update};
+use orsa_actors::{Component, ComponentError, Ctx, Registry, Stamped, Update};
 use std::time::Duration;
 use tokio::sync::mpsc;
+
+/// The numbers the sink component is sent.
+const INPUT: SendService<u64> = SendService::new("input");
+/// The sensor's readings.
+const READING: PushNewestService<u64> = PushNewestService::new("reading");
 
 enum Msg {
     Input(Stamped<u64>),
@@ -25,8 +29,8 @@ impl Component for Sink2 {
     type Msg = Msg;
     type State = ();
     async fn setup(&self, ctx: &Ctx<Msg>) -> Result<(), ComponentError> {
-        ctx.send_server(SendService::<u64>::new("input"), Msg::Input)?;
-        ctx.subscribe_newest::<u64>(addr("sensor/reading"), Msg::Reading)?;
+        ctx.send_server(INPUT, Msg::Input)?;
+        ctx.subscribe_newest(READING.on("sensor"), Msg::Reading)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<Msg>, _: &mut (), m: Msg) -> Result<(), ComponentError> {
@@ -50,7 +54,7 @@ struct Rig {
 async fn rig() -> Rig {
     let registry = Registry::new();
     registry.ledger().enable(true);
-    let sensor = PushNewestServer::<u64>::register(&registry, addr("sensor/reading")).expect("sensor");
+    let sensor = PushNewestServer::<u64>::register(&registry, READING.on("sensor")).expect("sensor");
     let (tx, out) = mpsc::unbounded_channel();
     let handle = ComponentHandle::new(&registry, "sink", Sink2(tx))
         .expect("add")
@@ -65,13 +69,12 @@ async fn rig() -> Rig {
         .with_child(handle.child_spec());
     // The supervisor lives as long as the runtime: the test ends it.
     std::mem::forget(Supervisor::start(spec).await.expect("supervisor"));
-    let input = SendClient::<u64>::connect(&registry, addr("sink/input")).expect("client");
+    let input = SendClient::<u64>::connect(&registry, INPUT.on("sink")).expect("client");
     Rig { registry, handle, out, events, sensor, input }
 }
 
-fn counts(registry: &Registry, service: &str) -> DeliveryCounts {
-    let (component, service) = service.split_once('/').expect("component/service");
-    let addr = ServiceAddr::new(component, service);
+fn counts<D: Descriptor>(registry: &Registry, service: Addr<D>) -> DeliveryCounts {
+    let addr = service.untyped();
     registry.ledger().counts().into_iter().find(|(a, _, _)| *a == addr).map(|(_, _, c)| c).unwrap_or_default()
 }
 
@@ -107,10 +110,10 @@ async fn ledger_messages_queued_behind_a_hung_handler_reach_the_next_instance() 
     let readings: Vec<u64> = got.iter().filter(|(k, _)| *k == 'r').map(|(_, v)| *v).collect();
     assert_eq!(inputs, vec![2, 3, 4, 5, 6, 7], "queued commands first, in order, then the new one");
     assert_eq!(readings, vec![107], "stale readings are superseded by the next one, not replayed");
-    let c = counts(&r.registry, "sink/input");
+    let c = counts(&r.registry, INPUT.on("sink"));
     assert_eq!((c.offered, c.delivered, c.lost, c.failed, c.duplicates), (7, 7, 0, 0, 0), "{c:?}");
     assert_eq!(c.redelivered, 5, "2 to 6 went to the next instance");
-    let c = counts(&r.registry, "sensor/reading");
+    let c = counts(&r.registry, READING.on("sensor"));
     assert_eq!((c.offered, c.delivered, c.superseded, c.lost, c.redelivered), (6, 1, 5, 0, 0), "{c:?}");
 }
 
@@ -126,7 +129,7 @@ async fn ledger_a_killed_instance_loses_nothing_queued_and_a_restarting_one_refu
     restarted(&mut r.events).await;
     r.input.send(5).expect("send");
     let got: Vec<u64> = take(&mut r.out, 4).await.into_iter().map(|(_, v)| v).collect();
-    let c = counts(&r.registry, "sink/input");
+    let c = counts(&r.registry, INPUT.on("sink"));
     match refused {
         Err(_) => {
             assert_eq!(got, vec![1, 2, 3, 5]);
@@ -135,7 +138,7 @@ async fn ledger_a_killed_instance_loses_nothing_queued_and_a_restarting_one_refu
         Ok(()) => {
             assert_eq!(got, vec![1, 2, 3, 4], "taken while dying: handed to the next instance");
             assert_eq!(take(&mut r.out, 1).await, vec![('i', 5)]);
-            let c = counts(&r.registry, "sink/input");
+            let c = counts(&r.registry, INPUT.on("sink"));
             assert_eq!((c.offered, c.delivered, c.failed, c.lost), (5, 5, 0, 0), "{c:?}");
         }
     }
@@ -144,7 +147,7 @@ async fn ledger_a_killed_instance_loses_nothing_queued_and_a_restarting_one_refu
 #[tokio::test(start_paused = true)]
 async fn ledger_the_receiver_tells_duplicates_and_the_plan_owns_its_drops() {
     let mut r = rig().await;
-    let addr = ServiceAddr::new("sink", "input");
+    let addr = INPUT.on("sink").untyped();
     r.registry.faults().set_message_fault(&addr, Some(MessageFault::Duplicate));
     r.input.send(1).expect("send");
     r.registry.faults().set_message_fault(&addr, Some(MessageFault::Drop));
@@ -157,7 +160,7 @@ async fn ledger_the_receiver_tells_duplicates_and_the_plan_owns_its_drops() {
     r.input.send_stamped(Stamped { seq: 4, sent_at: r.registry.now(), value: 4 }).expect("send");
     let got: Vec<u64> = take(&mut r.out, 5).await.into_iter().map(|(_, v)| v).collect();
     assert_eq!(got, vec![1, 1, 4, 4, 3], "the delayed one last");
-    let c = counts(&r.registry, "sink/input");
+    let c = counts(&r.registry, INPUT.on("sink"));
     assert_eq!(
         (c.offered, c.copies_injected, c.delivered, c.duplicates, c.dropped, c.lost, c.in_flight()),
         (5, 1, 3, 2, 1, 0, 0),
@@ -178,7 +181,7 @@ async fn ledger_messages_queued_when_a_component_leaves_are_counted_lost() {
     assert!(instance.is_none(), "removing closes the mailbox");
     // The hung instance fails at its handler timeout and drops what it held.
     while r.events.recv().await.expect("supervisor events").kind != SupervisorEventKind::ChildFailed {}
-    let c = counts(&r.registry, "sink/input");
+    let c = counts(&r.registry, INPUT.on("sink"));
     assert_eq!((c.offered, c.delivered, c.lost), (3, 1, 2), "{c:?}");
 }
 
@@ -188,6 +191,6 @@ async fn ledger_counts_nothing_unless_enabled() {
     r.registry.ledger().enable(false);
     r.input.send(1).expect("send");
     r.sensor.put(1);
-    assert_eq!(counts(&r.registry, "sink/input"), DeliveryCounts::default());
-    assert_eq!(counts(&r.registry, "sensor/reading"), DeliveryCounts::default());
+    assert_eq!(counts(&r.registry, INPUT.on("sink")), DeliveryCounts::default());
+    assert_eq!(counts(&r.registry, READING.on("sensor")), DeliveryCounts::default());
 }

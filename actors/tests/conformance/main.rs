@@ -13,7 +13,7 @@ mod state;
 mod tap;
 mod wiring;
 
-use orsa_actors::{ServiceAddr, Stamped, comm_object};
+use orsa_actors::{Stamped, comm_object};
 use serde::{Deserialize, Serialize};
 use tokio::sync::mpsc;
 
@@ -26,12 +26,6 @@ pub struct Velocity {
     pub omega_rad_s: f64,
 }
 comm_object!(Velocity, "orsa.test.Velocity/1");
-
-/// An untyped address, as a person would type it: these tests exercise the patterns' run-time
-/// checks (the typed descriptors are checked by the compiler and tested beside them).
-pub fn addr(text: &str) -> ServiceAddr {
-    text.parse().expect("a valid address")
-}
 
 /// Receives everything from a channel that is there now.
 pub fn drain<T>(rx: &mut mpsc::UnboundedReceiver<Stamped<T>>) -> Vec<Stamped<T>> {

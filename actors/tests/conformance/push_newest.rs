@@ -1,19 +1,21 @@
-use crate::addr;
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::service::PushNewestService;
 use orsa_actors::{PatternError, Registry, Sink, Update};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
+/// Odometry ticks.
+const TICKS: PushNewestService<u64> = PushNewestService::new("ticks");
+
 #[tokio::test(start_paused = true)]
 async fn push_newest_every_subscriber_gets_each_value_in_order() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
     let mut rxs = Vec::new();
     let mut clients = Vec::new();
     for _ in 0..5 {
         let (tx, rx) = mpsc::unbounded_channel::<Update<u64>>();
-        let c =
-            PushNewestClient::connect_to(&registry, addr("odo/ticks"), Sink::channel(tx)).expect("connect");
+        let c = PushNewestClient::connect_to(&registry, TICKS.on("odo"), Sink::channel(tx)).expect("connect");
         c.subscribe().expect("subscribe");
         clients.push(c);
         rxs.push(rx);
@@ -34,8 +36,8 @@ async fn push_newest_every_subscriber_gets_each_value_in_order() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_get_update_is_newest_without_waiting() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
-    let client = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect");
     assert!(matches!(client.get_update(), Err(PatternError::NotActive(_))), "not subscribed yet");
     client.subscribe().expect("subscribe");
     assert_eq!(client.get_update().err(), Some(PatternError::NoData));
@@ -49,8 +51,8 @@ async fn push_newest_get_update_is_newest_without_waiting() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_get_update_wait_waits_for_the_next_value() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
-    let client = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect");
     client.subscribe().expect("subscribe");
     server.put(1);
     let producer = server.clone();
@@ -70,9 +72,9 @@ async fn push_newest_get_update_wait_waits_for_the_next_value() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_unsubscribe_and_drop_stop_deliveries() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
-    let a = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect");
-    let b = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
+    let a = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect");
+    let b = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect");
     a.subscribe().expect("subscribe");
     b.subscribe().expect("subscribe");
     assert_eq!(server.put(1), 2);
@@ -87,17 +89,19 @@ async fn push_newest_unsubscribe_and_drop_stop_deliveries() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_rejects_a_timed_client() {
     let registry = Registry::new();
-    let _server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
-    let err = orsa_actors::push_timed::PushTimedClient::<u64>::connect(&registry, addr("odo/ticks")).err();
+    let _server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
+    // Untyped, as an address a person typed: the registry, not the compiler, refuses it.
+    let err =
+        orsa_actors::push_timed::PushTimedClient::<u64>::connect(&registry, TICKS.on("odo").untyped()).err();
     assert!(matches!(err, Some(PatternError::IncompatibleService { .. })), "{err:?}");
 }
 
 #[tokio::test(start_paused = true)]
 async fn push_newest_wait_ends_when_the_subscription_ends() {
     let registry = Registry::new();
-    let _server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
+    let _server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
     let client =
-        std::sync::Arc::new(PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect"));
+        std::sync::Arc::new(PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect"));
     client.subscribe().expect("subscribe");
     let waiter = {
         let c = client.clone();
@@ -118,7 +122,7 @@ async fn push_newest_wait_ends_when_the_subscription_ends() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_a_sink_may_unsubscribe_while_values_are_delivered() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
     let holder: std::sync::Arc<parking_lot::Mutex<Option<PushNewestClient<u64>>>> = Default::default();
     let h = holder.clone();
     let sink = Sink::from_fn(move |u: Update<u64>| {
@@ -128,7 +132,7 @@ async fn push_newest_a_sink_may_unsubscribe_while_values_are_delivered() {
         }
         Ok(())
     });
-    let client = PushNewestClient::connect_to(&registry, addr("odo/ticks"), sink).expect("connect");
+    let client = PushNewestClient::connect_to(&registry, TICKS.on("odo"), sink).expect("connect");
     client.subscribe().expect("subscribe");
     *holder.lock() = Some(client);
     assert_eq!(server.put(1), 1);
@@ -140,8 +144,8 @@ async fn push_newest_a_sink_may_unsubscribe_while_values_are_delivered() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn push_newest_newest_only_moves_forward_under_concurrent_publishers() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
-    let client = PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("connect");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
+    let client = PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("connect");
     client.subscribe().expect("subscribe");
     let threads: Vec<_> = (0..4)
         .map(|_| {
@@ -163,18 +167,17 @@ async fn push_newest_newest_only_moves_forward_under_concurrent_publishers() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_stats_count_what_reached_each_subscriber() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
     let (tx, mut rx) = mpsc::unbounded_channel::<Update<u64>>();
-    let open =
-        PushNewestClient::connect_to(&registry, addr("odo/ticks"), Sink::channel(tx)).expect("connect");
+    let open = PushNewestClient::connect_to(&registry, TICKS.on("odo"), Sink::channel(tx)).expect("connect");
     open.subscribe().expect("subscribe");
     let (tx, rx_closed) = mpsc::unbounded_channel::<Update<u64>>();
     let closing =
-        PushNewestClient::connect_to(&registry, addr("odo/ticks"), Sink::channel(tx)).expect("connect");
+        PushNewestClient::connect_to(&registry, TICKS.on("odo"), Sink::channel(tx)).expect("connect");
     closing.subscribe().expect("subscribe");
     let refusing = PushNewestClient::connect_to(
         &registry,
-        addr("odo/ticks"),
+        TICKS.on("odo"),
         Sink::from_fn(|_: Update<u64>| Err(orsa_actors::Undeliverable::Unavailable)),
     )
     .expect("connect");
@@ -193,10 +196,10 @@ async fn push_newest_stats_count_what_reached_each_subscriber() {
 #[tokio::test(start_paused = true)]
 async fn push_newest_reuses_an_update_nobody_holds_and_never_changes_a_held_one() {
     let registry = Registry::new();
-    let server = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("register");
+    let server = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("register");
     let (tx, mut rx) = mpsc::unbounded_channel::<Update<u64>>();
     let client =
-        PushNewestClient::connect_to(&registry, addr("odo/ticks"), Sink::channel(tx)).expect("connect");
+        PushNewestClient::connect_to(&registry, TICKS.on("odo"), Sink::channel(tx)).expect("connect");
     client.subscribe().expect("subscribe");
 
     server.put(1);

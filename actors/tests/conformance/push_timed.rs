@@ -1,10 +1,16 @@
-use crate::addr;
 use orsa_actors::component::spawn;
 use orsa_actors::push_timed::{PushTimedClient, PushTimedServer, Tick};
 use orsa_actors::service::PushTimedService;
 use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, Sink, Update};
 use std::time::Duration;
 use tokio::sync::mpsc;
+
+/// The ir sensor's scans (here its tick count).
+const DISTANCEIR: PushTimedService<u64> = PushTimedService::new("distanceir");
+/// A timed service the test drives by hand.
+const T: PushTimedService<u64> = PushTimedService::new("t");
+/// A timed service whose period is refused.
+const Y: PushTimedService<u64> = PushTimedService::new("y");
 
 /// A sensor server pushing its tick count every 40 ms; it leaves its server handle in `.0`.
 #[derive(Default)]
@@ -13,11 +19,7 @@ impl Component for Ir {
     type Msg = Tick;
     type State = PushTimedServer<u64>;
     async fn setup(&self, ctx: &Ctx<Tick>) -> Result<Self::State, ComponentError> {
-        let s = ctx.push_timed_server(
-            PushTimedService::<u64>::new("distanceir"),
-            Duration::from_millis(40),
-            |t| t,
-        )?;
+        let s = ctx.push_timed_server(DISTANCEIR, Duration::from_millis(40), |t| t)?;
         s.start();
         *self.0.lock() = Some(s.clone());
         Ok(s)
@@ -30,7 +32,7 @@ impl Component for Ir {
 
 fn counted(registry: &Registry, every: u32) -> (PushTimedClient<u64>, mpsc::UnboundedReceiver<Update<u64>>) {
     let (tx, rx) = mpsc::unbounded_channel();
-    let c = PushTimedClient::connect_to(registry, addr("ir/distanceir"), Sink::channel(tx)).expect("connect");
+    let c = PushTimedClient::connect_to(registry, DISTANCEIR.on("ir"), Sink::channel(tx)).expect("connect");
     c.subscribe(every).expect("subscribe");
     (c, rx)
 }
@@ -80,7 +82,7 @@ async fn push_timed_stop_and_start() {
     let (tick_tx, mut ticks) = mpsc::unbounded_channel::<Tick>();
     let server = PushTimedServer::<u64>::register(
         &registry,
-        addr("s/t"),
+        T.on("s"),
         Duration::from_millis(100),
         Sink::channel(tick_tx),
     )
@@ -91,7 +93,7 @@ async fn push_timed_stop_and_start() {
             producer.put(t.seq);
         }
     });
-    let client = PushTimedClient::<u64>::connect(&registry, addr("s/t")).expect("connect");
+    let client = PushTimedClient::<u64>::connect(&registry, T.on("s")).expect("connect");
     client.subscribe(1).expect("subscribe");
     assert!(!server.is_active());
     assert!(matches!(client.get_update_wait().await, Err(PatternError::NotActive(_))), "stopped server");
@@ -118,11 +120,10 @@ async fn push_timed_stop_and_start() {
 async fn push_timed_rejects_zero_every_and_zero_period() {
     let registry = Registry::new();
     let _ir = spawn(&registry, "ir", Ir::default()).await.expect("spawn");
-    let c = PushTimedClient::<u64>::connect(&registry, addr("ir/distanceir")).expect("connect");
+    let c = PushTimedClient::<u64>::connect(&registry, DISTANCEIR.on("ir")).expect("connect");
     assert!(matches!(c.subscribe(0), Err(PatternError::InvalidArgument(_))));
     let (tx, _rx) = mpsc::unbounded_channel();
-    let err =
-        PushTimedServer::<u64>::register(&registry, addr("x/y"), Duration::ZERO, Sink::channel(tx)).err();
+    let err = PushTimedServer::<u64>::register(&registry, Y.on("x"), Duration::ZERO, Sink::channel(tx)).err();
     assert!(matches!(err, Some(PatternError::InvalidArgument(_))));
 }
 
@@ -153,7 +154,7 @@ async fn push_timed_a_tick_handler_may_stop_its_own_server() {
         }
         Ok(())
     });
-    let server = PushTimedServer::<u64>::register(&registry, addr("s/t"), Duration::from_millis(10), sink)
+    let server = PushTimedServer::<u64>::register(&registry, T.on("s"), Duration::from_millis(10), sink)
         .expect("register");
     *slot.lock() = Some(server.clone());
     server.start();
@@ -166,8 +167,7 @@ async fn push_timed_a_tick_handler_may_stop_its_own_server() {
 async fn push_timed_rejects_a_period_too_long_to_schedule() {
     let registry = Registry::new();
     let (tx, _rx) = mpsc::unbounded_channel();
-    let err =
-        PushTimedServer::<u64>::register(&registry, addr("x/y"), Duration::MAX, Sink::channel(tx)).err();
+    let err = PushTimedServer::<u64>::register(&registry, Y.on("x"), Duration::MAX, Sink::channel(tx)).err();
     assert!(matches!(err, Some(PatternError::InvalidArgument(m)) if m.contains("at most")));
 }
 
@@ -177,7 +177,7 @@ impl Component for Listener {
     type Msg = Update<u64>;
     type State = ();
     async fn setup(&self, ctx: &Ctx<Update<u64>>) -> Result<(), ComponentError> {
-        ctx.subscribe_timed::<u64>(addr("ir/distanceir"), 1, |u| u)?;
+        ctx.subscribe_timed(DISTANCEIR.on("ir"), 1, |u| u)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<Update<u64>>, _: &mut (), _: Update<u64>) -> Result<(), ComponentError> {

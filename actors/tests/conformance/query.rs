@@ -1,16 +1,28 @@
-use crate::addr;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::query::{QueryClient, QueryRequest, QueryServer, Responder};
-use orsa_actors::service::{QueryService, SendService};
+use orsa_actors::service::{Addr, QueryService, SendService};
 use orsa_actors::state::StateMaster;
 use orsa_actors::{Component, ComponentError, Ctx, PatternError, Registry, ServiceAddr, Sink};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
+/// Squares a number.
+const SQUARE: QueryService<u64, u64> = QueryService::new("square");
+/// Never answers.
+const NEVER: QueryService<u64, u64> = QueryService::new("never");
+/// Drops every request unanswered.
+const RUDE: QueryService<u64, u64> = QueryService::new("rude");
+/// Answers each request with the sum of it and the next.
+const PAIR: QueryService<u64, u64> = QueryService::new("pair");
+/// Squares a number plus one, by asking `square`.
+const PLUS_ONE_SQUARED: QueryService<u64, u64> = QueryService::new("plus_one_squared");
+/// Starts the blocked component's query.
+const GO: SendService<orsa_actors::Empty> = SendService::new("go");
+
 /// Answers `n` with `n * n` at once.
-fn squarer(registry: &Registry, at: &str) {
+fn squarer(registry: &Registry, at: Addr<QueryService<u64, u64>>) {
     let (tx, mut rx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(registry, addr(at), Sink::channel(tx)).expect("register");
+    QueryServer::register(registry, at, Sink::channel(tx)).expect("register");
     tokio::spawn(async move {
         while let Some(q) = rx.recv().await {
             let n = q.request.value;
@@ -22,8 +34,8 @@ fn squarer(registry: &Registry, at: &str) {
 #[tokio::test(start_paused = true)]
 async fn query_answers_the_request() {
     let registry = Registry::new();
-    squarer(&registry, "calc/square");
-    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/square")).expect("connect");
+    squarer(&registry, SQUARE.on("calc"));
+    let client = QueryClient::<u64, u64>::connect(&registry, SQUARE.on("calc")).expect("connect");
     assert_eq!(client.query(12, None).await, Ok(144));
     assert_eq!(client.query(3, Some(Duration::from_millis(5))).await, Ok(9));
 }
@@ -32,8 +44,8 @@ async fn query_answers_the_request() {
 async fn query_times_out_exactly_on_the_paused_clock() {
     let registry = Registry::new();
     let (tx, _keep) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, addr("calc/never"), Sink::channel(tx)).expect("register");
-    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/never")).expect("connect");
+    QueryServer::register(&registry, NEVER.on("calc"), Sink::channel(tx)).expect("register");
+    let client = QueryClient::<u64, u64>::connect(&registry, NEVER.on("calc")).expect("connect");
     let start = tokio::time::Instant::now();
     assert_eq!(client.query(1, Some(Duration::from_millis(250))).await, Err(PatternError::Timeout));
     assert_eq!(start.elapsed(), Duration::from_millis(250));
@@ -42,8 +54,8 @@ async fn query_times_out_exactly_on_the_paused_clock() {
 #[tokio::test(start_paused = true)]
 async fn query_request_now_collect_later_in_any_order() {
     let registry = Registry::new();
-    squarer(&registry, "calc/square");
-    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/square")).expect("connect");
+    squarer(&registry, SQUARE.on("calc"));
+    let client = QueryClient::<u64, u64>::connect(&registry, SQUARE.on("calc")).expect("connect");
     let mut a = client.request(2).expect("request");
     let b = client.request(3).expect("request");
     assert_eq!(a.try_receive(), Ok(None), "nothing has run yet");
@@ -55,13 +67,13 @@ async fn query_request_now_collect_later_in_any_order() {
 async fn query_dropped_without_answer_is_no_answer() {
     let registry = Registry::new();
     let (tx, mut rx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, addr("calc/rude"), Sink::channel(tx)).expect("register");
+    QueryServer::register(&registry, RUDE.on("calc"), Sink::channel(tx)).expect("register");
     tokio::spawn(async move {
         while let Some(q) = rx.recv().await {
             drop(q);
         }
     });
-    let client = QueryClient::<u64, u64>::connect(&registry, addr("calc/rude")).expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, RUDE.on("calc")).expect("connect");
     assert_eq!(client.query(1, None).await, Err(PatternError::NoAnswer(ServiceAddr::new("calc", "rude"))));
 }
 
@@ -75,7 +87,7 @@ impl Component for Deferred {
     type Msg = DeferredMsg;
     type State = Option<(u64, Responder<u64>)>;
     async fn setup(&self, ctx: &Ctx<DeferredMsg>) -> Result<Self::State, ComponentError> {
-        ctx.query_server(QueryService::<u64, u64>::new("pair"), DeferredMsg::Ask)?;
+        ctx.query_server(PAIR, DeferredMsg::Ask)?;
         Ok(None)
     }
     async fn handle(
@@ -101,7 +113,7 @@ impl Component for Deferred {
 async fn query_server_may_answer_later_after_other_messages() {
     let registry = Registry::new();
     let _c = spawn(&registry, "deferred", Deferred).await.expect("spawn");
-    let client = QueryClient::<u64, u64>::connect(&registry, addr("deferred/pair")).expect("connect");
+    let client = QueryClient::<u64, u64>::connect(&registry, PAIR.on("deferred")).expect("connect");
     let first = client.request(40).expect("request");
     tokio::time::advance(Duration::from_millis(100)).await;
     let second = client.query(2, Some(Duration::from_secs(1))).await;
@@ -118,8 +130,8 @@ impl Component for Forwarder {
     type Msg = ForwarderMsg;
     type State = QueryClient<u64, u64>;
     async fn setup(&self, ctx: &Ctx<ForwarderMsg>) -> Result<Self::State, ComponentError> {
-        ctx.query_server(QueryService::<u64, u64>::new("plus_one_squared"), ForwarderMsg::Ask)?;
-        Ok(ctx.query_client(addr("calc/square"))?)
+        ctx.query_server(PLUS_ONE_SQUARED, ForwarderMsg::Ask)?;
+        Ok(ctx.query_client(SQUARE.on("calc"))?)
     }
     async fn handle(
         &self,
@@ -137,12 +149,12 @@ impl Component for Forwarder {
 #[tokio::test(start_paused = true)]
 async fn query_nested_inside_a_handler_and_from_many_clients() {
     let registry = Registry::new();
-    squarer(&registry, "calc/square");
+    squarer(&registry, SQUARE.on("calc"));
     let _f = spawn(&registry, "fwd", Forwarder).await.expect("spawn");
     let mut waits = Vec::new();
     for i in 0..50u64 {
         let client =
-            QueryClient::<u64, u64>::connect(&registry, addr("fwd/plus_one_squared")).expect("connect");
+            QueryClient::<u64, u64>::connect(&registry, PLUS_ONE_SQUARED.on("fwd")).expect("connect");
         waits.push(tokio::spawn(async move { (i, client.query(i, Some(Duration::from_secs(5))).await) }));
     }
     for w in waits {
@@ -162,7 +174,7 @@ impl Component for Blocked {
     type Msg = BlockedMsg;
     type State = ();
     async fn setup(&self, ctx: &Ctx<BlockedMsg>) -> Result<(), ComponentError> {
-        ctx.send_server(SendService::<orsa_actors::Empty>::new("go"), |_| BlockedMsg::Go)?;
+        ctx.send_server(GO, |_| BlockedMsg::Go)?;
         Ok(())
     }
     async fn handle(
@@ -171,7 +183,7 @@ impl Component for Blocked {
         _: &mut (),
         _msg: BlockedMsg,
     ) -> Result<(), ComponentError> {
-        let client = ctx.query_client::<u64, u64>(addr("calc/never"))?;
+        let client = ctx.query_client(NEVER.on("calc"))?;
         let _ = self.result.send(client.query(1, None).await);
         Ok(())
     }
@@ -181,11 +193,11 @@ impl Component for Blocked {
 async fn query_blocked_in_a_component_is_cancelled_by_deactivation() {
     let registry = Registry::new();
     let (qtx, _keep) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, addr("calc/never"), Sink::channel(qtx)).expect("register");
+    QueryServer::register(&registry, NEVER.on("calc"), Sink::channel(qtx)).expect("register");
     let (tx, mut rx) = mpsc::unbounded_channel();
     let c: ComponentHandle<Blocked> =
         spawn(&registry, "blocked", Blocked { result: tx }).await.expect("spawn");
-    orsa_actors::send::SendClient::connect(&registry, addr("blocked/go"))
+    orsa_actors::send::SendClient::connect(&registry, GO.on("blocked"))
         .expect("connect")
         .send(orsa_actors::Empty {})
         .expect("send");

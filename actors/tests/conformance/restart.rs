@@ -1,15 +1,25 @@
 use crate::Velocity;
-use crate::addr;
 use orsa_actors::component::{ComponentHandle, spawn};
 use orsa_actors::event::{EventMode, EventServer};
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::send::{SendClient, SendServer};
-use orsa_actors::service::{PushTimedService, SendPortDesc, SendService};
+use orsa_actors::service::{EventService, PushTimedService, SendPortDesc, SendService};
 use orsa_actors::supervision::{Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorSpec};
 use orsa_actors::wiring::{SendPort, WiringMaster};
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Sink, Stamped, Update};
 use std::time::Duration;
 use tokio::sync::mpsc;
+
+/// The counter's tick count.
+const COUNT: PushTimedService<u64> = PushTimedService::new("count");
+/// Makes a component panic.
+const CRASH: SendService<Empty> = SendService::new("crash");
+/// Velocity commands to a robot's base.
+const NAVIGATIONVELOCITY: SendService<Velocity> = SendService::new("navigationvelocity");
+/// A behaviour's velocity output.
+const VEL: SendPortDesc<Velocity> = SendPortDesc::new("vel");
+/// Values above the activation's limit.
+const HIGH: EventService<u64, u64> = EventService::new("high");
 
 /// Pushes its tick count every 10 ms.
 struct Counter;
@@ -17,8 +27,7 @@ impl Component for Counter {
     type Msg = Tick;
     type State = PushTimedServer<u64>;
     async fn setup(&self, ctx: &Ctx<Tick>) -> Result<Self::State, ComponentError> {
-        let s =
-            ctx.push_timed_server(PushTimedService::<u64>::new("count"), Duration::from_millis(10), |t| t)?;
+        let s = ctx.push_timed_server(COUNT, Duration::from_millis(10), |t| t)?;
         s.start();
         Ok(s)
     }
@@ -38,9 +47,9 @@ impl Component for Behaviour {
     type Msg = BehaviourMsg;
     type State = SendPort<Velocity>;
     async fn setup(&self, ctx: &Ctx<BehaviourMsg>) -> Result<Self::State, ComponentError> {
-        ctx.subscribe_timed::<u64>(addr("counter/count"), 5, BehaviourMsg::Count)?;
-        ctx.send_server(SendService::<Empty>::new("crash"), |_| BehaviourMsg::Crash)?;
-        Ok(ctx.send_port(SendPortDesc::<Velocity>::new("vel"))?)
+        ctx.subscribe_timed(COUNT.on("counter"), 5, BehaviourMsg::Count)?;
+        ctx.send_server(CRASH, |_| BehaviourMsg::Crash)?;
+        Ok(ctx.send_port(VEL)?)
     }
     async fn handle(
         &self,
@@ -62,7 +71,7 @@ impl Component for Behaviour {
 async fn supervision_restart_restores_wiring_and_subscriptions() {
     let registry = orsa_actors::Registry::new();
     let (mtx, mut motor) = mpsc::unbounded_channel::<Stamped<Velocity>>();
-    SendServer::<Velocity>::register(&registry, addr("nomad200/navigationvelocity"), Sink::channel(mtx))
+    SendServer::<Velocity>::register(&registry, NAVIGATIONVELOCITY.on("nomad200"), Sink::channel(mtx))
         .expect("motor");
     let _counter = spawn(&registry, "counter", Counter).await.expect("spawn counter");
 
@@ -78,7 +87,7 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
     let sup = Supervisor::start(spec).await.expect("supervisor");
     let first = behaviour.instance().expect("running").get_id();
     WiringMaster::new(&registry)
-        .connect_named("wallfollow", "vel", &addr("nomad200/navigationvelocity"))
+        .connect("wallfollow", VEL, NAVIGATIONVELOCITY.on("nomad200"))
         .await
         .expect("wire");
 
@@ -86,7 +95,7 @@ async fn supervision_restart_restores_wiring_and_subscriptions() {
     let mut got: Vec<f64> = std::iter::from_fn(|| motor.try_recv().ok()).map(|m| m.v_m_s).collect();
     assert_eq!(got, vec![5.0, 10.0]);
 
-    SendClient::<Empty>::connect(&registry, addr("wallfollow/crash"))
+    SendClient::<Empty>::connect(&registry, CRASH.on("wallfollow"))
         .expect("connect")
         .send(Empty {})
         .expect("send");
@@ -121,8 +130,8 @@ impl Component for Watcher {
     type Msg = WatcherMsg;
     type State = ();
     async fn setup(&self, ctx: &Ctx<WatcherMsg>) -> Result<(), ComponentError> {
-        ctx.activate_event::<u64, u64>(addr("alarm/high"), EventMode::Continuous, 10, |_| WatcherMsg::Fired)?;
-        ctx.send_server(SendService::<Empty>::new("crash"), |_| WatcherMsg::Crash)?;
+        ctx.activate_event(HIGH.on("alarm"), EventMode::Continuous, 10, |_| WatcherMsg::Fired)?;
+        ctx.send_server(CRASH, |_| WatcherMsg::Crash)?;
         Ok(())
     }
     async fn handle(&self, _: &Ctx<WatcherMsg>, _: &mut (), msg: WatcherMsg) -> Result<(), ComponentError> {
@@ -136,7 +145,7 @@ impl Component for Watcher {
 #[tokio::test(start_paused = true)]
 async fn supervision_restart_keeps_event_activations_without_duplicates() {
     let registry = orsa_actors::Registry::new();
-    let alarm = EventServer::<u64, u64, u64>::register(&registry, addr("alarm/high"), |limit, v| {
+    let alarm = EventServer::<u64, u64, u64>::register(&registry, HIGH.on("alarm"), |limit, v| {
         (*v > *limit).then_some(*v)
     })
     .expect("register");
@@ -151,7 +160,7 @@ async fn supervision_restart_keeps_event_activations_without_duplicates() {
     let _sup = Supervisor::start(spec).await.expect("supervisor");
     assert_eq!(alarm.activations(), 1);
     for _ in 0..3 {
-        SendClient::<Empty>::connect(&registry, addr("watcher/crash"))
+        SendClient::<Empty>::connect(&registry, CRASH.on("watcher"))
             .expect("c")
             .send(Empty {})
             .expect("send");

@@ -1,12 +1,17 @@
-use crate::addr;
 use crate::{Velocity, drain};
 use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::service::SendService;
 use orsa_actors::{PatternError, PatternKind, Registry, ServiceAddr, Sink, Stamped};
 use tokio::sync::mpsc;
 
+/// Velocity commands to a robot's base.
+const NAVIGATIONVELOCITY: SendService<Velocity> = SendService::new("navigationvelocity");
+/// Numbered messages from many clients.
+const IN: SendService<Pair> = SendService::new("in");
+
 fn server(registry: &Registry) -> (SendServer<Velocity>, mpsc::UnboundedReceiver<Stamped<Velocity>>) {
     let (tx, rx) = mpsc::unbounded_channel();
-    let s = SendServer::register(registry, addr("nomad200/navigationvelocity"), Sink::channel(tx))
+    let s = SendServer::register(registry, NAVIGATIONVELOCITY.on("nomad200"), Sink::channel(tx))
         .expect("register");
     (s, rx)
 }
@@ -16,7 +21,7 @@ async fn send_delivers_in_order_with_sequence_numbers_and_stamps() {
     let registry = Registry::new();
     let (srv, mut rx) = server(&registry);
     let client =
-        SendClient::<Velocity>::connect(&registry, addr("nomad200/navigationvelocity")).expect("connect");
+        SendClient::<Velocity>::connect(&registry, NAVIGATIONVELOCITY.on("nomad200")).expect("connect");
     for i in 0..5 {
         client.send(Velocity { v_m_s: f64::from(i) * 0.1, omega_rad_s: 0.0 }).expect("send");
         tokio::time::advance(std::time::Duration::from_millis(10)).await;
@@ -36,7 +41,7 @@ async fn send_delivers_in_order_with_sequence_numbers_and_stamps() {
 async fn send_to_unknown_component_or_service_names_it() {
     let registry = Registry::new();
     let (_srv, _rx) = server(&registry);
-    let err = SendClient::<Velocity>::connect(&registry, addr("nomad201/navigationvelocity")).err();
+    let err = SendClient::<Velocity>::connect(&registry, NAVIGATIONVELOCITY.on("nomad201")).err();
     assert_eq!(err, Some(PatternError::UnknownComponent("nomad201".into())));
     let err = SendClient::<Velocity>::connect(&registry, ServiceAddr::new("nomad200", "velocity")).err();
     assert_eq!(err, Some(PatternError::UnknownService(ServiceAddr::new("nomad200", "velocity"))));
@@ -49,7 +54,8 @@ async fn send_to_unknown_component_or_service_names_it() {
 async fn send_with_another_type_is_an_incompatible_service() {
     let registry = Registry::new();
     let (_srv, _rx) = server(&registry);
-    match SendClient::<f64>::connect(&registry, addr("nomad200/navigationvelocity")) {
+    // Untyped, as an address a person typed: the registry, not the compiler, refuses it.
+    match SendClient::<f64>::connect(&registry, NAVIGATIONVELOCITY.on("nomad200").untyped()) {
         Err(PatternError::IncompatibleService { expected, found, found_pattern, .. }) => {
             assert_eq!(expected, "orsa.F64/1");
             assert_eq!(found, "orsa.test.Velocity/1");
@@ -60,7 +66,7 @@ async fn send_with_another_type_is_an_incompatible_service() {
     // Same type, other pattern.
     match orsa_actors::query::QueryClient::<Velocity, Velocity>::connect(
         &registry,
-        addr("nomad200/navigationvelocity"),
+        NAVIGATIONVELOCITY.on("nomad200").untyped(),
     ) {
         Err(PatternError::IncompatibleService { expected_pattern, found_pattern, .. }) => {
             assert_eq!((expected_pattern, found_pattern), (PatternKind::Query, PatternKind::Send));
@@ -74,7 +80,7 @@ async fn send_to_a_gone_receiver_is_unavailable() {
     let registry = Registry::new();
     let (_srv, rx) = server(&registry);
     let client =
-        SendClient::<Velocity>::connect(&registry, addr("nomad200/navigationvelocity")).expect("connect");
+        SendClient::<Velocity>::connect(&registry, NAVIGATIONVELOCITY.on("nomad200")).expect("connect");
     drop(rx);
     let err = client.send(Velocity { v_m_s: 0.0, omega_rad_s: 0.0 }).err();
     assert_eq!(err, Some(PatternError::Unavailable(ServiceAddr::new("nomad200", "navigationvelocity"))));
@@ -84,10 +90,10 @@ async fn send_to_a_gone_receiver_is_unavailable() {
 async fn send_from_many_clients_at_once_keeps_each_clients_order() {
     let registry = Registry::new();
     let (tx, mut rx) = mpsc::unbounded_channel::<Stamped<Pair>>();
-    SendServer::<Pair>::register(&registry, addr("sink/in"), Sink::channel(tx)).expect("register");
+    SendServer::<Pair>::register(&registry, IN.on("sink"), Sink::channel(tx)).expect("register");
     let mut tasks = Vec::new();
     for c in 0..16u64 {
-        let client = SendClient::<Pair>::connect(&registry, addr("sink/in")).expect("connect");
+        let client = SendClient::<Pair>::connect(&registry, IN.on("sink")).expect("connect");
         tasks.push(tokio::spawn(async move {
             for i in 0..500u64 {
                 client.send(Pair(c, i)).expect("send");

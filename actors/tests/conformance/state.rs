@@ -1,8 +1,11 @@
-use crate::addr;
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::service::PushNewestService;
 use orsa_actors::state::{StateMaster, StateSlave, StateSpec};
 use orsa_actors::{PatternError, Registry};
 use std::time::Duration;
+
+/// The ir sensor's readings.
+const IR: PushNewestService<u64> = PushNewestService::new("ir");
 
 fn slave(registry: &Registry) -> std::sync::Arc<StateSlave> {
     let spec = StateSpec::new().main_state("active", &["drive", "sense"]).main_state("sensing", &["sense"]);
@@ -150,14 +153,14 @@ async fn state_deactivation_aborts_blocking_calls_with_cancelled() {
     let registry = Registry::new();
     let slave = slave(&registry);
     let master = StateMaster::connect(&registry, "wallfollow").expect("master");
-    let _server = PushNewestServer::<u64>::register(&registry, addr("nomad200/ir")).expect("register");
+    let _server = PushNewestServer::<u64>::register(&registry, IR.on("nomad200")).expect("register");
     // An activity waiting for a substate, and one waiting for data: both blocking calls.
     let h = slave.handle();
     let acquiring = tokio::spawn(async move { h.acquire("drive").await.map(|_| ()) });
     let cancel = slave.cancel_token();
     let registry2 = registry.clone();
     let waiting = tokio::spawn(async move {
-        let c = PushNewestClient::<u64>::connect(&registry2, addr("nomad200/ir"))?;
+        let c = PushNewestClient::<u64>::connect(&registry2, IR.on("nomad200"))?;
         c.subscribe()?;
         cancel.guard(c.get_update_wait()).await.map(|_| ())
     });

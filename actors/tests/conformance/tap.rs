@@ -1,8 +1,8 @@
-use crate::addr;
 use orsa_actors::event::{EventClient, EventMode, EventServer};
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
 use orsa_actors::query::{QueryClient, QueryRequest, QueryServer};
 use orsa_actors::send::{SendClient, SendServer};
+use orsa_actors::service::{EventService, PushNewestService, QueryService, SendPortDesc, SendService};
 use orsa_actors::state::{StateMaster, StateSlave, StateSpec};
 use orsa_actors::tap::Tap;
 use orsa_actors::wiring::{WiringMaster, WiringSlave};
@@ -10,6 +10,17 @@ use orsa_actors::{Registry, Sink, Timestamp};
 use parking_lot::Mutex;
 use std::sync::Arc;
 use tokio::sync::mpsc;
+
+/// Speed commands to a robot.
+const SPEED: SendService<u64> = SendService::new("speed");
+/// Squares a number.
+const SQUARE: QueryService<u64, u64> = QueryService::new("square");
+/// Odometry ticks.
+const TICKS: PushNewestService<u64> = PushNewestService::new("ticks");
+/// Values above the activation's limit.
+const HIGH: EventService<u64, u64> = EventService::new("high");
+/// A behaviour's speed output.
+const VEL: SendPortDesc<u64> = SendPortDesc::new("vel");
 
 #[derive(Default)]
 struct Log(Mutex<Vec<(String, String, serde_json::Value)>>);
@@ -28,35 +39,35 @@ async fn tap_sees_every_pattern_message_once_with_its_topic() {
     registry.set_tap(Some(log.clone()));
 
     let (stx, _srx) = mpsc::unbounded_channel();
-    SendServer::<u64>::register(&registry, addr("robot/speed"), Sink::channel(stx)).expect("send");
-    SendClient::<u64>::connect(&registry, addr("robot/speed")).expect("c").send(7).expect("send");
+    SendServer::<u64>::register(&registry, SPEED.on("robot"), Sink::channel(stx)).expect("send");
+    SendClient::<u64>::connect(&registry, SPEED.on("robot")).expect("c").send(7).expect("send");
 
     let (qtx, mut qrx) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
-    QueryServer::register(&registry, addr("calc/square"), Sink::channel(qtx)).expect("query");
+    QueryServer::register(&registry, SQUARE.on("calc"), Sink::channel(qtx)).expect("query");
     tokio::spawn(async move {
         while let Some(q) = qrx.recv().await {
             let n = q.request.value;
             let _ = q.answer(n * n);
         }
     });
-    QueryClient::<u64, u64>::connect(&registry, addr("calc/square"))
+    QueryClient::<u64, u64>::connect(&registry, SQUARE.on("calc"))
         .expect("c")
         .query(3, None)
         .await
         .expect("answer");
 
-    let push = PushNewestServer::<u64>::register(&registry, addr("odo/ticks")).expect("push");
+    let push = PushNewestServer::<u64>::register(&registry, TICKS.on("odo")).expect("push");
     let subs: Vec<_> =
-        (0..3).map(|_| PushNewestClient::<u64>::connect(&registry, addr("odo/ticks")).expect("c")).collect();
+        (0..3).map(|_| PushNewestClient::<u64>::connect(&registry, TICKS.on("odo")).expect("c")).collect();
     for s in &subs {
         s.subscribe().expect("subscribe");
     }
     push.put(5);
 
     let ev =
-        EventServer::<u64, u64, u64>::register(&registry, addr("alarm/high"), |l, v| (*v > *l).then_some(*v))
+        EventServer::<u64, u64, u64>::register(&registry, HIGH.on("alarm"), |l, v| (*v > *l).then_some(*v))
             .expect("ev");
-    let _a = EventClient::<u64, u64>::connect(&registry, addr("alarm/high"))
+    let _a = EventClient::<u64, u64>::connect(&registry, HIGH.on("alarm"))
         .expect("c")
         .activate(EventMode::Single, 1)
         .expect("a");
@@ -64,8 +75,8 @@ async fn tap_sees_every_pattern_message_once_with_its_topic() {
 
     StateSlave::register(&registry, "beh", StateSpec::new().main_state("active", &["go"])).expect("state");
     StateMaster::connect(&registry, "beh").expect("m").set_state("active").await.expect("set");
-    WiringSlave::register(&registry, "beh2").expect("w").send_port::<u64>("vel").expect("port");
-    WiringMaster::new(&registry).connect_named("beh2", "vel", &addr("robot/speed")).await.expect("wire");
+    WiringSlave::register(&registry, "beh2").expect("w").send_port::<u64>(VEL.name()).expect("port");
+    WiringMaster::new(&registry).connect("beh2", VEL, SPEED.on("robot")).await.expect("wire");
 
     registry.set_tap(None);
     push.put(6);
