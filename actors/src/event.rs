@@ -30,6 +30,7 @@
 use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::clock::Clock;
 use crate::comm::CommObject;
+use crate::door::{Door, Duplicate, Pass};
 use crate::error::{PatternError, PatternResult};
 use crate::registry::{Registry, Remote, Resolved};
 use crate::service::EventService;
@@ -62,6 +63,12 @@ pub struct Fired<E> {
     pub event: Stamped<E>,
 }
 
+impl<E: Clone> Duplicate for Fired<E> {
+    fn duplicate(&self) -> Self {
+        self.clone()
+    }
+}
+
 struct Activation<P, E> {
     mode: EventMode,
     params: P,
@@ -69,14 +76,12 @@ struct Activation<P, E> {
 }
 
 pub(crate) struct EventEndpoint<P, E> {
-    addr: ServiceAddr,
-    topic: String,
-    tap: crate::tap::TapSlot,
+    /// Where each firing is tapped, faulted and handed over with its receipt.
+    door: Door,
     clock: Clock,
     activations: Mutex<BTreeMap<ActivationId, Activation<P, E>>>,
     next_id: AtomicU64,
     seq: AtomicU64,
-    account: crate::ledger::Account,
 }
 
 impl<P: CommObject, E: CommObject> EventEndpoint<P, E> {
@@ -112,7 +117,7 @@ impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
         let params: P = crate::wire::decode_on(&self.clock, params, P::ID)
-            .map_err(|e| PatternError::Decode(format!("activation of {}: {e}", self.addr)))?;
+            .map_err(|e| PatternError::Decode(format!("activation of {}: {e}", self.door.addr())))?;
         let clock = self.clock;
         let wire_sink = Sink::from_fn(move |f: Fired<E>| {
             let wire = WireFired {
@@ -162,14 +167,11 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
     ) -> PatternResult<Self> {
         let addr = addr.into_addr();
         let endpoint = Arc::new(EventEndpoint {
-            topic: addr.to_string(),
-            tap: registry.tap_slot(),
-            addr: addr.clone(),
+            door: Door::new(registry, &addr, PatternKind::Event),
             clock: registry.clock(),
             activations: Mutex::new(BTreeMap::new()),
             next_id: AtomicU64::new(1),
             seq: AtomicU64::new(0),
-            account: registry.account(&addr, PatternKind::Event),
         });
         registry.register_service(addr, info::<P, E>(), endpoint.clone(), endpoint.clone())?;
         Ok(EventServer { endpoint, test: Arc::new(test) })
@@ -196,8 +198,20 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
             let Some(event) = event else { continue };
             let seq = ep.seq.fetch_add(1, Ordering::Relaxed) + 1;
             let msg = Fired { activation: id, event: Stamped { seq, sent_at: ep.clock.now(), value: event } };
-            ep.tap.record(&ep.topic, E::ID, msg.event.sent_at, &msg);
-            match sink.deliver_with(msg, ep.account.offer(None, seq)) {
+            // A firing the fault plan loses or holds back was still fired: a single activation
+            // has had its event.
+            let result = match ep.door.enter(E::ID, msg.event.sent_at, &msg) {
+                Pass::Now(copies) => ep.door.hand(&sink, msg, None, seq, copies),
+                Pass::Lost => {
+                    ep.door.lost();
+                    Ok(())
+                }
+                Pass::Later(delay, rt) => {
+                    ep.door.hand_later(&rt, delay, &sink, msg, None, seq);
+                    Ok(())
+                }
+            };
+            match result {
                 Ok(()) => {
                     fired += 1;
                     if mode == EventMode::Single {
@@ -227,7 +241,7 @@ impl<P: CommObject, E: CommObject, S> EventServer<P, E, S> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        self.endpoint.door.addr()
     }
 }
 

@@ -8,8 +8,10 @@
 //!   and its supervisor restarts it;
 //! - **kill** a component's running instance ([`Faults::kill`]);
 //! - **drop**, **delay** or **duplicate** the messages a service hands over
-//!   ([`Faults::set_message_fault`]), at the server endpoint, for Send messages and for
-//!   push updates.
+//!   ([`Faults::set_message_fault`]), where they enter it (the service's door, which every
+//!   pattern's messages pass): Send messages, Query requests, push updates and events alike. A
+//!   lost request is never answered (its client hears `NoAnswer`); a duplicated one is handled
+//!   twice and answered once; a lost or delayed firing still ends a single event activation.
 //!
 //! It also keeps the log of what happened ([`FaultEvent`]): each injection, the moment the
 //! failure was detected (the handler panicked, the watchdog fired, the instance was killed) and

@@ -28,6 +28,8 @@
 //! - [`prelude`]: what a component author needs, in one `use`.
 //! - [`ledger`]: the delivery ledger, a receipt per message settled once (delivered, lost, ...).
 //! - `push` (private): the core Push newest and Push timed share.
+//! - `door` (private): where every pattern's messages enter their service; the one place
+//!   that shows them to the tap, applies the fault plan and issues delivery receipts.
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically.
@@ -41,6 +43,7 @@ pub mod addr;
 pub mod clock;
 pub mod comm;
 pub mod component;
+mod door;
 pub mod error;
 pub mod event;
 pub mod fault;

@@ -10,9 +10,9 @@
 use crate::addr::{PatternKind, ServiceAddr, ServiceInfo};
 use crate::clock::Clock;
 use crate::comm::CommObject;
+use crate::door::{Door, Pass};
 use crate::error::{PatternError, PatternResult};
-use crate::fault::Verdict;
-use crate::ledger::{Account, Stream};
+use crate::ledger::Stream;
 use crate::registry::{Registry, Remote, Resolved};
 use crate::sink::{Sink, Undeliverable};
 use crate::stamped::{Stamped, Update};
@@ -143,11 +143,9 @@ impl<T> Cell<T> {
 type Subscribers<T> = Arc<[Arc<Subscriber<T>>]>;
 
 pub(crate) struct PushEndpoint<T> {
-    pub(crate) addr: ServiceAddr,
+    /// Where each publication is tapped, faulted and handed over with its receipts.
+    door: Door,
     me: std::sync::Weak<PushEndpoint<T>>,
-    faults: crate::fault::Faults,
-    topic: String,
-    tap: crate::tap::TapSlot,
     clock: Clock,
     /// The sequence number, the newest update and the subscribers, under one lock: a
     /// publication takes it once.
@@ -158,12 +156,15 @@ pub(crate) struct PushEndpoint<T> {
     /// Deliveries counted in advance that failed.
     taken_back: AtomicU64,
     failed: AtomicU64,
-    account: Account,
     /// Whether the server produces (always true for push newest).
     pub(crate) active: watch::Sender<bool>,
 }
 
 impl<T> PushEndpoint<T> {
+    pub(crate) fn addr(&self) -> &ServiceAddr {
+        self.door.addr()
+    }
+
     fn remove_subscribers(&self, ids: &[u64]) -> bool {
         let mut board = self.board.lock();
         if !board.subs.iter().any(|s| ids.contains(&s.id)) {
@@ -212,10 +213,7 @@ impl<T: CommObject> PushEndpoint<T> {
     ) -> PatternResult<Arc<Self>> {
         let endpoint = Arc::new_cyclic(|me| PushEndpoint {
             me: me.clone(),
-            topic: addr.to_string(),
-            tap: registry.tap_slot(),
-            addr: addr.clone(),
-            faults: registry.faults(),
+            door: Door::new(registry, &addr, kind),
             clock: registry.clock(),
             board: Mutex::new(Board {
                 seq: 0,
@@ -229,7 +227,6 @@ impl<T: CommObject> PushEndpoint<T> {
             delivered: AtomicU64::new(0),
             taken_back: AtomicU64::new(0),
             failed: AtomicU64::new(0),
-            account: registry.account(&addr, kind),
             active: watch::Sender::new(active),
         });
         registry.register_service(addr, info::<T>(kind), endpoint.clone(), endpoint.clone())?;
@@ -243,16 +240,13 @@ impl<T: CommObject> PushEndpoint<T> {
     /// only ever moves forward in sequence number.
     pub(crate) fn put(&self, value: T) -> usize {
         let stamp = self.clock.now();
-        let verdict = self.faults.verdict(&self.addr);
-        let later = match verdict {
-            Verdict::Delay(d) => match (tokio::runtime::Handle::try_current(), self.me.upgrade()) {
-                (Ok(rt), Some(me)) => Some((d, rt, me)),
-                _ => None,
-            },
+        let pass = self.door.pass();
+        let later = match &pass {
+            Pass::Later(d, rt) => self.me.upgrade().map(|me| (*d, rt.clone(), me)),
             _ => None,
         };
         // Whether the subscribers at `every = 1` receive it now (so their cells follow).
-        let now = later.is_none() && !matches!(verdict, Verdict::Drop);
+        let now = matches!(pass, Pass::Now(_)) || (matches!(pass, Pass::Later(..)) && later.is_none());
         // One lock per publication: the number, the newest value, the cells and the
         // subscribers to hand it to are taken together (so "newest" follows the numbers even
         // with concurrent publishers).
@@ -291,11 +285,11 @@ impl<T: CommObject> PushEndpoint<T> {
         };
         // What the publication replaced is dropped with no lock held.
         drop((previous, replaced));
-        self.tap.record(&self.topic, T::ID, update.sent_at, &*update);
-        let hand = match verdict {
-            Verdict::Drop => Hand::Drop,
-            Verdict::Duplicate => Hand::Copies(2),
-            Verdict::Deliver | Verdict::Delay(_) => Hand::Copies(1),
+        self.door.show(T::ID, update.sent_at, &*update);
+        let hand = match pass {
+            Pass::Lost => Hand::Drop,
+            Pass::Now(copies) => Hand::Copies(copies),
+            Pass::Later(..) => Hand::Copies(1),
         };
         if let Some((d, rt, me)) = later {
             drop(subs);
@@ -324,7 +318,7 @@ impl<T: CommObject> PushEndpoint<T> {
             Hand::Drop => {
                 for s in subs {
                     if s.turn() {
-                        self.account.dropped();
+                        self.door.lost();
                     }
                 }
                 return 0;
@@ -364,17 +358,7 @@ impl<T: CommObject> PushEndpoint<T> {
         outcome: &mut Outcome,
     ) {
         let seq = update.seq;
-        let result = if copies > 1 {
-            let mut r = s.sink.deliver_with(Arc::clone(&update), self.account.offer(Some(&s.stream), seq));
-            for _ in 2..copies {
-                let copy = self.account.copy(Some(&s.stream), seq);
-                r = r.and(s.sink.deliver_with(Arc::clone(&update), copy));
-            }
-            let copy = self.account.copy(Some(&s.stream), seq);
-            r.and(s.sink.deliver_with(update, copy))
-        } else {
-            s.sink.deliver_with(update, self.account.offer(Some(&s.stream), seq))
-        };
+        let result = self.door.hand(&s.sink, update, Some(&s.stream), seq, copies);
         if counted && result.is_err() {
             self.taken_back.fetch_add(1, Ordering::Relaxed);
         }

@@ -69,7 +69,7 @@ impl<T: CommObject> PushNewestServer<T> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        self.endpoint.addr()
     }
 }
 

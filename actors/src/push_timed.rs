@@ -192,7 +192,7 @@ impl<T: CommObject> PushTimedServer<T> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        self.endpoint.addr()
     }
 }
 

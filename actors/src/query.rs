@@ -31,7 +31,9 @@
 
 use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm::CommObject;
+use crate::door::{Door, Duplicate, Pass};
 use crate::error::{PatternError, PatternResult};
+use crate::ledger::Stream;
 use crate::registry::{Registry, Remote, Resolved};
 use crate::service::QueryService;
 use crate::sink::Sink;
@@ -83,39 +85,65 @@ impl<Ans: CommObject> Responder<Ans> {
     }
 }
 
+/// A duplicate fault's second copy of a request: the server handles it again, and its answer
+/// goes nowhere (the client waits for one answer, which the first copy gives).
+impl<Req: Clone, Ans> Duplicate for QueryRequest<Req, Ans> {
+    fn duplicate(&self) -> Self {
+        let r = &self.responder;
+        QueryRequest {
+            request: self.request.clone(),
+            responder: Responder {
+                tx: oneshot::channel().0,
+                seq: r.seq,
+                stamp: r.stamp,
+                tap: r.tap.clone(),
+                answer_topic: Arc::clone(&r.answer_topic),
+            },
+        }
+    }
+}
+
 pub(crate) struct QueryEndpoint<Req, Ans> {
-    addr: ServiceAddr,
+    /// Where requests are tapped, faulted and handed over with their receipts.
+    door: Door,
     clock: crate::clock::Clock,
-    topic: String,
     answer_topic: Arc<str>,
-    tap: crate::tap::TapSlot,
     sink: Sink<QueryRequest<Req, Ans>>,
-    account: crate::ledger::Account,
 }
 
 impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
     /// Hands a stamped request to the server; the answer (or why there is none) arrives on
     /// the returned channel.
+    /// `from` is the requesting client's sequence (for duplicate detection), unknown for
+    /// requests from other processes.
     fn deliver(
         &self,
         request: Stamped<Req>,
+        from: Option<&Arc<Stream>>,
     ) -> PatternResult<oneshot::Receiver<PatternResult<Stamped<Ans>>>> {
         let (tx, rx) = oneshot::channel();
         let seq = request.seq;
-        self.tap.record(&self.topic, Req::ID, request.sent_at, &request);
+        let pass = self.door.enter(Req::ID, request.sent_at, &request);
         let msg = QueryRequest {
             request,
             responder: Responder {
                 tx,
                 seq,
                 stamp: self.clock,
-                tap: self.tap.clone(),
+                tap: self.door.tap().clone(),
                 answer_topic: Arc::clone(&self.answer_topic),
             },
         };
-        // A request that vanishes drops its responder, so its client always hears.
-        let receipt = self.account.offer(None, seq).map(crate::ledger::Receipt::reported);
-        self.sink.deliver_with(msg, receipt).map_err(|_| PatternError::Unavailable(self.addr.clone()))?;
+        // A request that vanishes (lost, or its server gone) drops its responder, so its client
+        // always hears: `NoAnswer`.
+        match pass {
+            Pass::Now(copies) => self
+                .door
+                .hand(&self.sink, msg, from, seq, copies)
+                .map_err(|_| PatternError::Unavailable(self.door.addr().clone()))?,
+            Pass::Lost => self.door.lost(),
+            Pass::Later(delay, rt) => self.door.hand_later(&rt, delay, &self.sink, msg, from, seq),
+        }
         Ok(rx)
     }
 }
@@ -123,10 +151,10 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
 impl<Req: CommObject, Ans: CommObject> crate::transport::Served for QueryEndpoint<Req, Ans> {
     fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
         let clock = self.clock;
-        let addr = self.addr.clone();
+        let addr = self.door.addr().clone();
         let rx = crate::wire::decode_stamped::<Req>(payload, Req::ID, &clock)
             .map_err(|e| PatternError::Decode(format!("request to {addr}: {e}")))
-            .and_then(|request| self.deliver(request));
+            .and_then(|request| self.deliver(request, None));
         Box::pin(async move {
             let answer = match rx {
                 Ok(rx) => rx.await.unwrap_or_else(|_| Err(PatternError::NoAnswer(addr))),
@@ -158,12 +186,9 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
     ) -> PatternResult<Self> {
         let addr = addr.into_addr();
         let endpoint = Arc::new(QueryEndpoint {
-            topic: addr.to_string(),
+            door: Door::new(registry, &addr, PatternKind::Query),
             answer_topic: format!("{addr}/answer").into(),
-            tap: registry.tap_slot(),
-            addr: addr.clone(),
             clock: registry.clock(),
-            account: registry.account(&addr, PatternKind::Query),
             sink,
         });
         registry.register_service(addr, info::<Req, Ans>(), endpoint.clone(), endpoint.clone())?;
@@ -172,7 +197,7 @@ impl<Req: CommObject, Ans: CommObject> QueryServer<Req, Ans> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        self.endpoint.door.addr()
     }
 }
 
@@ -182,6 +207,8 @@ pub struct QueryClient<Req, Ans> {
     addr: ServiceAddr,
     endpoint: Via<Req, Ans>,
     seq: Arc<AtomicU64>,
+    /// What the server remembers of this client's sequence numbers (to tell a duplicate).
+    stream: Arc<Stream>,
     cancel: Option<Cancel>,
 }
 
@@ -192,6 +219,7 @@ impl<Req, Ans> Clone for QueryClient<Req, Ans> {
             addr: self.addr.clone(),
             endpoint: self.endpoint.clone(),
             seq: Arc::clone(&self.seq),
+            stream: Arc::clone(&self.stream),
             cancel: self.cancel.clone(),
         }
     }
@@ -264,6 +292,7 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
             addr,
             endpoint,
             seq: Arc::new(AtomicU64::new(0)),
+            stream: Arc::new(Stream::default()),
             cancel: None,
         })
     }
@@ -286,7 +315,7 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
         let clock = self.registry.clock();
         let stamped = Stamped { seq, sent_at: clock.now(), value: request };
         let rx = match &self.endpoint {
-            Via::Local(ep) => ep.deliver(stamped)?,
+            Via::Local(ep) => ep.deliver(stamped, Some(&self.stream))?,
             Via::Remote(r) => {
                 let runtime = tokio::runtime::Handle::try_current().map_err(|_| {
                     PatternError::InvalidArgument("a remote query needs a tokio runtime".into())

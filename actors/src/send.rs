@@ -23,9 +23,9 @@
 
 use crate::addr::{IntoAddr, PatternKind, ServiceAddr, ServiceInfo};
 use crate::comm::CommObject;
+use crate::door::{Door, Pass};
 use crate::error::{PatternError, PatternResult};
-use crate::fault::Verdict;
-use crate::ledger::{Account, Receipt, Stream};
+use crate::ledger::Stream;
 use crate::registry::{Registry, Remote, Resolved};
 use crate::service::SendService;
 use crate::sink::{Sink, Undeliverable};
@@ -39,51 +39,35 @@ pub(crate) fn info<T: CommObject>() -> ServiceInfo {
 }
 
 pub(crate) struct SendEndpoint<T> {
-    addr: ServiceAddr,
-    faults: crate::fault::Faults,
+    door: Door,
     clock: crate::clock::Clock,
-    topic: String,
-    tap: crate::tap::TapSlot,
     sink: Sink<Stamped<T>>,
     received: AtomicU64,
-    account: Account,
 }
 
 impl<T: CommObject> SendEndpoint<T> {
     /// Hands `msg` to the server. `from` is the sending client's sequence (for duplicate
     /// detection), unknown for messages from other processes.
     pub(crate) fn accept(&self, msg: Stamped<T>, from: Option<&Arc<Stream>>) -> PatternResult<()> {
-        self.tap.record(&self.topic, T::ID, msg.sent_at, &msg);
-        match self.faults.verdict(&self.addr) {
-            Verdict::Deliver => {}
-            Verdict::Drop => {
-                self.account.dropped();
+        let n = msg.seq;
+        let copies = match self.door.enter(T::ID, msg.sent_at, &msg) {
+            Pass::Now(copies) => copies,
+            Pass::Lost => {
+                self.door.lost();
                 return Ok(());
             }
-            Verdict::Duplicate => {
-                let _ = self.sink.deliver_with(msg.clone(), self.account.copy(from, msg.seq));
+            Pass::Later(delay, rt) => {
+                self.door.hand_later(&rt, delay, &self.sink, msg, from, n);
+                return Ok(());
             }
-            Verdict::Delay(d) => {
-                if let Ok(rt) = tokio::runtime::Handle::try_current() {
-                    let sink = self.sink.clone();
-                    // The sender was told it was handed over: failing later is a loss.
-                    let receipt = self.account.offer(from, msg.seq).map(Receipt::silent);
-                    rt.spawn(async move {
-                        tokio::time::sleep(d).await;
-                        let _ = sink.deliver_with(msg, receipt);
-                    });
-                    return Ok(());
-                }
-            }
-        }
-        let receipt = self.account.offer(from, msg.seq);
-        match self.sink.deliver_with(msg, receipt) {
+        };
+        match self.door.hand(&self.sink, msg, from, n, copies) {
             Ok(()) => {
                 self.received.fetch_add(1, Ordering::Relaxed);
                 Ok(())
             }
             Err(Undeliverable::Closed | Undeliverable::Unavailable) => {
-                Err(PatternError::Unavailable(self.addr.clone()))
+                Err(PatternError::Unavailable(self.door.addr().clone()))
             }
         }
     }
@@ -92,7 +76,7 @@ impl<T: CommObject> SendEndpoint<T> {
 impl<T: CommObject> crate::transport::Served for SendEndpoint<T> {
     fn serve_send(&self, payload: &[u8]) -> PatternResult<()> {
         let msg = crate::wire::decode_stamped::<T>(payload, T::ID, &self.clock)
-            .map_err(|e| PatternError::Decode(format!("to {}: {e}", self.addr)))?;
+            .map_err(|e| PatternError::Decode(format!("to {}: {e}", self.door.addr())))?;
         self.accept(msg, None)
     }
 }
@@ -118,14 +102,10 @@ impl<T: CommObject> SendServer<T> {
     ) -> PatternResult<Self> {
         let addr = addr.into_addr();
         let endpoint = Arc::new(SendEndpoint {
-            topic: addr.to_string(),
-            tap: registry.tap_slot(),
-            addr: addr.clone(),
-            faults: registry.faults(),
+            door: Door::new(registry, &addr, PatternKind::Send),
             clock: registry.clock(),
             sink,
             received: AtomicU64::new(0),
-            account: registry.account(&addr, PatternKind::Send),
         });
         registry.register_service(addr, info::<T>(), endpoint.clone(), endpoint.clone())?;
         Ok(SendServer { endpoint })
@@ -138,7 +118,7 @@ impl<T: CommObject> SendServer<T> {
 
     /// The service's address.
     pub fn addr(&self) -> &ServiceAddr {
-        &self.endpoint.addr
+        self.endpoint.door.addr()
     }
 }
 

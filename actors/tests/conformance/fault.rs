@@ -3,10 +3,12 @@
 //! lose, delay or duplicate exactly the messages they should.
 
 use orsa_actors::component::ComponentHandle;
+use orsa_actors::event::{EventClient, EventMode, EventServer};
 use orsa_actors::fault::{FaultEventKind, HandlerFault, MessageFault};
 use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::query::{QueryClient, QueryRequest, QueryServer};
 use orsa_actors::send::{SendClient, SendServer};
-use orsa_actors::service::{PushNewestService, SendService};
+use orsa_actors::service::{EventService, PushNewestService, QueryService, SendService};
 use orsa_actors::supervision::{
     Strategy, Supervisor, SupervisorEvent, SupervisorEventKind, SupervisorRef, SupervisorSpec,
 };
@@ -221,4 +223,89 @@ async fn fault_a_client_newest_value_skips_lost_updates_and_survives_its_subscri
         push.put(10);
     });
     assert_eq!(got, 10);
+}
+
+/// Squares numbers.
+const SQUARE: QueryService<u64, u64> = QueryService::new("square");
+/// Distances, fired to activations whose threshold they are below.
+const NEAR: EventService<f64, f64> = EventService::new("near");
+
+#[tokio::test(start_paused = true)]
+async fn fault_query_requests_pass_the_same_door_as_every_message() {
+    let registry = Registry::new();
+    registry.ledger().enable(true);
+    let (tx, mut requests) = mpsc::unbounded_channel::<QueryRequest<u64, u64>>();
+    QueryServer::register(&registry, SQUARE.on("calc"), Sink::channel(tx)).expect("server");
+    let handled = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let h = handled.clone();
+    tokio::spawn(async move {
+        while let Some(q) = requests.recv().await {
+            h.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let n = q.request.value;
+            // The copy a duplicate fault made has nobody waiting for its answer.
+            let _ = q.answer(n * n);
+        }
+    });
+    let client = QueryClient::<u64, u64>::connect(&registry, SQUARE.on("calc")).expect("client");
+    let square = SQUARE.on("calc").untyped();
+    let faults = registry.faults();
+
+    faults.set_message_fault(&square, Some(MessageFault::Drop));
+    let lost = client.query(2, None).await;
+    assert!(matches!(lost, Err(PatternError::NoAnswer(_))), "a lost request is never answered: {lost:?}");
+    assert_eq!(handled.load(std::sync::atomic::Ordering::Relaxed), 0);
+
+    faults.set_message_fault(&square, Some(MessageFault::Duplicate));
+    assert_eq!(client.query(3, None).await.expect("answered"), 9);
+    tokio::task::yield_now().await;
+    assert_eq!(handled.load(std::sync::atomic::Ordering::Relaxed), 2, "the server handled both copies");
+
+    faults.set_message_fault(&square, Some(MessageFault::Delay(Duration::from_millis(50))));
+    let start = tokio::time::Instant::now();
+    assert_eq!(client.query(4, None).await.expect("answered"), 16);
+    assert_eq!(start.elapsed(), Duration::from_millis(50), "answered once the request arrived, 50 ms late");
+    faults.set_message_fault(&square, None);
+    assert_eq!(client.query(5, None).await.expect("answered"), 25);
+
+    let counts = faults.message_counts();
+    assert_eq!((counts[0].1.dropped, counts[0].1.duplicated, counts[0].1.delayed), (1, 1, 1));
+    let (_, _, ledger) = registry.ledger().counts().into_iter().find(|(a, ..)| *a == square).expect("ledger");
+    assert_eq!((ledger.offered, ledger.dropped, ledger.copies_injected), (4, 1, 1), "{ledger:?}");
+    assert_eq!(
+        (ledger.delivered, ledger.duplicates),
+        (3, 1),
+        "the second copy is told from the first: {ledger:?}"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn fault_events_pass_the_same_door_as_every_message() {
+    let registry = Registry::new();
+    let server = EventServer::register(&registry, NEAR.on("robot"), |limit: &mut f64, d: &f64| {
+        (*d < *limit).then_some(*d)
+    })
+    .expect("server");
+    let client = EventClient::<f64, f64>::connect(&registry, NEAR.on("robot")).expect("client");
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    client.activate_to(EventMode::Continuous, 0.5, Sink::channel(tx)).expect("activate");
+    let single = client.activate(EventMode::Single, 0.5).expect("activate");
+    let near = NEAR.on("robot").untyped();
+    let faults = registry.faults();
+    let drain = |rx: &mut mpsc::UnboundedReceiver<orsa_actors::event::Fired<f64>>| {
+        std::iter::from_fn(|| rx.try_recv().ok()).map(|f| f.event.value).collect::<Vec<_>>()
+    };
+
+    faults.set_message_fault(&near, Some(MessageFault::Drop));
+    assert_eq!(server.put(&0.1), 2, "both activations fired; the faults lost both events");
+    assert_eq!(server.activations(), 1, "a single activation has had its event, lost or not");
+    drop(single);
+    faults.set_message_fault(&near, Some(MessageFault::Duplicate));
+    server.put(&0.2);
+    faults.set_message_fault(&near, Some(MessageFault::Delay(Duration::from_millis(50))));
+    server.put(&0.3);
+    faults.set_message_fault(&near, None);
+    server.put(&0.4);
+    assert_eq!(drain(&mut rx), vec![0.2, 0.2, 0.4]);
+    tokio::time::sleep(Duration::from_millis(51)).await;
+    assert_eq!(drain(&mut rx), vec![0.3], "the delayed one arrives 50 ms late");
 }
