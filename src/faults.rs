@@ -537,12 +537,14 @@ pub fn restarts_of(
 }
 
 impl FaultsReport {
-    /// The section for a run of `end_s` seconds with `plan`, whose switchboard is `faults`, with
-    /// the supervisor's restarts by component and each restart's duration in ms.
+    /// The section for a run of `end_s` seconds with `plan`, whose switchboard is `faults` on
+    /// `clock` (the log's times are seconds since it started), with the supervisor's restarts by
+    /// component and each restart's duration in ms.
     pub fn new(
         plan: &FaultPlan,
         end_s: f64,
         faults: &Faults,
+        clock: &orsa_actors::Clock,
         boards: &BoardFaults,
         restarts: BTreeMap<String, u64>,
         mut restart_ms: Vec<f64>,
@@ -562,7 +564,7 @@ impl FaultsReport {
         let mut pending: BTreeMap<String, f64> = BTreeMap::new();
         let mut recoveries = Vec::new();
         for e in &events {
-            let t = e.at.as_secs_f64();
+            let t = clock.since_start(e.at).as_secs_f64();
             let what = match &e.what {
                 FaultEventKind::Injected(k) => format!("injected {k}"),
                 FaultEventKind::Detected(how) => {

@@ -14,7 +14,7 @@ use std::time::Duration;
 /// centre line, touching nothing.
 #[tokio::test(start_paused = true)]
 async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let registry = Registry::with_clock(clock);
     // No master: the system's own table activates center following and wires it to the motors.
     let config = Config::from_toml(

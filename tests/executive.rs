@@ -37,7 +37,7 @@ impl Tap for WiringWatch {
 
 #[tokio::test(start_paused = true)]
 async fn master_runs_goals_reports_them_and_never_wires_two_behaviours() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let registry = Registry::with_clock(clock);
     let watch = Arc::new(WiringWatch::default());
     registry.set_tap(Some(watch.clone()));

@@ -30,7 +30,7 @@ fn a_table_that_names_a_component_twice_or_badly_is_refused_with_the_key() {
 /// component, the port and the target.
 #[tokio::test(start_paused = true)]
 async fn a_wiring_that_fails_stops_what_was_started_and_names_it() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let registry = Registry::with_clock(clock);
     let config = config(
         r#"

@@ -4,57 +4,31 @@
 //! a paused clock (`#[tokio::test(start_paused = true)]`) drives the whole system
 //! deterministically and as fast as the CPU allows. Nothing in pattern or control code reads
 //! `std::time::Instant` or `SystemTime`; this module is the only place that asks tokio for
-//! "now", and it reports it as a [`Timestamp`]: nanoseconds since the clock's epoch.
+//! "now", and it reports it as a [`Timestamp`].
 //!
-//! For stamps that leave the process, a clock also knows the UNIX time of its epoch, read once
-//! from the system clock when the clock starts ([`Clock::unix_ns`], [`Clock::from_unix_ns`]).
+//! ## The time model
+//! A [`Timestamp`] is nanoseconds on the system's **time base**, the same in every process of a
+//! system and on the wire, with no conversion anywhere:
+//! - a **live** clock ([`Clock::start`], what `orsa robot`, `orsa executive` and teleop use)
+//!   starts at the UNIX time it reads once from the system clock, so its stamps are UNIX time
+//!   (as ROS 2's and Foxglove's are) and compare across hosts as well as their clocks agree;
+//! - a **simulated** clock ([`Clock::simulated`], what `orsa run` and whole-stack tests use)
+//!   starts at a time it is given, zero by default, so the same seed gives the same stamps
+//!   (like ROS 2's simulated time).
+//!
+//! "Seconds since the system started" is [`Clock::since_start`], never a stamp's raw value.
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::time::Duration;
 use tokio::time::Instant;
 
-/// A point in robot time: nanoseconds since the epoch of the [`Clock`] that stamped it.
-///
-/// It serialises as a plain integer of nanoseconds since the epoch, except inside the wire
-/// encoding ([`crate::wire`]), where every timestamp, wherever it sits in a message, travels as
-/// UNIX time in nanoseconds and is mapped back onto the receiver's clock.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+/// A point in time on the system's time base (see the module docs): nanoseconds since the UNIX
+/// epoch on a live clock, since the simulation's chosen origin on a simulated one. It serialises
+/// as that plain integer, in every encoding.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
 pub struct Timestamp(pub u64);
-
-thread_local! {
-    /// The UNIX time of the epoch of the clock whose messages are being encoded or decoded for
-    /// the wire on this thread, if any.
-    static WIRE_EPOCH: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
-}
-
-/// Runs `f` (an encoding or decoding for the wire) with timestamps mapped to and from UNIX time
-/// through `clock`.
-pub(crate) fn on_wire<R>(clock: &Clock, f: impl FnOnce() -> R) -> R {
-    let previous = WIRE_EPOCH.with(|e| e.replace(Some(clock.unix_epoch_ns)));
-    let result = f();
-    WIRE_EPOCH.with(|e| e.set(previous));
-    result
-}
-
-impl Serialize for Timestamp {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        match WIRE_EPOCH.with(std::cell::Cell::get) {
-            Some(epoch) => s.serialize_u64(self.0.saturating_add(epoch)),
-            None => s.serialize_u64(self.0),
-        }
-    }
-}
-
-impl<'de> Deserialize<'de> for Timestamp {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let raw = u64::deserialize(d)?;
-        Ok(match WIRE_EPOCH.with(std::cell::Cell::get) {
-            Some(epoch) => Timestamp(raw.saturating_sub(epoch)),
-            None => Timestamp(raw),
-        })
-    }
-}
 
 impl Timestamp {
     /// The epoch itself.
@@ -92,58 +66,67 @@ impl fmt::Display for Timestamp {
     }
 }
 
-/// A robot clock: tokio's clock with an epoch. Cheap to copy; every component of one system
-/// shares the same epoch, so their timestamps compare.
+/// A robot clock: tokio's clock, placed on a time base (see the module docs). Cheap to copy;
+/// every component of one system shares it, so their timestamps compare.
 #[derive(Debug, Clone, Copy)]
 pub struct Clock {
+    /// The tokio instant the clock started at.
     epoch: Instant,
-    /// UNIX time of the epoch, in nanoseconds.
-    unix_epoch_ns: u64,
+    /// The time the clock started at, on the time base.
+    origin: Timestamp,
 }
 
 impl Clock {
-    /// A clock whose epoch is tokio's "now". Must be called inside a tokio runtime.
+    /// A live clock: it starts now, at the UNIX time the system clock gives. Must be called
+    /// inside a tokio runtime.
     pub fn start() -> Self {
         let unix = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
-        Clock { epoch: Instant::now(), unix_epoch_ns: unix }
+        Clock::starting_at(Instant::now(), Timestamp(unix))
     }
 
-    /// A clock with a given epoch and the UNIX time of that epoch (for tests and replays).
-    pub fn with_unix_epoch_ns(epoch: Instant, unix_epoch_ns: u64) -> Self {
-        Clock { epoch, unix_epoch_ns }
+    /// A simulated clock: it starts now, at time zero, so runs repeat stamp for stamp. Must be
+    /// called inside a tokio runtime.
+    pub fn simulated() -> Self {
+        Clock::starting_at(Instant::now(), Timestamp::ZERO)
     }
 
-    /// The UNIX time, in nanoseconds, of a timestamp of this clock (how stamps cross processes).
-    pub fn unix_ns(&self, t: Timestamp) -> u64 {
-        self.unix_epoch_ns.saturating_add(t.0)
+    /// A clock whose tokio instant `epoch` is time `origin` (for replays and tests).
+    pub fn starting_at(epoch: Instant, origin: Timestamp) -> Self {
+        Clock { epoch, origin }
     }
 
-    /// The timestamp of this clock for a UNIX time in nanoseconds (zero before the epoch).
-    pub fn from_unix_ns(&self, unix_ns: u64) -> Timestamp {
-        Timestamp(unix_ns.saturating_sub(self.unix_epoch_ns))
+    /// The time the clock started at.
+    pub fn origin(&self) -> Timestamp {
+        self.origin
     }
 
-    /// The current robot time.
+    /// How long after the clock started `t` is (zero for earlier times).
+    pub fn since_start(&self, t: Timestamp) -> Duration {
+        t.saturating_since(self.origin)
+    }
+
+    /// The current time.
     #[inline]
     pub fn now(&self) -> Timestamp {
         self.stamp_of(Instant::now())
     }
 
-    /// The tokio instant of a timestamp of this clock, for `sleep_until` and intervals.
+    /// The tokio instant of a timestamp of this clock, for `sleep_until` and intervals (the
+    /// clock's start for earlier times).
     pub fn instant_of(&self, t: Timestamp) -> Instant {
-        self.epoch + Duration::from_nanos(t.0)
+        self.epoch + self.since_start(t)
     }
 
-    /// The timestamp of a tokio instant (zero before the epoch).
+    /// The timestamp of a tokio instant (the clock's start for earlier instants).
     #[inline]
     pub fn stamp_of(&self, at: Instant) -> Timestamp {
         let d = at.saturating_duration_since(self.epoch);
-        Timestamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+        self.origin.after(d)
     }
 
-    /// The epoch as a tokio instant.
+    /// The clock's start as a tokio instant.
     pub fn epoch(&self) -> Instant {
         self.epoch
     }
@@ -155,11 +138,26 @@ mod tests {
 
     #[tokio::test(start_paused = true)]
     async fn paused_clock_advances_exactly() {
-        let clock = Clock::start();
+        let clock = Clock::simulated();
         assert_eq!(clock.now(), Timestamp::ZERO);
         tokio::time::sleep(Duration::from_millis(40)).await;
         assert_eq!(clock.now(), Timestamp(40_000_000));
         assert_eq!(clock.instant_of(clock.now()), Instant::now());
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_live_clock_reads_unix_time_and_a_simulated_one_starts_at_its_origin() {
+        let before = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).expect("after 1970");
+        let live = Clock::start();
+        let after = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).expect("after 1970");
+        let origin = Duration::from_nanos(live.origin().as_nanos());
+        assert!(before <= origin && origin <= after, "{origin:?} not in {before:?}..{after:?}");
+        let replay = Clock::starting_at(Instant::now(), Timestamp(5_000_000_000));
+        tokio::time::sleep(Duration::from_millis(40)).await;
+        assert_eq!(live.since_start(live.now()), Duration::from_millis(40));
+        assert_eq!(replay.now(), Timestamp(5_040_000_000));
+        assert_eq!(replay.since_start(Timestamp(1)), Duration::ZERO, "before the start is the start");
+        assert_eq!(replay.instant_of(Timestamp(0)), replay.epoch());
     }
 
     #[test]

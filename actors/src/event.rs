@@ -116,9 +116,8 @@ impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
         params: &[u8],
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
-        let params: P = crate::wire::decode_on(&self.clock, params, P::ID)
+        let params: P = crate::wire::decode(params, P::ID)
             .map_err(|e| PatternError::Decode(format!("activation of {}: {e}", self.door.addr())))?;
-        let clock = self.clock;
         let wire_sink = Sink::from_fn(move |f: Fired<E>| {
             let wire = WireFired {
                 activation: f.activation.0,
@@ -126,7 +125,7 @@ impl<P: CommObject, E: CommObject> Served for EventEndpoint<P, E> {
                 stamp_ns: f.event.sent_at,
                 value: f.event.value,
             };
-            if sink(&crate::wire::encode_on(&clock, &wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
+            if sink(&crate::wire::encode(&wire)) { Ok(()) } else { Err(Undeliverable::Closed) }
         });
         let id = EventEndpoint::activate(&self, mode, params, wire_sink);
         struct Deactivate<P: CommObject, E: CommObject>(std::sync::Weak<EventEndpoint<P, E>>, ActivationId);
@@ -409,11 +408,10 @@ fn remote_activate<P: CommObject, E: CommObject>(
     params: &P,
     sink: Sink<Fired<E>>,
 ) -> PatternResult<Subscription> {
-    let clock = remote.registry.clock();
     let slot = Mutex::new(Some(sink));
     let r = remote.clone();
     let bytes: ByteSink = Arc::new(move |b: &[u8]| {
-        let wire = match crate::wire::decode_on::<WireFired<E>>(&clock, b, E::ID) {
+        let wire = match crate::wire::decode::<WireFired<E>>(b, E::ID) {
             Ok(w) => w,
             Err(e) => {
                 r.bad_message(&e);
@@ -433,5 +431,5 @@ fn remote_activate<P: CommObject, E: CommObject>(
         }
         true
     });
-    remote.transport.activate(&remote.addr, mode, crate::wire::encode_on(&clock, params), bytes)
+    remote.transport.activate(&remote.addr, mode, crate::wire::encode(params), bytes)
 }

@@ -437,9 +437,8 @@ impl<T: CommObject> Served for PushEndpoint<T> {
     }
 
     fn serve_subscribe(self: Arc<Self>, every: NonZeroU32, sink: ByteSink) -> PatternResult<Subscription> {
-        let clock = self.clock;
         let bytes_sink = Sink::from_fn(move |u: Update<T>| {
-            if sink(&crate::wire::encode_stamped(&u, &clock)) { Ok(()) } else { Err(Undeliverable::Closed) }
+            if sink(&crate::wire::encode_stamped(&u)) { Ok(()) } else { Err(Undeliverable::Closed) }
         });
         let id = PushEndpoint::subscribe(&self, every, bytes_sink);
         struct Unsubscribe<T: CommObject>(std::sync::Weak<PushEndpoint<T>>, u64);

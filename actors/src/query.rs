@@ -150,9 +150,8 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
 
 impl<Req: CommObject, Ans: CommObject> crate::transport::Served for QueryEndpoint<Req, Ans> {
     fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
-        let clock = self.clock;
         let addr = self.door.addr().clone();
-        let rx = crate::wire::decode_stamped::<Req>(payload, Req::ID, &clock)
+        let rx = crate::wire::decode_stamped::<Req>(payload, Req::ID)
             .map_err(|e| PatternError::Decode(format!("request to {addr}: {e}")))
             .and_then(|request| self.deliver(request, None));
         Box::pin(async move {
@@ -161,7 +160,7 @@ impl<Req: CommObject, Ans: CommObject> crate::transport::Served for QueryEndpoin
                 Err(e) => Err(e),
             };
             let wire = answer.map(crate::wire::WireStamped::from);
-            crate::wire::encode_on(&clock, &crate::wire::Reply::from_result(wire))
+            crate::wire::encode(&crate::wire::Reply::from_result(wire))
         })
     }
 }
@@ -321,18 +320,12 @@ impl<Req: CommObject, Ans: CommObject> QueryClient<Req, Ans> {
                     PatternError::InvalidArgument("a remote query needs a tokio runtime".into())
                 })?;
                 let (tx, rx) = oneshot::channel();
-                let reply =
-                    r.transport.request(&r.addr, crate::wire::encode_stamped(&stamped, &clock), timeout);
+                let reply = r.transport.request(&r.addr, crate::wire::encode_stamped(&stamped), timeout);
                 let addr = r.addr.clone();
                 let registry = r.registry.clone();
                 runtime.spawn(async move {
                     let answer = reply.await.and_then(|bytes| {
-                        crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(
-                            &clock,
-                            &bytes,
-                            &addr,
-                            Ans::ID,
-                        )
+                        crate::wire::decode_reply::<crate::wire::WireStamped<Ans>>(&bytes, &addr, Ans::ID)
                     });
                     if let Err(PatternError::Decode(m)) = &answer {
                         registry.note_decode_error(&addr, m);

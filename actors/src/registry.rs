@@ -91,12 +91,14 @@ impl fmt::Debug for Registry {
 }
 
 impl Registry {
-    /// A registry whose clock starts now. Must be called inside a tokio runtime.
+    /// A registry on a live clock ([`Clock::start`]: its stamps are UNIX time). A simulation that
+    /// must repeat stamp for stamp uses [`Registry::with_clock`] with [`Clock::simulated`]. Must
+    /// be called inside a tokio runtime.
     pub fn new() -> Self {
         Self::with_clock(Clock::start())
     }
 
-    /// A registry on a given clock (to share an epoch with a simulator).
+    /// A registry on a given clock (to share it with a simulator, or to run on simulated time).
     pub fn with_clock(clock: Clock) -> Self {
         Registry {
             inner: Arc::new(Inner {
@@ -117,7 +119,7 @@ impl Registry {
         self.inner.clock
     }
 
-    /// The current robot time.
+    /// The current time on the system's clock.
     pub fn now(&self) -> Timestamp {
         self.inner.clock.now()
     }

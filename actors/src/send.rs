@@ -40,7 +40,6 @@ pub(crate) fn info<T: CommObject>() -> ServiceInfo {
 
 pub(crate) struct SendEndpoint<T> {
     door: Door,
-    clock: crate::clock::Clock,
     sink: Sink<Stamped<T>>,
     received: AtomicU64,
 }
@@ -75,7 +74,7 @@ impl<T: CommObject> SendEndpoint<T> {
 
 impl<T: CommObject> crate::transport::Served for SendEndpoint<T> {
     fn serve_send(&self, payload: &[u8]) -> PatternResult<()> {
-        let msg = crate::wire::decode_stamped::<T>(payload, T::ID, &self.clock)
+        let msg = crate::wire::decode_stamped::<T>(payload, T::ID)
             .map_err(|e| PatternError::Decode(format!("to {}: {e}", self.door.addr())))?;
         self.accept(msg, None)
     }
@@ -103,7 +102,6 @@ impl<T: CommObject> SendServer<T> {
         let addr = addr.into_addr();
         let endpoint = Arc::new(SendEndpoint {
             door: Door::new(registry, &addr, PatternKind::Send),
-            clock: registry.clock(),
             sink,
             received: AtomicU64::new(0),
         });
@@ -191,9 +189,7 @@ impl<T: CommObject> SendClient<T> {
     pub fn send_stamped(&self, msg: Stamped<T>) -> PatternResult<()> {
         match &self.endpoint {
             Via::Local(e) => e.accept(msg, Some(&self.stream)),
-            Via::Remote(r) => {
-                r.transport.send(&r.addr, crate::wire::encode_stamped(&msg, &self.registry.clock()))
-            }
+            Via::Remote(r) => r.transport.send(&r.addr, crate::wire::encode_stamped(&msg)),
         }
     }
 

@@ -489,12 +489,7 @@ impl StateMaster {
             .transport
             .request(&r.addr, crate::wire::encode(&request), timeout + Duration::from_secs(1))
             .await?;
-        r.counted(crate::wire::decode_reply::<StateStatus>(
-            &r.registry.clock(),
-            &bytes,
-            &r.addr,
-            "orsa.StateStatus/1",
-        ))
+        r.counted(crate::wire::decode_reply::<StateStatus>(&bytes, &r.addr, "orsa.StateStatus/1"))
     }
 
     /// Asks for main state `main` and waits until it takes effect (for a slave in another

@@ -5,14 +5,15 @@
 //! with data are maps tagged by an `op` (control messages) or by their variant name, so any
 //! language with a CBOR decoder reads them. `docs/wire-format.md` lists every message.
 //!
-//! Stamps cross processes as **UNIX time** in nanoseconds (`stamp_ns`): each process maps its
-//! own robot clock to and from UNIX time through [`Clock::unix_ns`] and [`Clock::from_unix_ns`].
-//! Hosts must keep their clocks synchronised (NTP or PTP) for stamps to compare.
+//! Stamps (`stamp_ns`, and every [`Timestamp`](crate::Timestamp) inside an object) cross as
+//! they are: nanoseconds on the system's time base, which for the live clocks of processes that
+//! talk over a network is **UNIX time** (see [`crate::clock`]). Nothing is converted on the way,
+//! so an encoding is the same on every thread and in every process. Hosts must keep their clocks
+//! synchronised (NTP or PTP) for stamps to compare.
 //!
 //! Decoding never panics: bad bytes give a [`WireError`] that names what was expected.
 
 use crate::addr::ServiceAddr;
-use crate::clock::Clock;
 #[cfg(test)]
 use crate::clock::Timestamp;
 use crate::error::{PatternError, PatternResult};
@@ -33,7 +34,7 @@ pub struct WireError {
     pub reason: String,
 }
 
-/// Encodes a value as CBOR (for control messages, which carry no timestamps).
+/// Encodes a value as CBOR.
 pub fn encode<T: Serialize + ?Sized>(value: &T) -> Vec<u8> {
     let mut out = Vec::with_capacity(64);
     // Writing into a Vec cannot fail, and every orsa type serialises (no maps with non-text
@@ -50,24 +51,12 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, WireEr
     ciborium::from_reader(bytes).map_err(|e| WireError { what: what.to_string(), reason: e.to_string() })
 }
 
-/// Encodes a value of `clock`'s process: every [`Timestamp`](crate::Timestamp) in it becomes
-/// UNIX time.
-pub fn encode_on<T: Serialize + ?Sized>(clock: &Clock, value: &T) -> Vec<u8> {
-    crate::clock::on_wire(clock, || encode(value))
-}
-
-/// Decodes a value for `clock`'s process: every [`Timestamp`](crate::Timestamp) in it is
-/// mapped from UNIX time onto `clock`.
-pub fn decode_on<T: DeserializeOwned>(clock: &Clock, bytes: &[u8], what: &str) -> Result<T, WireError> {
-    crate::clock::on_wire(clock, || decode(bytes, what))
-}
-
 /// A stamped communication object on the wire: `{"seq", "stamp_ns", "value"}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WireStamped<T> {
     /// The sender's sequence number (from 1).
     pub seq: u64,
-    /// When it was sent (UNIX time in nanoseconds on the wire).
+    /// When it was sent (on the system's time base: UNIX time for a live clock).
     pub stamp_ns: crate::Timestamp,
     /// The communication object.
     pub value: T,
@@ -85,24 +74,20 @@ impl<T> From<WireStamped<T>> for Stamped<T> {
     }
 }
 
-/// Encodes a stamped value of `clock`, borrowing it.
-pub fn encode_stamped<T: Serialize>(msg: &Stamped<T>, clock: &Clock) -> Vec<u8> {
+/// Encodes a stamped value, borrowing it.
+pub fn encode_stamped<T: Serialize>(msg: &Stamped<T>) -> Vec<u8> {
     #[derive(Serialize)]
     struct Ref<'a, T> {
         seq: u64,
         stamp_ns: crate::Timestamp,
         value: &'a T,
     }
-    encode_on(clock, &Ref { seq: msg.seq, stamp_ns: msg.sent_at, value: &msg.value })
+    encode(&Ref { seq: msg.seq, stamp_ns: msg.sent_at, value: &msg.value })
 }
 
-/// Decodes a stamped value onto `clock`.
-pub fn decode_stamped<T: DeserializeOwned>(
-    bytes: &[u8],
-    what: &str,
-    clock: &Clock,
-) -> Result<Stamped<T>, WireError> {
-    decode_on::<WireStamped<T>>(clock, bytes, what).map(Stamped::from)
+/// Decodes a stamped value.
+pub fn decode_stamped<T: DeserializeOwned>(bytes: &[u8], what: &str) -> Result<Stamped<T>, WireError> {
+    decode::<WireStamped<T>>(bytes, what).map(Stamped::from)
 }
 
 /// A pattern error as it crosses the wire: a stable code, a message, and the details some codes
@@ -205,15 +190,9 @@ impl<T> Reply<T> {
     }
 }
 
-/// Decodes a reply to a request to `addr` onto `clock`; an undecodable reply is a
-/// [`PatternError::Decode`].
-pub fn decode_reply<T: DeserializeOwned>(
-    clock: &Clock,
-    bytes: &[u8],
-    addr: &ServiceAddr,
-    what: &str,
-) -> PatternResult<T> {
-    decode_on::<Reply<T>>(clock, bytes, what)
+/// Decodes a reply to a request to `addr`; an undecodable reply is a [`PatternError::Decode`].
+pub fn decode_reply<T: DeserializeOwned>(bytes: &[u8], addr: &ServiceAddr, what: &str) -> PatternResult<T> {
+    decode::<Reply<T>>(bytes, what)
         .map_err(|e| PatternError::Decode(format!("reply from {addr}: {e}")))?
         .into_result()
 }
@@ -223,24 +202,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn stamped_round_trips_through_unix_time() {
-        let a = Clock::with_unix_epoch_ns(tokio_free_instant(), 1_000_000_000_000);
-        let b = Clock::with_unix_epoch_ns(tokio_free_instant(), 1_000_000_500_000);
-        let msg = Stamped { seq: 3, sent_at: Timestamp(2_000_000), value: 0.25f64 };
-        let bytes = encode_stamped(&msg, &a);
-        let back: Stamped<f64> = decode_stamped(&bytes, "orsa.F64/1", &b).expect("decodes");
-        // b's epoch is 500 us later in UNIX time: the same instant is 500 us earlier on b.
-        assert_eq!(back, Stamped { seq: 3, sent_at: Timestamp(1_500_000), value: 0.25 });
-        // Timestamps inside the value move the same way, and JSON outside the wire is untouched.
-        let nested = Stamped { seq: 1, sent_at: Timestamp(2_000_000), value: Timestamp(3_000_000) };
-        let back: Stamped<Timestamp> =
-            decode_stamped(&encode_stamped(&nested, &a), "orsa.Timestamp", &b).expect("decodes");
-        assert_eq!(back.value, Timestamp(2_500_000));
+    fn stamps_cross_as_they_are_on_every_thread() {
+        const UNIX: u64 = 1_763_000_000_123_456_789;
+        let msg = Stamped { seq: 3, sent_at: Timestamp(UNIX), value: Timestamp(UNIX + 5) };
+        let bytes = encode_stamped(&msg);
+        let back: Stamped<Timestamp> = decode_stamped(&bytes, "orsa.Timestamp").expect("decodes");
+        assert_eq!(back, msg);
+        // The same bytes from another thread: an encoding depends on nothing but the value.
+        let elsewhere = std::thread::spawn(move || encode_stamped(&msg)).join().expect("thread");
+        assert_eq!(elsewhere, bytes);
+        // CBOR's unsigned integer, as JSON's: the raw nanoseconds.
+        assert_eq!(decode::<serde_json::Value>(&encode(&Timestamp(UNIX)), "u64").expect("decodes"), UNIX);
         assert_eq!(serde_json::to_string(&Timestamp(7)).expect("json"), "7");
-    }
-
-    fn tokio_free_instant() -> tokio::time::Instant {
-        tokio::time::Instant::from_std(std::time::Instant::now())
     }
 
     #[test]
@@ -270,11 +243,7 @@ mod tests {
     #[test]
     fn garbage_is_an_error_not_a_panic() {
         for bytes in [&b""[..], b"\xff\xff", b"\xa1\x63seq", b"not cbor at all"] {
-            let r = decode_stamped::<f64>(
-                bytes,
-                "orsa.F64/1",
-                &Clock::with_unix_epoch_ns(tokio_free_instant(), 0),
-            );
+            let r = decode_stamped::<f64>(bytes, "orsa.F64/1");
             let e = r.expect_err("garbage must not decode");
             assert!(e.to_string().contains("orsa.F64/1"), "{e}");
         }

@@ -379,7 +379,6 @@ impl WiringMaster {
                     .request(&r.addr, crate::wire::encode(&request), DEFAULT_REQUEST_TIMEOUT)
                     .await?;
                 r.counted(crate::wire::decode_reply::<Vec<PortStatus>>(
-                    &r.registry.clock(),
                     &bytes,
                     &r.addr,
                     "orsa.PortStatus/1 list",

@@ -18,8 +18,7 @@ use orsa_actors::service::{EventService, QueryService, SendService};
 use orsa_actors::state::{StateRequest, StateSlave, StateSpec, StateStatus};
 use orsa_actors::transport::ByteSink;
 use orsa_actors::wire::{
-    Reply, WireFailure, WireStamped, decode, decode_on, decode_reply, decode_stamped, encode, encode_on,
-    encode_stamped,
+    Reply, WireFailure, WireStamped, decode, decode_reply, decode_stamped, encode, encode_stamped,
 };
 use orsa_actors::wiring::{PortStatus, WiringRequest, WiringSlave};
 use orsa_actors::{Clock, CommObject, PatternError, Registry, Sink, Stamped, Timestamp, comm_object};
@@ -32,7 +31,7 @@ use std::collections::BTreeSet;
 use std::num::NonZeroU32;
 use std::sync::{Arc, Mutex};
 
-/// The UNIX time of the test clocks' epoch (2024-01-01), so stamps are mapped as between hosts.
+/// The UNIX time the test clocks start at (2024-01-01), as a live clock's would.
 const EPOCH_UNIX_NS: u64 = 1_704_067_200_000_000_000;
 
 /// Poses sent to a robot.
@@ -73,7 +72,7 @@ where
 }
 
 fn test_clock() -> Clock {
-    Clock::with_unix_epoch_ns(tokio::time::Instant::now(), EPOCH_UNIX_NS)
+    Clock::starting_at(tokio::time::Instant::now(), orsa_actors::Timestamp(EPOCH_UNIX_NS))
 }
 
 /// A paused runtime: every wait a request makes (a state change's timeout) passes at once.
@@ -276,14 +275,11 @@ fn inputs(valid: BoxedStrategy<Vec<u8>>) -> impl Strategy<Value = Vec<u8>> {
     ]
 }
 
-/// Valid encodings of stamped `T`s, as a peer on `clock` sends them.
-fn stamped_encodings<T: CommObject>(
-    value: impl Strategy<Value = T> + 'static,
-    clock: Clock,
-) -> BoxedStrategy<Vec<u8>> {
+/// Valid encodings of stamped `T`s, as a peer sends them.
+fn stamped_encodings<T: CommObject>(value: impl Strategy<Value = T> + 'static) -> BoxedStrategy<Vec<u8>> {
     (any::<u64>(), 0..u64::MAX / 2, value)
         .prop_map(move |(seq, stamp, value)| {
-            encode_stamped(&Stamped { seq, sent_at: Timestamp(stamp), value }, &clock)
+            encode_stamped(&Stamped { seq, sent_at: Timestamp(stamp), value })
         })
         .boxed()
 }
@@ -293,21 +289,17 @@ fn stamped_encodings<T: CommObject>(
 
 /// `bytes` decode as a stamped `T` or fail with an error naming `T`; what decodes re-encodes
 /// to bytes that decode to the same message, and that encoding is a fixed point.
-fn decodes_stably<T: CommObject>(
-    bytes: &[u8],
-    clock: &Clock,
-    same: impl Fn(&T, &T) -> bool,
-) -> Result<(), TestCaseError> {
-    match decode_stamped::<T>(bytes, T::ID, clock) {
+fn decodes_stably<T: CommObject>(bytes: &[u8], same: impl Fn(&T, &T) -> bool) -> Result<(), TestCaseError> {
+    match decode_stamped::<T>(bytes, T::ID) {
         Ok(msg) => {
-            let again = encode_stamped(&msg, clock);
-            let back = decode_stamped::<T>(&again, T::ID, clock)
+            let again = encode_stamped(&msg);
+            let back = decode_stamped::<T>(&again, T::ID)
                 .map_err(|e| TestCaseError::fail(format!("a re-encoded {} does not decode: {e}", T::ID)))?;
             prop_assert_eq!(back.seq, msg.seq);
             prop_assert_eq!(back.sent_at, msg.sent_at);
             prop_assert!(same(&back.value, &msg.value), "{:?} came back as {:?}", msg.value, back.value);
-            prop_assert_eq!(encode_stamped(&back, clock), again, "the encoding is not a fixed point");
-            // Without a clock (no stamp mapping) the same bytes decode too.
+            prop_assert_eq!(encode_stamped(&back), again, "the encoding is not a fixed point");
+            // As the plain envelope, the same bytes decode too.
             prop_assert!(decode::<WireStamped<T>>(bytes, T::ID).is_ok());
         }
         Err(e) => {
@@ -322,30 +314,26 @@ fn decodes_stably<T: CommObject>(
 
 #[test]
 fn stamped_u64_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
-    let valid = stamped_encodings(any::<u64>(), clock);
-    check(1024, inputs(valid), |bytes| decodes_stably::<u64>(&bytes, &clock, |a, b| a == b));
+    let valid = stamped_encodings(any::<u64>());
+    check(1024, inputs(valid), |bytes| decodes_stably::<u64>(&bytes, |a, b| a == b));
 }
 
 #[test]
 fn stamped_f64_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
-    let valid = stamped_encodings(any::<f64>(), clock);
-    check(1024, inputs(valid), |bytes| decodes_stably::<f64>(&bytes, &clock, |a, b| same_f64(*a, *b)));
+    let valid = stamped_encodings(any::<f64>());
+    check(1024, inputs(valid), |bytes| decodes_stably::<f64>(&bytes, |a, b| same_f64(*a, *b)));
 }
 
 #[test]
 fn stamped_string_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
-    let valid = stamped_encodings(".{0,24}", clock);
-    check(1024, inputs(valid), |bytes| decodes_stably::<String>(&bytes, &clock, |a, b| a == b));
+    let valid = stamped_encodings(".{0,24}");
+    check(1024, inputs(valid), |bytes| decodes_stably::<String>(&bytes, |a, b| a == b));
 }
 
 #[test]
 fn stamped_struct_with_timestamps_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
-    let valid = stamped_encodings(pose(), clock);
-    check(1024, inputs(valid), |bytes| decodes_stably::<Pose>(&bytes, &clock, same_pose));
+    let valid = stamped_encodings(pose());
+    check(1024, inputs(valid), |bytes| decodes_stably::<Pose>(&bytes, same_pose));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -406,20 +394,20 @@ fn reply<T: std::fmt::Debug>(ok: impl Strategy<Value = T>) -> impl Strategy<Valu
 /// `bytes` decode as a `Reply<T>` or fail naming `what`; the answer of `decode_reply` agrees:
 /// a reply that does not decode is a `Decode` error naming the service and the type, one that
 /// does is its value or the error it carries.
-fn reply_decodes_stably<T>(bytes: &[u8], clock: &Clock, what: &str) -> Result<(), TestCaseError>
+fn reply_decodes_stably<T>(bytes: &[u8], what: &str) -> Result<(), TestCaseError>
 where
     T: serde::de::DeserializeOwned + Serialize + PartialEq + std::fmt::Debug,
 {
     let addr = ServiceAddr::new("peer", "service");
-    let raw = decode_on::<Reply<T>>(clock, bytes, what);
-    let result = decode_reply::<T>(clock, bytes, &addr, what);
+    let raw = decode::<Reply<T>>(bytes, what);
+    let result = decode_reply::<T>(bytes, &addr, what);
     match raw {
         Ok(reply) => {
-            let again = encode_on(clock, &reply);
-            let back = decode_on::<Reply<T>>(clock, &again, what)
+            let again = encode(&reply);
+            let back = decode::<Reply<T>>(&again, what)
                 .map_err(|e| TestCaseError::fail(format!("a re-encoded reply does not decode: {e}")))?;
             prop_assert_eq!(&back, &reply);
-            prop_assert_eq!(encode_on(clock, &back), again, "the encoding is not a fixed point");
+            prop_assert_eq!(encode(&back), again, "the encoding is not a fixed point");
             match reply {
                 Reply::Ok(v) => prop_assert_eq!(result, Ok(v)),
                 Reply::Err(f) => prop_assert_eq!(result, Err(f.into_error())),
@@ -439,30 +427,23 @@ where
 
 #[test]
 fn state_status_reply_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
-    let valid = reply(status()).prop_map(move |r| encode_on(&clock, &r)).boxed();
-    check(1024, inputs(valid), |bytes| {
-        reply_decodes_stably::<StateStatus>(&bytes, &clock, "orsa.StateStatus/1")
-    });
+    let valid = reply(status()).prop_map(move |r| encode(&r)).boxed();
+    check(1024, inputs(valid), |bytes| reply_decodes_stably::<StateStatus>(&bytes, "orsa.StateStatus/1"));
 }
 
 #[test]
 fn query_answer_reply_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
     let answer = (any::<u64>(), 0..u64::MAX / 2, any::<u64>()).prop_map(|(seq, stamp, value)| WireStamped {
         seq,
         stamp_ns: Timestamp(stamp),
         value,
     });
-    let valid = reply(answer).prop_map(move |r| encode_on(&clock, &r)).boxed();
-    check(1024, inputs(valid), |bytes| {
-        reply_decodes_stably::<WireStamped<u64>>(&bytes, &clock, "orsa.U64/1")
-    });
+    let valid = reply(answer).prop_map(move |r| encode(&r)).boxed();
+    check(1024, inputs(valid), |bytes| reply_decodes_stably::<WireStamped<u64>>(&bytes, "orsa.U64/1"));
 }
 
 #[test]
 fn port_list_reply_decodes_or_fails_naming_its_type() {
-    let clock = test_clock();
     let port = ("[a-z]{1,6}", any::<bool>(), proptest::option::of(("[a-z]{1,6}", "[a-z]{1,6}"))).prop_map(
         |(port, query, target)| PortStatus {
             port,
@@ -474,9 +455,9 @@ fn port_list_reply_decodes_or_fails_naming_its_type() {
             target: target.map(|(c, s)| ServiceAddr::new(c, s)),
         },
     );
-    let valid = reply(vec(port, 0..3)).prop_map(move |r| encode_on(&clock, &r)).boxed();
+    let valid = reply(vec(port, 0..3)).prop_map(move |r| encode(&r)).boxed();
     check(1024, inputs(valid), |bytes| {
-        reply_decodes_stably::<Vec<PortStatus>>(&bytes, &clock, "orsa.PortStatus/1 list")
+        reply_decodes_stably::<Vec<PortStatus>>(&bytes, "orsa.PortStatus/1 list")
     });
 }
 
@@ -575,11 +556,10 @@ fn send_server_delivers_what_decodes_and_refuses_the_rest() {
         SendServer::<Pose>::register(&registry, POSE.on("robot"), Sink::channel(tx)).expect("server");
     let served = served(&registry, "robot/pose");
     let rx = Mutex::new(rx);
-    let clock = registry.clock();
-    let valid = stamped_encodings(pose(), clock);
+    let valid = stamped_encodings(pose());
     check(512, inputs(valid), |bytes| {
         let mut rx = rx.lock().expect("receiver");
-        let expected = decode_stamped::<Pose>(&bytes, Pose::ID, &clock);
+        let expected = decode_stamped::<Pose>(&bytes, Pose::ID);
         match served.serve_send(&bytes) {
             Ok(()) => {
                 let got = rx.try_recv().map_err(|_| TestCaseError::fail("accepted but not delivered"))?;
@@ -612,12 +592,11 @@ fn query_server_answers_every_request_with_a_reply() {
     });
     let _server = QueryServer::<Pose, u64>::register(&registry, LABELS.on("calc"), answer).expect("server");
     let served = served(&registry, "calc/labels");
-    let clock = registry.clock();
-    let valid = stamped_encodings(pose(), clock);
+    let valid = stamped_encodings(pose());
     check(512, inputs(valid), |bytes| {
-        let request = decode_stamped::<Pose>(&bytes, Pose::ID, &clock);
+        let request = decode_stamped::<Pose>(&bytes, Pose::ID);
         let bytes_out = rt.block_on(Arc::clone(&served).serve_request(&bytes));
-        let reply = decode_on::<Reply<WireStamped<u64>>>(&clock, &bytes_out, "reply")
+        let reply = decode::<Reply<WireStamped<u64>>>(&bytes_out, "reply")
             .map_err(|e| TestCaseError::fail(format!("the reply does not decode: {e}")))?;
         match (request, reply) {
             (Ok(req), Reply::Ok(ans)) => {
@@ -646,7 +625,6 @@ fn state_slave_answers_every_request_with_a_reply() {
     let spec = StateSpec::new().main_state("active", &["drive"]).main_state("parked", &[]);
     let slave = StateSlave::register(&registry, "slave", spec).expect("slave");
     let served = served(&registry, "slave/state");
-    let clock = registry.clock();
     let valid = state_request().prop_map(|r| encode(&r)).boxed();
     let declared: BTreeSet<String> = ["neutral", "active", "parked"].into_iter().map(String::from).collect();
     check(512, (inputs(valid), any::<bool>()), |(bytes, hold)| {
@@ -664,7 +642,7 @@ fn state_slave_answers_every_request_with_a_reply() {
             let _guard = if hold { slave.handle().try_acquire("drive").ok() } else { None };
             Arc::clone(&served).serve_request(&bytes).await
         });
-        let reply = decode_on::<Reply<StateStatus>>(&clock, &reply, "orsa.StateStatus/1")
+        let reply = decode::<Reply<StateStatus>>(&reply, "orsa.StateStatus/1")
             .map_err(|e| TestCaseError::fail(format!("the reply does not decode: {e}")))?;
         match (request, reply) {
             (Ok(_), Reply::Ok(status)) => {
@@ -698,12 +676,11 @@ fn wiring_slave_answers_every_request_with_a_reply() {
     let slave = WiringSlave::register(&registry, "behaviour").expect("slave");
     let _vel = slave.send_port::<f64>("vel").expect("port");
     let served = served(&registry, "behaviour/wiring");
-    let clock = registry.clock();
     let valid = wiring_request().prop_map(|r| encode(&r)).boxed();
     check(512, inputs(valid), |bytes| {
         let request = decode::<WiringRequest>(&bytes, "orsa.WiringRequest/1");
         let reply = rt.block_on(Arc::clone(&served).serve_request(&bytes));
-        let reply = decode_on::<Reply<Vec<PortStatus>>>(&clock, &reply, "orsa.PortStatus/1 list")
+        let reply = decode::<Reply<Vec<PortStatus>>>(&reply, "orsa.PortStatus/1 list")
             .map_err(|e| TestCaseError::fail(format!("the reply does not decode: {e}")))?;
         match (request, reply) {
             (Ok(req), Reply::Ok(ports)) => {
@@ -754,16 +731,15 @@ fn event_server_activates_what_decodes_and_refuses_the_rest() {
         })
         .expect("server");
     let served = served(&registry, "robot/near");
-    let clock = registry.clock();
     let valid = (0..u64::MAX / 2, ".{0,8}", any::<f64>())
         .prop_map(move |(at, label, x_m)| {
             let p = Pose { at: Timestamp(at), seen: None, x_m, label, mode: Mode::Idle, ranges_m: vec![] };
-            encode_on(&clock, &p)
+            encode(&p)
         })
         .boxed();
     let mode = prop_oneof![Just(EventMode::Single), Just(EventMode::Continuous)];
     check(512, (inputs(valid), mode), |(bytes, mode)| {
-        let params = decode_on::<Pose>(&clock, &bytes, Pose::ID);
+        let params = decode::<Pose>(&bytes, Pose::ID);
         let frames: Arc<Mutex<Vec<Vec<u8>>>> = Arc::default();
         let sink: ByteSink = {
             let frames = Arc::clone(&frames);
@@ -781,7 +757,7 @@ fn event_server_activates_what_decodes_and_refuses_the_rest() {
                 prop_assert_eq!(server.put(&state), 1);
                 let fired = frames.lock().expect("frames").clone();
                 prop_assert_eq!(fired.len(), 1);
-                let f = decode_on::<FiredOnWire>(&clock, &fired[0], "firing")
+                let f = decode::<FiredOnWire>(&fired[0], "firing")
                     .map_err(|e| TestCaseError::fail(format!("a firing does not decode: {e}")))?;
                 prop_assert!(f.activation >= 1 && f.seq >= 1);
                 prop_assert_eq!(f.value, state);

@@ -386,7 +386,6 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
 pub(crate) struct PeerBehaviours {
     supervisor: orsa_actors::supervision::SupervisorRef,
     steps: Arc<Mutex<Vec<Step>>>,
-    clock: Clock,
     restarts: Arc<std::sync::atomic::AtomicU64>,
 }
 
@@ -418,7 +417,7 @@ impl PeerBehaviours {
             .await
             .context("starting the behaviours")?
             .supervisor;
-        Ok(PeerBehaviours { supervisor, steps, clock: registry.clock(), restarts })
+        Ok(PeerBehaviours { supervisor, steps, restarts })
     }
 
     /// Stops the behaviours; their steps (stamps as UNIX time) and the restarts.
@@ -429,10 +428,10 @@ impl PeerBehaviours {
             .iter()
             .map(|s| WireStep {
                 behaviour: s.behaviour.to_string(),
-                update_unix_ns: self.clock.unix_ns(s.update),
-                fired_unix_ns: self.clock.unix_ns(s.fired),
-                handled_unix_ns: self.clock.unix_ns(s.handled),
-                done_unix_ns: self.clock.unix_ns(s.done),
+                update_unix_ns: s.update.as_nanos(),
+                fired_unix_ns: s.fired.as_nanos(),
+                handled_unix_ns: s.handled.as_nanos(),
+                done_unix_ns: s.done.as_nanos(),
                 v: s.v,
                 w: s.w,
             })
@@ -441,8 +440,8 @@ impl PeerBehaviours {
     }
 }
 
-/// A step from the peer, on this process's `clock`.
-pub(crate) fn step_from_wire(w: &WireStep, clock: &Clock) -> Step {
+/// A step from the peer (its stamps are UNIX time, as this process's).
+pub(crate) fn step_from_wire(w: &WireStep) -> Step {
     let behaviour = match w.behaviour.as_str() {
         WallFollow::NAME => WallFollow::NAME,
         CenterFollow::NAME => CenterFollow::NAME,
@@ -450,10 +449,10 @@ pub(crate) fn step_from_wire(w: &WireStep, clock: &Clock) -> Step {
     };
     Step {
         behaviour,
-        update: clock.from_unix_ns(w.update_unix_ns),
-        fired: clock.from_unix_ns(w.fired_unix_ns),
-        handled: clock.from_unix_ns(w.handled_unix_ns),
-        done: clock.from_unix_ns(w.done_unix_ns),
+        update: Timestamp(w.update_unix_ns),
+        fired: Timestamp(w.fired_unix_ns),
+        handled: Timestamp(w.handled_unix_ns),
+        done: Timestamp(w.done_unix_ns),
         v: w.v,
         w: w.w,
     }
@@ -544,7 +543,7 @@ pub(crate) async fn across(
                 other => anyhow::bail!("the peer answered {other:?} to stopping the behaviours"),
             };
         exec_sup.shutdown().await;
-        let steps: Vec<Step> = wire_steps.iter().map(|w| step_from_wire(w, &clock)).collect();
+        let steps: Vec<Step> = wire_steps.iter().map(step_from_wire).collect();
         let taken: Vec<Act> = taken.into_iter().filter(|a| a.at >= from).collect();
         let m = attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
         Ok(SenseToAct {

@@ -240,12 +240,10 @@ fn peer_protocol_messages_round_trip_through_cbor() {
         net::Sample { seq: 7, sent_unix_ns: 1_763_700_000_123_456_789, readings: net::Sample::padding() };
     assert_eq!(sample.readings.len(), 16, "sized like a DistanceScan");
     assert_eq!(net::uncbor::<net::Sample>(&net::cbor(&sample)), Some(sample.clone()));
-    // orsa's envelope carries the same sample, unchanged (the padding has no Timestamp to map).
-    let clock =
-        orsa_actors::Clock::with_unix_epoch_ns(tokio::time::Instant::now(), 1_763_000_000_000_000_000);
+    // orsa's envelope carries the same sample, unchanged .
     let stamped = orsa_actors::Stamped { seq: 1, sent_at: orsa_actors::Timestamp(5), value: sample.clone() };
-    let bytes = orsa_actors::wire::encode_stamped(&stamped, &clock);
-    let back = orsa_actors::wire::decode_stamped::<net::Sample>(&bytes, "sample", &clock).expect("decodes");
+    let bytes = orsa_actors::wire::encode_stamped(&stamped);
+    let back = orsa_actors::wire::decode_stamped::<net::Sample>(&bytes, "sample").expect("decodes");
     assert_eq!(back.value, sample);
     for req in [
         net::PeerRequest::Ping,
@@ -289,23 +287,22 @@ fn run_prefixes_and_keys_follow_the_port() {
 }
 
 #[test]
-fn steps_from_the_peer_land_on_this_clock() {
-    let clock =
-        orsa_actors::Clock::with_unix_epoch_ns(tokio::time::Instant::now(), 1_763_000_000_000_000_000);
+fn steps_from_the_peer_keep_their_unix_stamps() {
+    const T0: u64 = 1_763_000_000_000_000_000;
     let w = net::WireStep {
         behaviour: "centerfollow".into(),
-        update_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_000)),
-        fired_unix_ns: clock.unix_ns(orsa_actors::Timestamp(1_500)),
-        handled_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_100)),
-        done_unix_ns: clock.unix_ns(orsa_actors::Timestamp(2_200)),
+        update_unix_ns: T0 + 2_000,
+        fired_unix_ns: T0 + 1_500,
+        handled_unix_ns: T0 + 2_100,
+        done_unix_ns: T0 + 2_200,
         v: 0.1,
         w: 0.2,
     };
-    let s = sense::step_from_wire(&w, &clock);
-    assert_eq!((s.behaviour, s.update.0, s.fired.0), ("centerfollow", 2_000, 1_500));
-    assert_eq!((s.handled.0, s.done.0), (2_100, 2_200));
+    let s = sense::step_from_wire(&w);
+    assert_eq!((s.behaviour, s.update.0 - T0, s.fired.0 - T0), ("centerfollow", 2_000, 1_500));
+    assert_eq!((s.handled.0 - T0, s.done.0 - T0), (2_100, 2_200));
     let odd = net::WireStep { behaviour: "someone".into(), ..w };
-    assert_eq!(sense::step_from_wire(&odd, &clock).behaviour, "other");
+    assert_eq!(sense::step_from_wire(&odd).behaviour, "other");
 }
 
 #[test]

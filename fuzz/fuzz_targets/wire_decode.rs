@@ -15,15 +15,22 @@ use orsa_actors::send::SendServer;
 use orsa_actors::state::{StateRequest, StateSlave, StateSpec, StateStatus};
 use orsa_actors::transport::{ByteSink, Served};
 use orsa_actors::wire::{
-    Reply, WireStamped, decode, decode_on, decode_reply, decode_stamped, encode, encode_on, encode_stamped,
+    Reply, WireStamped, decode, decode_reply, decode_stamped, encode, encode_stamped,
 };
 use orsa_actors::wiring::{PortStatus, WiringRequest, WiringSlave};
+use orsa_actors::service::{EventService, QueryService, SendService};
 use orsa_actors::{Clock, CommObject, Registry, Sink, Timestamp, comm_object};
 use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams};
 use orsa_net::{ActivateRequest, NetStats, SubscribeRequest};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
+
+/// The services the fuzzed bytes are served to.
+const POSE: SendService<Pose> = SendService::new("pose");
+const LABELS: QueryService<Pose, u64> = QueryService::new("labels");
+const SPEED: SendService<f64> = SendService::new("speed");
+const NEAR: EventService<Pose, u64> = EventService::new("near");
 
 /// A communication object with stamps inside, an enum, an optional, a list and text.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -55,7 +62,6 @@ struct Fired {
 
 struct Services {
     rt: tokio::runtime::Runtime,
-    clock: Clock,
     send: Arc<dyn Served>,
     query: Arc<dyn Served>,
     state: Arc<dyn Served>,
@@ -69,34 +75,33 @@ fn services() -> &'static Services {
     SERVICES.get_or_init(|| {
         let rt = tokio::runtime::Builder::new_current_thread().enable_time().build().expect("runtime");
         let _enter = rt.enter();
-        let registry = Registry::with_clock(Clock::with_unix_epoch_ns(
+        let registry = Registry::with_clock(Clock::starting_at(
             tokio::time::Instant::now(),
-            1_704_067_200_000_000_000,
+            orsa_actors::Timestamp(1_704_067_200_000_000_000),
         ));
         let served = |addr: &str| {
             let addr: ServiceAddr = addr.parse().expect("address");
             registry.local(&addr).expect("registered").served
         };
-        let send = SendServer::<Pose>::register(&registry, ("robot", "pose"), Sink::from_fn(|_| Ok(())))
+        let send = SendServer::<Pose>::register(&registry, POSE.on("robot"), Sink::from_fn(|_| Ok(())))
             .expect("send");
         let answer = Sink::from_fn(|q: QueryRequest<Pose, u64>| {
             let n = q.request.value.label.len() as u64;
             let _ = q.answer(n);
             Ok(())
         });
-        let query = QueryServer::<Pose, u64>::register(&registry, ("calc", "labels"), answer).expect("query");
+        let query = QueryServer::<Pose, u64>::register(&registry, LABELS.on("calc"), answer).expect("query");
         let spec = StateSpec::new().main_state("active", &["drive"]).main_state("parked", &[]);
         let state = StateSlave::register(&registry, "slave", spec).expect("state");
-        let speed = SendServer::<f64>::register(&registry, ("robot", "speed"), Sink::from_fn(|_| Ok(())))
+        let speed = SendServer::<f64>::register(&registry, SPEED.on("robot"), Sink::from_fn(|_| Ok(())))
             .expect("speed");
         let wiring = WiringSlave::register(&registry, "behaviour").expect("wiring");
         let port = wiring.send_port::<f64>("vel").expect("port");
-        let event = EventServer::<Pose, u64, u64>::register(&registry, ("robot", "near"), |p: &mut Pose, s: &u64| {
+        let event = EventServer::<Pose, u64, u64>::register(&registry, NEAR.on("robot"), |p: &mut Pose, s: &u64| {
             (p.label.len() as u64 <= *s).then_some(*s)
         })
         .expect("event");
         Services {
-            clock: registry.clock(),
             send: served("robot/pose"),
             query: served("calc/labels"),
             state: served("slave/state"),
@@ -112,12 +117,12 @@ fn services() -> &'static Services {
 }
 
 /// A stamped `T`: what decodes re-encodes to a fixed point; an error names `T`.
-fn stamped<T: CommObject>(bytes: &[u8], clock: &Clock) {
-    match decode_stamped::<T>(bytes, T::ID, clock) {
+fn stamped<T: CommObject>(bytes: &[u8]) {
+    match decode_stamped::<T>(bytes, T::ID) {
         Ok(msg) => {
-            let again = encode_stamped(&msg, clock);
-            let back = decode_stamped::<T>(&again, T::ID, clock).expect("a re-encoded message decodes");
-            assert_eq!(encode_stamped(&back, clock), again, "the encoding is not a fixed point");
+            let again = encode_stamped(&msg);
+            let back = decode_stamped::<T>(&again, T::ID).expect("a re-encoded message decodes");
+            assert_eq!(encode_stamped(&back), again, "the encoding is not a fixed point");
         }
         Err(e) => assert_eq!(e.what, T::ID),
     }
@@ -140,15 +145,15 @@ fn plain<T: DeserializeOwned + Serialize>(bytes: &[u8], what: &str) -> Option<T>
 }
 
 /// A reply to a request: `decode_reply` never panics and agrees with the plain decoding.
-fn reply<T: DeserializeOwned + Serialize>(bytes: &[u8], clock: &Clock, what: &str) {
+fn reply<T: DeserializeOwned + Serialize>(bytes: &[u8], what: &str) {
     let addr = ServiceAddr::new("peer", "service");
-    let raw = decode_on::<Reply<T>>(clock, bytes, what);
-    let result = decode_reply::<T>(clock, bytes, &addr, what);
+    let raw = decode::<Reply<T>>(bytes, what);
+    let result = decode_reply::<T>(bytes, &addr, what);
     match raw {
         Ok(r) => {
-            let again = encode_on(clock, &r);
-            let back = decode_on::<Reply<T>>(clock, &again, what).expect("a re-encoded reply decodes");
-            assert_eq!(encode_on(clock, &back), again, "the encoding is not a fixed point");
+            let again = encode(&r);
+            let back = decode::<Reply<T>>(&again, what).expect("a re-encoded reply decodes");
+            assert_eq!(encode(&back), again, "the encoding is not a fixed point");
             assert_eq!(result.is_ok(), matches!(r, Reply::Ok(_)));
         }
         Err(_) => assert!(matches!(result, Err(orsa_actors::PatternError::Decode(_)))),
@@ -166,20 +171,19 @@ fn activate(s: &Services, mode: EventMode, params: &[u8]) {
 fuzz_target!(|data: &[u8]| {
     let Some((&which, bytes)) = data.split_first() else { return };
     let s = services();
-    let clock = &s.clock;
     match which % 24 {
-        0 => stamped::<u64>(bytes, clock),
-        1 => stamped::<f64>(bytes, clock),
-        2 => stamped::<String>(bytes, clock),
-        3 => stamped::<Pose>(bytes, clock),
-        4 => stamped::<NavigationVelocity>(bytes, clock),
-        5 => stamped::<DistanceScan>(bytes, clock),
-        6 => stamped::<BaseState>(bytes, clock),
-        7 => stamped::<ContactScan>(bytes, clock),
-        8 => reply::<WireStamped<RobotParams>>(bytes, clock, RobotParams::ID),
-        9 => reply::<StateStatus>(bytes, clock, "orsa.StateStatus/1"),
-        10 => reply::<Vec<PortStatus>>(bytes, clock, "orsa.PortStatus/1 list"),
-        11 => reply::<WireStamped<u64>>(bytes, clock, "orsa.U64/1"),
+        0 => stamped::<u64>(bytes),
+        1 => stamped::<f64>(bytes),
+        2 => stamped::<String>(bytes),
+        3 => stamped::<Pose>(bytes),
+        4 => stamped::<NavigationVelocity>(bytes),
+        5 => stamped::<DistanceScan>(bytes),
+        6 => stamped::<BaseState>(bytes),
+        7 => stamped::<ContactScan>(bytes),
+        8 => reply::<WireStamped<RobotParams>>(bytes, RobotParams::ID),
+        9 => reply::<StateStatus>(bytes, "orsa.StateStatus/1"),
+        10 => reply::<Vec<PortStatus>>(bytes, "orsa.PortStatus/1 list"),
+        11 => reply::<WireStamped<u64>>(bytes, "orsa.U64/1"),
         12 => {
             let _ = plain::<StateRequest>(bytes, "orsa.StateRequest/1");
         }
@@ -201,22 +205,22 @@ fuzz_target!(|data: &[u8]| {
             let _ = plain::<Reply<NetStats>>(bytes, "orsa.NetStats/1");
         }
         17 => {
-            let _ = decode_on::<Fired>(clock, bytes, "firing");
+            let _ = decode::<Fired>(bytes, "firing");
         }
         18 => {
             let _ = s.send.serve_send(bytes);
         }
         19 => {
             let r = s.rt.block_on(Arc::clone(&s.query).serve_request(bytes));
-            decode_on::<Reply<WireStamped<u64>>>(clock, &r, "reply").expect("a query reply decodes");
+            decode::<Reply<WireStamped<u64>>>(&r, "reply").expect("a query reply decodes");
         }
         20 => {
             let r = s.rt.block_on(Arc::clone(&s.state).serve_request(bytes));
-            decode_on::<Reply<StateStatus>>(clock, &r, "reply").expect("a state reply decodes");
+            decode::<Reply<StateStatus>>(&r, "reply").expect("a state reply decodes");
         }
         21 => {
             let r = s.rt.block_on(Arc::clone(&s.wiring).serve_request(bytes));
-            decode_on::<Reply<Vec<PortStatus>>>(clock, &r, "reply").expect("a wiring reply decodes");
+            decode::<Reply<Vec<PortStatus>>>(&r, "reply").expect("a wiring reply decodes");
         }
         22 => activate(s, EventMode::Single, bytes),
         _ => activate(s, EventMode::Continuous, bytes),

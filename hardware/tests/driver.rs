@@ -16,7 +16,7 @@ fn palazzina() -> SimNomad200 {
 
 #[tokio::test(start_paused = true)]
 async fn steps_exactly_with_the_paused_clock() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let robot = SimRobot::spawn(palazzina(), clock);
     sleep(ms(1005)).await;
     assert_eq!(robot.steps(), 100, "10 ms steps over 1 s");
@@ -28,7 +28,7 @@ async fn steps_exactly_with_the_paused_clock() {
 
 #[tokio::test(start_paused = true)]
 async fn stamps_are_times_of_the_given_clock() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     sleep(ms(250)).await;
     let robot = SimRobot::spawn(palazzina(), clock);
     let sensors = robot.sensor_board();
@@ -45,7 +45,7 @@ async fn stamps_are_times_of_the_given_clock() {
 
 #[tokio::test(start_paused = true)]
 async fn wait_stop_waits_on_tokio_time() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let robot = SimRobot::spawn(palazzina(), clock);
     let motors = robot.motor_board();
     motors.move_velocity(AxisVelocities::synchro(0.3, 0.0)).await.expect("move");
@@ -65,7 +65,7 @@ async fn wait_stop_waits_on_tokio_time() {
 #[tokio::test(start_paused = true)]
 async fn boards_work_from_other_tasks() {
     // The traits' futures are Send: a behaviour's task can own a board.
-    let robot = SimRobot::spawn(palazzina(), Clock::start());
+    let robot = SimRobot::spawn(palazzina(), Clock::simulated());
     let (sensors, motors) = (robot.sensor_board(), robot.motor_board());
     let task = tokio::spawn(async move {
         sensors.set_sonar_fire_order(&[0, 8]).await?;
@@ -89,7 +89,7 @@ async fn boards_work_from_other_tasks() {
 
 #[tokio::test(start_paused = true)]
 async fn after_shutdown_boards_disconnect_and_truth_stays() {
-    let robot = SimRobot::spawn(palazzina(), Clock::start());
+    let robot = SimRobot::spawn(palazzina(), Clock::simulated());
     let (sensors, motors, truth) = (robot.sensor_board(), robot.motor_board(), robot.truth());
     sleep(ms(105)).await;
     robot.shutdown().await.expect("clean stop");
@@ -103,7 +103,7 @@ async fn after_shutdown_boards_disconnect_and_truth_stays() {
 
 #[tokio::test(start_paused = true)]
 async fn dropping_the_robot_stops_stepping() {
-    let robot = SimRobot::spawn(palazzina(), Clock::start());
+    let robot = SimRobot::spawn(palazzina(), Clock::simulated());
     let (sensors, truth) = (robot.sensor_board(), robot.truth());
     sleep(ms(55)).await;
     drop(robot);
@@ -116,7 +116,7 @@ async fn dropping_the_robot_stops_stepping() {
 async fn a_sim_that_ran_ahead_waits_for_the_clock() {
     let mut sim = exact(empty(0.0, 0.0, 0.0));
     sim.run_for(Duration::from_secs(2));
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let robot = SimRobot::spawn(sim, clock);
     sleep(ms(1005)).await;
     assert_eq!(robot.steps(), 200, "its time is 2 s; the clock's 1 s");

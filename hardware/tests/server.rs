@@ -24,7 +24,7 @@ struct Rig {
 }
 
 async fn rig(params: ServerParams) -> Rig {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let registry = Registry::with_clock(clock);
     let world = World::palazzina().expect("reference world");
     let config = SimConfig::noiseless();
@@ -195,7 +195,7 @@ impl MotorBoard for YieldingStop {
 /// the watchdog must see it and stop the robot again, not wait for a deadline that has passed.
 #[tokio::test(start_paused = true)]
 async fn server_stops_a_command_that_lands_while_the_watchdog_stops_the_robot() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let registry = Registry::with_clock(clock);
     let config = SimConfig::noiseless();
     let params = ServerParams::default();

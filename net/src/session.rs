@@ -424,7 +424,6 @@ impl Inner {
             match inner.get(&key, payload, Duration::from_secs(5)).await {
                 Ok(bytes) => {
                     if let Err(e) = orsa_actors::wire::decode_reply::<()>(
-                        &inner.registry.clock(),
                         &bytes,
                         &ServiceAddr::new("peer", "control"),
                         "control reply",

@@ -103,7 +103,7 @@ impl Component for FakeRobot {
 
 #[tokio::test(start_paused = true)]
 async fn a_command_carries_the_stamp_of_the_scan_it_was_computed_from() {
-    let registry = Registry::new();
+    let registry = Registry::with_clock(orsa_actors::Clock::simulated());
     let _robot = spawn(&registry, "robot", FakeRobot).await.expect("robot");
     let (tx, mut commands) = mpsc::unbounded_channel::<Stamped<NavigationVelocity>>();
     const MOTORS: SendService<NavigationVelocity> = SendService::new("motors");

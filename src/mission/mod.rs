@@ -221,6 +221,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         .query(Empty {}, Some(Duration::from_secs(1)))
         .await?;
     let faults_switch = stack.registry.faults();
+    let clock = stack.registry.clock();
     let boards = stack.board_faults.clone();
     let delivery = integrity::DeliveryReport::from_ledger(&stack.registry);
     while let Ok(change) = wrx.try_recv() {
@@ -249,6 +250,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
             plan,
             opts.duration_s,
             &faults_switch,
+            &clock,
             &boards,
             by_child,
             restart_ms,

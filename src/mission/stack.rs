@@ -60,7 +60,7 @@ impl Stack {
         tap: Option<std::sync::Arc<dyn orsa_actors::tap::Tap>>,
         on_event: impl Fn(SupervisorEvent) + Send + Sync + 'static,
     ) -> Result<Stack, StackError> {
-        let clock = Clock::start();
+        let clock = Clock::simulated();
         let registry = Registry::with_clock(clock);
         registry.set_tap(tap);
         // Every message is accounted for: the report says what was delivered and what lost.

@@ -267,7 +267,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                         }
                     }
                     RobotEvent::Link(role, cut) => {
-                        let t = registry.now().as_secs_f64();
+                        let t = registry.clock().since_start(registry.now()).as_secs_f64();
                         if cut {
                             eprintln!("robot: [{t:.3} s] fault: link to {role} cut");
                             links.push(crate::faults::LinkCutReport { role: role.clone(), cut_at_s: t, ..Default::default() });
@@ -283,7 +283,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                 },
                 Some(u) = base_rx.recv() => {
                     let u: orsa_actors::Update<orsa_interfaces::nomad200::BaseState> = u;
-                    let t = u.sent_at.as_secs_f64();
+                    let t = registry.clock().since_start(u.sent_at).as_secs_f64();
                     let b = &u.value;
                     let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
                     for l in &mut links {
@@ -317,12 +317,12 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         let faults_switch = registry.faults();
         supervisor.shutdown().await;
         let _ = sim.shutdown().await;
-        let end_s = registry.now().as_secs_f64();
+        let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
         let faults = plan.as_ref().map(|plan| {
-            let plan_end = end_s - plan_started_at.map_or(0.0, |t| t.as_secs_f64());
+            let plan_end = end_s - plan_started_at.map_or(0.0, |t| registry.clock().since_start(t).as_secs_f64());
             let (restarts, restart_ms) = crate::faults::restarts_of(&supervisor_events.lock());
             let mut report =
-                crate::faults::FaultsReport::new(plan, plan_end, &faults_switch, &boards, restarts, restart_ms);
+                crate::faults::FaultsReport::new(plan, plan_end, &faults_switch, &registry.clock(), &boards, restarts, restart_ms);
             for (_, role, what) in &link_log {
                 if what.starts_with("detected") {
                     *report.detected.entry(role.clone()).or_default() += 1;
@@ -335,7 +335,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         });
         let report = RobotReport {
             duration_s: end_s,
-            plan_started_at_s: plan_started_at.map(|t| t.as_secs_f64()),
+            plan_started_at_s: plan_started_at.map(|t| registry.clock().since_start(t).as_secs_f64()),
             safety,
             link: transport.link_cut_stats(),
             faults,
@@ -360,7 +360,7 @@ async fn lose_executive(
     zid: &str,
     why: &str,
 ) -> Option<String> {
-    let t = registry.now().as_secs_f64();
+    let t = registry.clock().since_start(registry.now()).as_secs_f64();
     eprintln!("robot: [{t:.3} s] executive {zid} lost ({why}): unwiring the behaviours and stopping");
     let wiring = WiringMaster::new(registry);
     let mut driving = None;
@@ -389,7 +389,7 @@ fn note_loss(
     zid: &str,
     why: &str,
 ) {
-    let t = registry.now().as_secs_f64();
+    let t = registry.clock().since_start(registry.now()).as_secs_f64();
     log.push((
         t,
         "executive".into(),
@@ -414,7 +414,7 @@ async fn executive_back(
     restore: Option<String>,
     links: &mut [crate::faults::LinkCutReport],
 ) {
-    let t = registry.now().as_secs_f64();
+    let t = registry.clock().since_start(registry.now()).as_secs_f64();
     let wiring = WiringMaster::new(registry);
     if let Some(b) = &restore {
         // Whatever a fallback wired goes first: never two behaviours on the motors.

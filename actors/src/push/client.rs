@@ -106,10 +106,9 @@ impl<T: CommObject> PushClientCore<T> {
             }
             Via::Local(e) => SubHandle::Local(e.subscribe(every, sink)),
             Via::Remote(r) => {
-                let clock = r.registry.clock();
                 let remote = r.clone();
                 let bytes: ByteSink =
-                    Arc::new(move |b: &[u8]| match crate::wire::decode_stamped::<T>(b, T::ID, &clock) {
+                    Arc::new(move |b: &[u8]| match crate::wire::decode_stamped::<T>(b, T::ID) {
                         Ok(u) => sink.deliver(Arc::new(u)) != Err(Undeliverable::Closed),
                         Err(e) => {
                             remote.bad_message(&e);

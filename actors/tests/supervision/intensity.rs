@@ -92,7 +92,7 @@ async fn supervision_escalation_restarts_the_nested_supervisor_in_its_parent() {
 
 #[tokio::test(start_paused = true)]
 async fn supervision_restarts_spread_beyond_the_period_do_not_escalate() {
-    let clock = Clock::start();
+    let clock = Clock::simulated();
     let (sink, mut rx) = event_channel();
     let sup = Supervisor::start(
         SupervisorSpec::new("s", Strategy::OneForOne)

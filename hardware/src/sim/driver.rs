@@ -80,12 +80,12 @@ impl SimRobot {
     /// Starts stepping `sim` on tokio's clock. Must be called inside a tokio runtime.
     ///
     /// The simulator's time is aligned with `clock`: its current time becomes `clock.now()`
-    /// (unless it has already run further than that clock has, in which case the clock's epoch
+    /// (unless it has already run further than that clock has, in which case the clock's start
     /// is its origin and stepping waits for the clock to catch up). Every step then happens
     /// when the clock reaches its end time.
     pub fn spawn(mut sim: SimNomad200, clock: Clock) -> SimRobot {
         let elapsed = sim.time().0.saturating_sub(sim.origin.0);
-        sim.set_time_origin(Timestamp(clock.now().0.saturating_sub(elapsed)));
+        sim.set_time_origin(Timestamp(clock.now().0.saturating_sub(elapsed).max(clock.origin().0)));
         let step = sim.step_period();
         let first = clock.instant_of(sim.time()) + step;
         let (steps_tx, steps_rx) = watch::channel(sim.steps());
