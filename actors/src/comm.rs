@@ -1,33 +1,34 @@
-//! Communication objects: the typed data that travels through every pattern.
-//!
-//! A communication object is a plain serde struct in SI units with unit-suffixed field names
-//! (`distance_m`, `omega_rad_s`). Each type carries a stable identifier, [`CommObject::ID`], that
-//! says what the bytes mean independently of the Rust type name. A client and a service agree on
-//! type when their identifiers are equal; this is how a peer in another process (or another
-//! language) is checked, where no Rust `TypeId` exists.
-//!
-//! ```
-//! use orsa_actors::{comm_object, CommObject};
-//! use serde::{Deserialize, Serialize};
-//!
-//! /// A target distance for a behaviour.
-//! #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-//! pub struct Setpoint {
-//!     /// Desired distance to the wall.
-//!     pub distance_m: f64,
-//! }
-//! comm_object!(Setpoint, "orsa.example.Setpoint/1");
-//!
-//! assert_eq!(Setpoint::ID, "orsa.example.Setpoint/1");
-//! ```
+//! Communication objects: the typed data that travels through every pattern (see [`CommObject`]).
 
 use serde::{Serialize, de::DeserializeOwned};
 use std::fmt::Debug;
 
-/// A type that can travel through a communication pattern.
+/// A type that can travel through a communication pattern: the typed data of every pattern.
 ///
-/// Implement it with [`comm_object!`](crate::comm_object). The identifier has the form `namespace.Name/version`; bump
-/// the version whenever the serialised form changes incompatibly.
+/// A communication object is a plain serde struct in SI units with unit-suffixed field names
+/// (`distance_m`, `omega_rad_s`). Each type carries a stable identifier, [`CommObject::ID`], that
+/// says what the bytes mean independently of the Rust type name. A client and a service agree on
+/// type when their identifiers are equal; this is how a peer in another process (or another
+/// language) is checked, where no Rust `TypeId` exists.
+///
+/// ```
+/// use orsa_actors::{comm_object, CommObject};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// A target distance for a behaviour.
+/// #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// pub struct Setpoint {
+///     /// Desired distance to the wall.
+///     pub distance_m: f64,
+/// }
+/// comm_object!(Setpoint, "orsa.example.Setpoint/1");
+///
+/// assert_eq!(Setpoint::ID, "orsa.example.Setpoint/1");
+/// ```
+///
+/// Implement it with [`comm_object!`](crate::comm_object). The identifier has the form
+/// `namespace.Name/version`; bump the version whenever the serialised form changes
+/// incompatibly.
 pub trait CommObject: Serialize + DeserializeOwned + Clone + Debug + Send + Sync + 'static {
     /// The stable identifier of this type, e.g. `orsa.DistanceScan/1`.
     const ID: &'static str;

@@ -22,7 +22,8 @@
 //! plan's, not the system's. What remains unsettled when the counts are read is in flight
 //! (queued, or held back by a delay fault).
 //!
-//! Duplicates are told apart by sender: a Send client (and its clones), a push subscription.
+//! Duplicates are told apart by sender: a Send or Query client (and its clones), a push
+//! subscription.
 //! Messages that arrive from other processes carry their sender's sequence numbers but not its
 //! identity, so they are counted delivered, never duplicate.
 

@@ -15,15 +15,15 @@
 //! | Wiring | [`wiring`] | a master reconnects a component's client ports at run time |
 //!
 //! Around them:
-//! - [`comm`]: communication objects and their stable identifiers; [`stamped`]: the envelope
-//!   (sequence number, timestamp) every object travels in.
+//! - [`CommObject`]: communication objects and their stable identifiers; [`Stamped`]: the
+//!   envelope (sequence number, time sent) every object travels in.
 //! - [`component`]: a component is a named actor hosting services, ports, state and
 //!   subscriptions; a restarted instance keeps all of them.
 //! - [`service`]: typed service and port descriptors (a service named once with its pattern and
 //!   objects, so a wrong name or type is a compile error); [`addr`]: untyped addresses
 //!   (`component/service`) and what a service is ([`ServiceInfo`]), the run-time half of the type
 //!   check for addresses a person typed.
-//! - [`registry`]: the directory of one system that resolves addresses; [`transport`]: the seam
+//! - [`Registry`]: the directory of one system that resolves addresses; [`transport`]: the seam
 //!   for other processes, and [`wire`]: the CBOR encoding of what crosses it.
 //! - [`prelude`]: what a component author needs, in one `use`.
 //! - [`ledger`]: the delivery ledger, a receipt per message settled once (delivered, lost, ...).
@@ -32,19 +32,24 @@
 //!   that shows them to the tap, applies the fault plan and issues delivery receipts.
 //! - [`supervision`]: OTP-style supervisors on ractor.
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
-//!   a whole system deterministically.
+//!   a whole system deterministically; its time model (UNIX time live, zero-based simulated).
 //! - [`tap`]: an observer of every message and control event (what recordings are made of).
 //! - [`fault`]: fault injection (panics, hangs, kills, lost, late and duplicated messages) and
 //!   the log of what failed and when it was back.
-//! - [`sink`]: where patterns deliver (a component's mailbox, a channel); [`error`]: the status
-//!   values of every operation.
+//! - [`Sink`]: where patterns deliver (a component's [`Mailbox`], a channel, a function);
+//!   [`PatternError`]: the status values of every operation.
+//!
+//! Public modules are the ones whose documentation says how something behaves (each pattern,
+//! supervision, the clock's time model, faults, the tap, the ledger, the transport seam and its
+//! wire encoding). The plumbing (`comm`, `error`, `registry`, `sink`, `stamped`, `push`, `door`)
+//! is private; what of it a user names is re-exported here at the root.
 
 pub mod addr;
 pub mod clock;
-pub mod comm;
+mod comm;
 pub mod component;
 mod door;
-pub mod error;
+mod error;
 pub mod event;
 pub mod fault;
 pub mod ledger;
@@ -53,11 +58,11 @@ mod push;
 pub mod push_newest;
 pub mod push_timed;
 pub mod query;
-pub mod registry;
+mod registry;
 pub mod send;
 pub mod service;
-pub mod sink;
-pub mod stamped;
+mod sink;
+mod stamped;
 pub mod state;
 pub mod supervision;
 pub mod tap;
@@ -71,6 +76,6 @@ pub use comm::{CommObject, Empty};
 pub use component::{Component, ComponentError, ComponentHandle, Ctx};
 pub use error::{PatternError, PatternResult};
 pub use push::PushStats;
-pub use registry::Registry;
-pub use sink::{Mailbox, Sink, Undeliverable};
+pub use registry::{LocalService, Registry};
+pub use sink::{Envelope, Mailbox, Sink, Undeliverable};
 pub use stamped::{Stamped, Update};

@@ -77,6 +77,15 @@ struct Inner {
 }
 
 /// The directory of one orsa system; cheap to clone, shared by all its components.
+///
+/// Every service is addressed as `component/service` ([`ServiceAddr`]). A registry holds the
+/// components and services hosted in this process, and behind them the
+/// [`Transport`](crate::transport::Transport) seam for services hosted elsewhere. A client
+/// resolves an address once; the registry answers with the service's pattern and communication
+/// object identifiers, and the client checks them against its own before it sends a byte,
+/// answering [`PatternError::IncompatibleService`] on a mismatch. It also owns what one system
+/// shares: its [`Clock`], its [fault switchboard](crate::fault), its [tap](crate::tap) and its
+/// [delivery ledger](crate::ledger).
 #[derive(Clone)]
 pub struct Registry {
     inner: Arc<Inner>,
@@ -332,7 +341,7 @@ impl Default for Registry {
     }
 }
 /// Checks that a client expecting `expected` may use the service `found` at `addr`.
-pub fn check(found: &ServiceInfo, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
+pub(crate) fn check(found: &ServiceInfo, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
     if found == expected {
         Ok(())
     } else {

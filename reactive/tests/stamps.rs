@@ -6,9 +6,9 @@
 //! envelope's time was renamed `sent_at`, `scan.stamp` in the behaviour resolved to the
 //! envelope's publication time, and this test failed.
 
+use orsa_actors::Sink;
 use orsa_actors::component::spawn;
 use orsa_actors::prelude::*;
-use orsa_actors::sink::Sink;
 use orsa_interfaces::behaviour::{self, ACTIVE};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceReading, DistanceScan, NavigationVelocity, PushPeriods, RING_SIZE,
