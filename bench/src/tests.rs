@@ -2,6 +2,7 @@
 //! only counts, shapes and keys.
 
 use super::*;
+use std::collections::BTreeMap;
 
 fn lat(p50: f64) -> Latency {
     Latency { n: 10, p50_ns: p50, p99_ns: 2.0 * p50, max_ns: 3.0 * p50, mean_ns: p50 }

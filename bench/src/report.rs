@@ -1,0 +1,318 @@
+//! The figures the bench reports: one type per table, and [`BenchReport`], all of them (also
+//! written as JSON by `--json`).
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// A latency distribution, in nanoseconds (nearest-rank percentiles).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct Latency {
+    /// Samples.
+    pub n: usize,
+    /// Median.
+    pub p50_ns: f64,
+    /// 99th percentile.
+    pub p99_ns: f64,
+    /// Largest.
+    pub max_ns: f64,
+    /// Mean.
+    pub mean_ns: f64,
+}
+
+/// One path's latency in one mode on one runtime.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LatencyRow {
+    /// The tokio runtime (`current-thread`, `multi-thread (2 workers)`).
+    pub runtime: String,
+    /// `back-to-back` (one in flight) or `25 Hz`.
+    pub mode: String,
+    /// What was measured.
+    pub path: String,
+    /// The path this one is compared with, if any.
+    pub baseline: Option<String>,
+    /// The distribution.
+    pub latency: Latency,
+    /// p50 over the baseline's p50.
+    pub p50_ratio: Option<f64>,
+    /// p99 over the baseline's p99.
+    pub p99_ratio: Option<f64>,
+}
+
+/// One path's throughput on one runtime.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ThroughputRow {
+    /// The tokio runtime.
+    pub runtime: String,
+    /// What was measured.
+    pub path: String,
+    /// How: a burst of pushes until the last is handled, or round trips one at a time.
+    pub how: String,
+    /// Messages (or round trips).
+    pub messages: u64,
+    /// Wall time they took, s.
+    pub wall_s: f64,
+    /// Messages per second.
+    pub per_s: f64,
+    /// The path this one is compared with, if any.
+    pub baseline: Option<String>,
+    /// Rate over the baseline's rate.
+    pub ratio: Option<f64>,
+}
+
+/// One push server fanned out to N subscribers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FanoutRow {
+    /// Subscribers.
+    pub subscribers: usize,
+    /// Rounds measured (one publish each).
+    pub rounds: usize,
+    /// How long `put` takes (the publisher's cost).
+    pub orsa_publish: Latency,
+    /// From before `put` to the last subscriber component's handler.
+    pub orsa_last_handler: Latency,
+    /// How long the loop of casts takes.
+    pub raw_publish: Latency,
+    /// From before the loop of casts to the last actor's handler.
+    pub raw_last_handler: Latency,
+    /// orsa's last-handler p50 over raw's.
+    pub last_p50_ratio: Option<f64>,
+    /// orsa's last-handler p50 divided by the subscribers.
+    pub orsa_ns_per_subscriber: f64,
+    /// raw's last-handler p50 divided by the subscribers.
+    pub raw_ns_per_subscriber: f64,
+    /// Deliveries the server counted (warm-up included).
+    pub delivered: u64,
+    /// Deliveries expected: rounds (warm-up included) times subscribers.
+    pub expected: u64,
+    /// Handler runs counted.
+    pub handled: u64,
+}
+
+/// Sense to act in process, in real time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SenseToAct {
+    /// Measured span, wall s.
+    pub duration_s: f64,
+    /// Velocity commands the motor board received.
+    pub commands_received: u64,
+    /// Of those, attributed to the behaviour step that computed them.
+    pub attributed: u64,
+    /// Not attributed (the master's zero commands while nothing is wired).
+    pub unattributed: u64,
+    /// Attributed commands per behaviour.
+    pub by_behaviour: BTreeMap<String, u64>,
+    /// From the sensor update's publication to the motor board.
+    pub from_update: Latency,
+    /// From the newest sensor firing in that update to the motor board (includes the
+    /// simulator's 10 ms sampling).
+    pub from_sensor_firing: Latency,
+    /// The figure from the update, in legs (each summarised on its own: the legs' p50s need
+    /// not add up to the whole's).
+    pub legs: Vec<SenseLeg>,
+    /// Commands the server refused as stale.
+    pub stale_refused: u64,
+    /// Supervisor restarts during the run.
+    pub restarts: u64,
+}
+
+/// One path's one-way latency across processes in one mode.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetLatencyRow {
+    /// `back-to-back` (one in flight) or `25 Hz`.
+    pub mode: String,
+    /// What was measured.
+    pub path: String,
+    /// The path this one is compared with, if any.
+    pub baseline: Option<String>,
+    /// The distribution (receiver's UNIX time minus the sender's, same host).
+    pub latency: Latency,
+    /// p50 over the baseline's p50.
+    pub p50_ratio: Option<f64>,
+    /// p99 over the baseline's p99.
+    pub p99_ratio: Option<f64>,
+    /// Samples sent in this mode.
+    pub sent: u64,
+    /// Samples received.
+    pub received: u64,
+    /// Whether they arrived in the order sent.
+    pub in_order: bool,
+    /// How long sending took in the sending process (orsa's `put`; raw: encoding and `put`).
+    pub sender_put: Latency,
+}
+
+/// What the sample costs to encode and decode, raw and in orsa's envelope (in one process).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CodecCosts {
+    /// CBOR bytes of the sample alone (the raw paths).
+    pub raw_bytes: usize,
+    /// CBOR bytes of the sample in orsa's stamped envelope (the orsa paths).
+    pub orsa_bytes: usize,
+    /// ns to encode the sample (ciborium).
+    pub raw_encode_ns: f64,
+    /// ns to decode it.
+    pub raw_decode_ns: f64,
+    /// ns for orsa's `encode_stamped`.
+    pub orsa_encode_ns: f64,
+    /// ns for orsa's `decode_stamped`.
+    pub orsa_decode_ns: f64,
+}
+
+/// Everything measured across processes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetReport {
+    /// The tokio runtimes.
+    pub runtime: String,
+    /// How the two processes are connected.
+    pub transport: String,
+    /// Wall seconds from opening the session to the first sample on every path (the peer's
+    /// start-up included).
+    pub startup_s: f64,
+    /// One-way latencies.
+    pub latency: Vec<NetLatencyRow>,
+    /// Encoding costs.
+    pub codec: CodecCosts,
+    /// Sense to act with the behaviours in the other process.
+    pub sense_to_act: Option<SenseToAct>,
+}
+
+/// One leg of sense to act.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SenseLeg {
+    /// From where to where.
+    pub leg: String,
+    /// Its distribution over the attributed commands.
+    pub latency: Latency,
+}
+
+/// `orsa run`'s speed: the corridor mission on a paused clock, start-up and shutdown included.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct MissionRtf {
+    /// Simulated seconds.
+    pub simulated_s: f64,
+    /// Wall seconds.
+    pub wall_s: f64,
+    /// Simulated seconds per wall second.
+    pub rtf: f64,
+    /// Distance the robot drove, m (it did patrol).
+    pub distance_m: f64,
+    /// Supervisor restarts.
+    pub restarts: u64,
+}
+
+/// N whole stacks in one process on one paused clock.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct ScaleRow {
+    /// Robots, each with its own simulator, components, supervisor and registry.
+    pub robots: usize,
+    /// Wall time to bring them all up, s.
+    pub startup_wall_s: f64,
+    /// Simulated seconds measured (after a warm-up).
+    pub simulated_s: f64,
+    /// Wall seconds they took.
+    pub wall_s: f64,
+    /// Simulated seconds per wall second, for the whole set.
+    pub rtf: f64,
+    /// Robot-seconds simulated per wall second (`rtf` times robots).
+    pub robot_seconds_per_wall_s: f64,
+    /// Wall microseconds per robot per simulated second: the cost per robot.
+    pub wall_us_per_robot_sim_s: f64,
+    /// The fewest simulator steps any robot took in the measured span.
+    pub min_steps_per_robot: u64,
+    /// Steps each robot should have taken.
+    pub expected_steps_per_robot: u64,
+    /// Mean distance driven per robot over the whole run, m.
+    pub mean_distance_m: f64,
+    /// Supervisor restarts, all robots.
+    pub restarts: u64,
+    /// Resident memory added per robot, MiB (Linux).
+    pub rss_mib_per_robot: Option<f64>,
+    /// Wall time to shut them all down, s.
+    pub shutdown_wall_s: f64,
+    /// The baseline: the same number of robots as raw tokio skeletons (the stack's tasks,
+    /// timers and message flow, none of its work), wall µs per robot per simulated second.
+    pub raw_wall_us_per_robot_sim_s: Option<f64>,
+    /// The same skeletons with the stack's six actors (its five components and their
+    /// supervisor) as plain ractor actors: what the actor runtime adds to the raw skeleton,
+    /// still with none of the stack's work.
+    #[serde(default)]
+    pub ractor_wall_us_per_robot_sim_s: Option<f64>,
+    /// The real-time factor of every run of this row, in the order run; the row is the median
+    /// run (one run for the largest rows).
+    pub rtf_runs: Vec<f64>,
+}
+
+/// One target of the issue, judged.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetCheck {
+    /// The target.
+    pub target: String,
+    /// What was measured.
+    pub measured: String,
+    /// Whether it was met (`None`: not measured).
+    pub met: Option<bool>,
+}
+
+/// The machine the run was made on.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Machine {
+    /// CPU model, from `/proc/cpuinfo`.
+    pub cpu: String,
+    /// Logical CPUs available to the process.
+    pub logical_cpus: usize,
+    /// Memory, GiB, from `/proc/meminfo`.
+    pub memory_gib: Option<f64>,
+    /// Kernel release.
+    pub kernel: String,
+    /// Whether this binary was built with optimisations (`--release`).
+    pub optimized: bool,
+}
+
+/// Everything one `orsa-bench` run measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BenchReport {
+    /// In-process push, publish to handler, p50, ns (current-thread runtime, back-to-back).
+    pub inproc_push_p50_ns: f64,
+    /// Raw ractor cast, same conditions, p50, ns.
+    pub raw_ractor_cast_p50_ns: f64,
+    /// Sense to act in process, p99, ns (sensor update to motor board).
+    pub sense_to_act_inproc_p99_ns: f64,
+    /// `orsa run`'s real-time factor, one robot.
+    pub rtf_1_robot: f64,
+    /// Real-time factor of 100 robots in one process.
+    pub rtf_100_robots: f64,
+    /// Push over zenoh to a component in another process, p50, ns (back-to-back; `None` if
+    /// the cross-process bench failed).
+    pub zenoh_push_p50_ns: Option<f64>,
+    /// Raw zenoh publish to a subscriber callback in another process, same payload, p50, ns.
+    pub raw_zenoh_p50_ns: Option<f64>,
+    /// Sense to act with the behaviours in another process, p99, ns.
+    pub sense_to_act_xproc_p99_ns: Option<f64>,
+    /// Whether this was a `--quick` run.
+    pub quick: bool,
+    /// orsa's version.
+    pub orsa_version: String,
+    /// The machine.
+    pub machine: Machine,
+    /// The command that made this report.
+    pub command: String,
+    /// Wall time of the whole run, s.
+    pub wall_s: f64,
+    /// In-process latencies.
+    pub latency: Vec<LatencyRow>,
+    /// In-process throughput.
+    pub throughput: Vec<ThroughputRow>,
+    /// Fan-out.
+    pub fanout: Vec<FanoutRow>,
+    /// Sense to act.
+    pub sense_to_act: SenseToAct,
+    /// Across processes (`None` if that bench failed; see `net_error`).
+    pub net: Option<NetReport>,
+    /// Why the cross-process bench failed, if it did.
+    pub net_error: Option<String>,
+    /// `orsa run`'s speed.
+    pub mission: MissionRtf,
+    /// N robots in one process.
+    pub scale: Vec<ScaleRow>,
+    /// The targets, judged.
+    pub targets: Vec<TargetCheck>,
+}
