@@ -6,6 +6,9 @@
 //! bytes take the same path as in a running system, and every request is answered with bytes
 //! that decode as a `Reply`.
 //!
+//! (About 800 lines, over the usual 600: one property, checked for every decoder of the wire,
+//! each a short generator and a short check.)
+//!
 //! Cases run with a fixed seed (so a run is repeatable); set `PROPTEST_RNG_SEED` and
 //! `PROPTEST_CASES` to explore further.
 
