@@ -246,7 +246,7 @@ impl<T: CommObject> PushEndpoint<T> {
             _ => None,
         };
         // Whether the subscribers at `every = 1` receive it now (so their cells follow).
-        let now = matches!(pass, Pass::Now(_)) || (matches!(pass, Pass::Later(..)) && later.is_none());
+        let now = later.is_none() && !matches!(pass, Pass::Lost);
         // One lock per publication: the number, the newest value, the cells and the
         // subscribers to hand it to are taken together (so "newest" follows the numbers even
         // with concurrent publishers).
