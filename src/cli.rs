@@ -42,6 +42,9 @@ pub enum Command {
     Wire(crate::remote::WireArgs),
     /// Show or set a component's main state (a master command).
     State(crate::remote::StateArgs),
+    /// Run a recording's deciding components again on its recorded inputs: bit for bit, or
+    /// with another configuration (--config, --set) to see what would have changed.
+    Replay(crate::replay::command::ReplayArgs),
 }
 
 /// Arguments of `orsa run`.
@@ -99,6 +102,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Echo(args) => crate::remote::echo(args),
         Command::Wire(args) => crate::remote::wire(args),
         Command::State(args) => crate::remote::state(args),
+        Command::Replay(args) => crate::replay::command::run(args),
     }
 }
 
@@ -128,19 +132,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         anyhow::bail!("--plot {}: the file must end in .svg or .png", args.plot.display());
     }
 
-    let bar = if args.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        let bar = indicatif::ProgressBar::new(args.duration.round() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} simulated {pos}/{len} s [{bar:40}] {percent}% ({elapsed} wall, eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        );
-        bar
-    };
+    let bar = progress_bar(args.duration, args.quiet, "simulated");
     let plan = match &args.faults {
         Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_stack(&config))?),
         None => None,
@@ -194,6 +186,24 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         None => {}
     }
     Ok(())
+}
+
+/// A progress bar over `len_s` seconds of `what` time (`simulated`, `replayed`), or a hidden
+/// one when `quiet`.
+pub(crate) fn progress_bar(len_s: f64, quiet: bool, what: &str) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len_s.round() as u64);
+    let template = format!(
+        "{{spinner}} {what} {{pos}}/{{len}} s [{{bar:40}}] {{percent}}% ({{elapsed}} wall, eta {{eta}})"
+    );
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
 }
 
 /// Prints a line to stdout; a reader that went away (`orsa run | head`) is not an error.

@@ -195,6 +195,42 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// This configuration with `sets` applied, each `section.key=value` (the value in TOML:
+    /// `0.3`, `true`, `"text"`, `[1, 2]`; a bare word is taken as a string). The result is
+    /// checked as a file is; an error names the `--set` it comes from.
+    pub fn with_sets(&self, sets: &[String]) -> Result<Config, String> {
+        let mut table =
+            toml::Table::try_from(self).map_err(|e| format!("cannot write the configuration: {e}"))?;
+        for set in sets {
+            let err = |m: String| format!("--set {set}: {m}");
+            let (path, value) =
+                set.split_once('=').ok_or_else(|| err("write it as section.key=value".into()))?;
+            let keys: Vec<&str> = path.trim().split('.').collect();
+            if keys.iter().any(|k| k.is_empty()) {
+                return Err(err(format!("'{path}' is not a key path such as wallfollow.distance_m")));
+            }
+            let value = value.trim();
+            let value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
+                Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(value.into())),
+                Err(_) => toml::Value::String(value.into()),
+            };
+            let (last, parents) = keys.split_last().ok_or_else(|| err("no key".into()))?;
+            let mut at = &mut table;
+            for (i, k) in parents.iter().enumerate() {
+                let entry = at.entry(k.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                at = entry
+                    .as_table_mut()
+                    .ok_or_else(|| err(format!("'{}' is a value, not a table", keys[..=i].join("."))))?;
+            }
+            at.insert(last.to_string(), value);
+        }
+        let config: Config = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
+            format!("--set {}: {}", sets.join(" --set "), e.message().trim())
+        })?;
+        config.validate().map_err(|m| format!("--set {}: {m}", sets.join(" --set ")))?;
+        Ok(config)
+    }
+
     /// Checks every table; the message names the key.
     pub fn validate(&self) -> Result<(), String> {
         self.robot.validate()?;
@@ -263,6 +299,21 @@ mod tests {
         assert!(e.to_string().starts_with("w.toml:2:1:") && e.to_string().contains("near"), "{e}");
         let e = Config::from_toml("[centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");
         assert_eq!(e.to_string(), "w.toml: centerfollow.walls.hold_s: must be a positive number");
+    }
+
+    #[test]
+    fn a_set_changes_one_key_and_is_checked_as_the_file_is() {
+        let base = Config::default();
+        let c = base.with_sets(&["wallfollow.v_max_m_s=0.2".into()]).expect("accepted");
+        assert_eq!(c.wallfollow.v_max_m_s, 0.2);
+        assert_eq!(Config { wallfollow: base.wallfollow, ..c.clone() }, base, "nothing else changed");
+        let e = base.with_sets(&["wallfollow.no_such_key=1".into()]).expect_err("refused");
+        assert!(e.contains("--set wallfollow.no_such_key=1") && e.contains("no_such_key"), "{e}");
+        let e = base.with_sets(&["wallfollow.v_max_m_s=-1".into()]).expect_err("refused");
+        assert!(e.contains("wallfollow.v_max_m_s"), "{e}");
+        assert!(base.with_sets(&["wallfollow".into()]).expect_err("refused").contains("section.key=value"));
+        let e = base.with_sets(&["wallfollow.v_max_m_s.x=1".into()]).expect_err("refused");
+        assert!(e.contains("'wallfollow.v_max_m_s' is a value"), "{e}");
     }
 
     #[test]

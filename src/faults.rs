@@ -132,6 +132,9 @@ pub struct PlannedFault {
 pub struct FaultPlan {
     /// Its faults, in file order.
     pub faults: Vec<PlannedFault>,
+    /// The text it was read from (a recording keeps it, so a replay can read it again).
+    #[serde(skip)]
+    pub source: String,
 }
 
 /// What a plan may name: the system it will run against.
@@ -227,7 +230,7 @@ impl FaultPlan {
                 check(raw, targets).map_err(|m| err(format!("fault #{} (line {line}): {m}", i + 1)))?;
             faults.push(checked);
         }
-        Ok(FaultPlan { faults })
+        Ok(FaultPlan { faults, source: text.to_string() })
     }
 
     /// Reads and checks a plan file.

@@ -17,7 +17,8 @@
 //!   benchmarks and the whole-stack tests use it); new kinds of component register there.
 //! - [`mission`]: runs the corridor mission and measures it; [`config`]: the stack's one
 //!   config file.
-//! - [`record`]: writes runs as MCAP; [`plot`]: draws them.
+//! - [`record`]: writes runs as MCAP; [`plot`]: draws them; [`replay`]: runs a recording's
+//!   deciding components again, bit for bit or with other parameters.
 //! - [`remote`]: the robot, the executive, teleoperation and the tools as separate processes
 //!   over zenoh (crate `orsa-net`).
 //! - [`faults`]: reads fault plans and breaks a running stack on purpose.
@@ -41,4 +42,5 @@ pub mod mission;
 pub mod plot;
 pub mod record;
 pub mod remote;
+pub mod replay;
 pub mod system;

@@ -119,6 +119,12 @@ impl ServerParams {
     }
 }
 
+/// The `contact` event's condition: it fires, with the scan, while a bumper is pressed. (A
+/// replay's stand-in for the robot server tests the same condition on the recorded bumpers.)
+pub fn contact_fires(_: &mut Empty, scan: &ContactScan) -> Option<ContactScan> {
+    scan.any().then(|| scan.clone())
+}
+
 /// The robot server over any pair of boards.
 pub struct Nomad200<S, M> {
     params: ServerParams,
@@ -279,9 +285,7 @@ where
         ctx.send_server(nomad200::TELEOP, Nomad200Msg::Teleop)?;
         ctx.query_server(nomad200::ROBOTPARAMS, Nomad200Msg::Params)?;
         ctx.query_server(nomad200::SAFETY, Nomad200Msg::Safety)?;
-        let contact = ctx.event_server(nomad200::CONTACT, |_: &mut Empty, scan: &ContactScan| {
-            scan.any().then(|| scan.clone())
-        })?;
+        let contact = ctx.event_server(nomad200::CONTACT, contact_fires)?;
         // A (re)started server does not trust whatever the motors were doing.
         self.motors.stop().await?;
         for s in [&ir, &sonar] {

@@ -113,6 +113,27 @@ pub enum MissionError {
     Record(#[from] crate::record::RecordError),
 }
 
+/// What the recording of a run says about it (see [`crate::record::meta`]).
+fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
+    let toml = |what: &str, r: Result<String, toml::ser::Error>| {
+        r.map_err(|e| MissionError::Invalid(format!("cannot write the {what} into the recording: {e}")))
+    };
+    Ok(crate::record::RunMeta {
+        orsa: crate::record::meta::ORSA_VERSION.into(),
+        wire: orsa_actors::wire::WIRE_VERSION,
+        process: "run".into(),
+        world: opts.world_label.clone(),
+        world_toml: toml("world", toml::to_string(&opts.world))?,
+        seed: opts.seed,
+        duration_s: opts.duration_s,
+        config_toml: toml("configuration", toml::to_string(&opts.config))?,
+        hosted: opts.config.system.components.iter().map(|c| c.name.clone()).collect(),
+        robot: opts.config.robot.name.clone(),
+        clock_origin_ns: 0,
+        faults_toml: opts.faults.as_ref().map(|f| f.source.clone()),
+    })
+}
+
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.
 pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     if !(opts.duration_s.is_finite() && opts.duration_s > 0.0) {
@@ -122,14 +143,7 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         )));
     }
     let recording = match &opts.record {
-        Some(path) => {
-            let mut meta = std::collections::BTreeMap::new();
-            meta.insert("world".to_string(), opts.world_label.clone());
-            meta.insert("seed".to_string(), opts.seed.to_string());
-            meta.insert("duration_s".to_string(), opts.duration_s.to_string());
-            meta.insert("orsa".to_string(), env!("CARGO_PKG_VERSION").to_string());
-            Some(Arc::new(recording::McapTap::create(path, meta)?))
-        }
+        Some(path) => Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata())?)),
         None => None,
     };
     let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
@@ -216,6 +230,8 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     if let Some(p) = plan {
         p.abort();
     }
+    // The recording holds the mission, not the bookkeeping that follows it.
+    stack.registry.set_tap(None);
     let robot = opts.config.robot.name.as_str();
     let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot))?
         .query(Empty {}, Some(Duration::from_secs(1)))

@@ -14,7 +14,10 @@
 //! into one reused buffer and looks its channel up by `&str`; a topic's first message also
 //! builds its schema.
 
+pub mod meta;
 mod schema;
+
+pub use meta::RunMeta;
 
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,194 @@
+//! What a recording says about the run that made it: enough to run its deciding components again
+//! ([`crate::replay`]).
+//!
+//! Written as one MCAP metadata record named [`RUN_METADATA`] (the `mcap` CLI's `mcap list
+//! metadata`, Foxglove's metadata panel and the Python `mcap` package show it), every value a
+//! string:
+//!
+//! | key | what |
+//! |---|---|
+//! | `orsa`, `wire` | the orsa version and wire version that recorded it |
+//! | `process` | which process recorded it: `run` (the whole stack), `robot` or `executive` |
+//! | `world`, `world_toml` | the world's label and the world itself, as TOML |
+//! | `seed`, `duration_s` | the run's seed and length |
+//! | `config_toml` | the effective configuration, every key, as TOML |
+//! | `hosted` | the components the recording process hosted, comma-separated, in start order |
+//! | `robot` | the robot server's name (what a replay feeds from the recording) |
+//! | `clock_origin_ns` | the recording clock's first stamp: 0 on a paused clock, UNIX time live |
+//! | `faults_toml` | the fault plan, if the run had one |
+
+use orsa_actors::wire::WIRE_VERSION;
+use std::collections::BTreeMap;
+
+/// The name of the metadata record that describes the run.
+pub const RUN_METADATA: &str = "run";
+
+/// The orsa version that writes recordings.
+pub const ORSA_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The description of a recorded run (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunMeta {
+    /// The orsa version that recorded it.
+    pub orsa: String,
+    /// The wire version of that orsa.
+    pub wire: u32,
+    /// Which process recorded it: `run`, `robot` or `executive`.
+    pub process: String,
+    /// How the world is named (its file, or `palazzina (built in)`).
+    pub world: String,
+    /// The world, as TOML.
+    pub world_toml: String,
+    /// The seed of every noise source.
+    pub seed: u64,
+    /// Simulated (or real) seconds the run was to last.
+    pub duration_s: f64,
+    /// The effective configuration, as TOML.
+    pub config_toml: String,
+    /// The components the recording process hosted, in start order.
+    pub hosted: Vec<String>,
+    /// The robot server's name.
+    pub robot: String,
+    /// The recording clock's first stamp, ns.
+    pub clock_origin_ns: u64,
+    /// The fault plan's text, if the run had one.
+    pub faults_toml: Option<String>,
+}
+
+impl RunMeta {
+    /// As an MCAP metadata map.
+    pub fn to_metadata(&self) -> BTreeMap<String, String> {
+        let mut m = BTreeMap::new();
+        let mut put = |k: &str, v: String| {
+            m.insert(k.to_string(), v);
+        };
+        put("orsa", self.orsa.clone());
+        put("wire", self.wire.to_string());
+        put("process", self.process.clone());
+        put("world", self.world.clone());
+        put("world_toml", self.world_toml.clone());
+        put("seed", self.seed.to_string());
+        put("duration_s", self.duration_s.to_string());
+        put("config_toml", self.config_toml.clone());
+        put("hosted", self.hosted.join(","));
+        put("robot", self.robot.clone());
+        put("clock_origin_ns", self.clock_origin_ns.to_string());
+        if let Some(f) = &self.faults_toml {
+            put("faults_toml", f.clone());
+        }
+        m
+    }
+
+    /// Reads it back from an MCAP metadata map; the error names the key that is missing or
+    /// wrong. The versions are read, not checked: [`RunMeta::check_versions`] does that.
+    pub fn from_metadata(m: &BTreeMap<String, String>) -> Result<RunMeta, String> {
+        let get = |k: &str| {
+            m.get(k).cloned().ok_or_else(|| format!("the metadata record '{RUN_METADATA}' has no key '{k}'"))
+        };
+        let parse = |k: &str, what: &str| -> Result<String, String> {
+            let v = get(k)?;
+            if v.is_empty() {
+                Err(format!("metadata '{RUN_METADATA}': key '{k}' is empty, not {what}"))
+            } else {
+                Ok(v)
+            }
+        };
+        let num = |k: &str| -> Result<u64, String> {
+            let v = parse(k, "a number")?;
+            v.parse()
+                .map_err(|_| format!("metadata '{RUN_METADATA}': key '{k}' is '{v}', not a whole number"))
+        };
+        let duration = parse("duration_s", "a number")?;
+        let duration_s =
+            duration.parse::<f64>().ok().filter(|d| d.is_finite() && *d > 0.0).ok_or_else(|| {
+                format!("metadata '{RUN_METADATA}': key 'duration_s' is '{duration}', not a positive number")
+            })?;
+        let wire = num("wire")?;
+        Ok(RunMeta {
+            orsa: parse("orsa", "a version")?,
+            wire: u32::try_from(wire)
+                .map_err(|_| format!("metadata '{RUN_METADATA}': key 'wire' is {wire}, too large"))?,
+            process: parse("process", "a process role")?,
+            world: get("world")?,
+            world_toml: get("world_toml")?,
+            seed: num("seed")?,
+            duration_s,
+            config_toml: get("config_toml")?,
+            hosted: parse("hosted", "a list of components")?.split(',').map(str::to_string).collect(),
+            robot: parse("robot", "a component name")?,
+            clock_origin_ns: num("clock_origin_ns")?,
+            faults_toml: m.get("faults_toml").cloned(),
+        })
+    }
+
+    /// Whether this orsa can replay it: the same orsa version and wire version. A recording
+    /// from another version may decode, but its components are not these components, so a
+    /// replay could not be bit for bit.
+    pub fn check_versions(&self) -> Result<(), String> {
+        if self.wire != WIRE_VERSION {
+            return Err(format!(
+                "it was recorded with wire version {} and this orsa speaks version {WIRE_VERSION}",
+                self.wire
+            ));
+        }
+        if self.orsa != ORSA_VERSION {
+            return Err(format!(
+                "it was recorded by orsa {} and this is orsa {ORSA_VERSION}: replay it with the orsa that made it",
+                self.orsa
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn meta() -> RunMeta {
+        RunMeta {
+            orsa: ORSA_VERSION.into(),
+            wire: WIRE_VERSION,
+            process: "run".into(),
+            world: "w".into(),
+            world_toml: "name = \"w\"".into(),
+            seed: 7,
+            duration_s: 12.5,
+            config_toml: "[robot]\n".into(),
+            hosted: vec!["nomad200".into(), "master".into()],
+            robot: "nomad200".into(),
+            clock_origin_ns: 0,
+            faults_toml: None,
+        }
+    }
+
+    #[test]
+    fn the_metadata_reads_back_as_written() {
+        let m = meta();
+        assert_eq!(RunMeta::from_metadata(&m.to_metadata()).expect("it reads back"), m);
+        let with_faults = RunMeta { faults_toml: Some("[[fault]]".into()), ..meta() };
+        assert_eq!(RunMeta::from_metadata(&with_faults.to_metadata()).expect("it reads back"), with_faults);
+    }
+
+    #[test]
+    fn a_missing_or_bad_key_is_named() {
+        let mut m = meta().to_metadata();
+        m.remove("config_toml");
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'config_toml'"));
+        let mut m = meta().to_metadata();
+        m.insert("seed".into(), "x1".into());
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'seed' is 'x1'"));
+        let mut m = meta().to_metadata();
+        m.insert("duration_s".into(), "-3".into());
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'duration_s'"));
+    }
+
+    #[test]
+    fn another_version_is_refused_with_both_versions() {
+        let m = RunMeta { wire: WIRE_VERSION + 1, ..meta() };
+        assert!(m.check_versions().expect_err("refused").contains(&format!("wire version {}", WIRE_VERSION + 1)));
+        let m = RunMeta { orsa: "0.0.1".into(), ..meta() };
+        assert!(m.check_versions().expect_err("refused").contains("orsa 0.0.1"));
+        assert!(meta().check_versions().is_ok());
+    }
+}

@@ -1,0 +1,172 @@
+//! `orsa replay`: the command around [`super::replay`].
+
+use super::file::Recording;
+use super::{ReplayOptions, Replayed, replay};
+use crate::cli::say;
+use crate::config::Config;
+use anyhow::Context as _;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Arguments of `orsa replay`.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The recording (made with `--record`).
+    #[arg(value_name = "PATH.mcap")]
+    pub recording: PathBuf,
+    /// What if: replay with this configuration instead of the recorded one.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// What if: change one key of the configuration (`wallfollow.k_v=0.8`); repeatable.
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Write the result (divergence or what-if figures) as JSON here.
+    #[arg(long, value_name = "PATH.json")]
+    pub report: Option<PathBuf>,
+    /// Do not show the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `orsa replay`.
+pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
+    let rec = Recording::open(&args.recording)?;
+    let what_if = args.config.is_some() || !args.sets.is_empty();
+    let config = if what_if {
+        let base = match &args.config {
+            Some(p) => Config::load(p)?,
+            None => super::recorded_config(&rec)?,
+        };
+        Some(base.with_sets(&args.sets).map_err(anyhow::Error::msg)?)
+    } else {
+        None
+    };
+    for p in [args.report.as_ref()].into_iter().flatten() {
+        crate::cli::ensure_parent(p)?;
+    }
+    let m = &rec.meta;
+    say(&format!(
+        "replay: {} (orsa {} {}, seed {}, {} s, world {}; {} messages)",
+        rec.path.display(),
+        m.orsa,
+        m.process,
+        m.seed,
+        m.duration_s,
+        m.world,
+        rec.messages
+    ));
+    let span_s = orsa_actors::Timestamp(rec.last_log_time.saturating_sub(m.clock_origin_ns)).as_secs_f64();
+    let bar = crate::cli::progress_bar(span_s, args.quiet, "replayed");
+    let b = bar.clone();
+    let opts = ReplayOptions {
+        config,
+        progress: Some(Arc::new(move |t| b.set_position(t.round() as u64))),
+        progress_every_s: Some((span_s / 400.0).clamp(1.0, 30.0)),
+    };
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .start_paused(true)
+        .build()
+        .context("cannot start the tokio runtime")?;
+    let wall = std::time::Instant::now();
+    let out = rt.block_on(replay(&rec, opts))?;
+    let wall_s = wall.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    if what_if { report_what_if(&args, &rec, &out, wall_s) } else { report_exact(&args, &out, wall_s) }
+}
+
+fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Result<()> {
+    let summary = format!(
+        "{} robot messages fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
+        out.fed, out.compared, out.topics, out.replayed_s
+    );
+    if let Some(path) = &args.report {
+        let json = serde_json::json!({
+            "bit_exact": out.bit_exact(),
+            "fed": out.fed,
+            "compared": out.compared,
+            "topics": out.topics,
+            "replayed_s": out.replayed_s,
+            "divergence": out.divergence,
+        });
+        std::fs::write(path, serde_json::to_string_pretty(&json)?)
+            .with_context(|| format!("{}: cannot write the report", path.display()))?;
+    }
+    match &out.divergence {
+        None => {
+            say(&format!("bit-exact: {summary}"));
+            Ok(())
+        }
+        Some(d) => {
+            say(&format!(
+                "DIVERGED at {:.3} s on {} (message {} of the topic):\n  recorded: {}\n  replayed: {}\n{summary}",
+                d.at_s,
+                d.topic,
+                d.index + 1,
+                d.recorded.as_deref().unwrap_or("(none)"),
+                d.replayed.as_deref().unwrap_or("(none)"),
+            ));
+            anyhow::bail!(
+                "the replay is not bit-exact: it parts from the recording at {:.3} s on {}",
+                d.at_s,
+                d.topic
+            )
+        }
+    }
+}
+
+fn report_what_if(args: &ReplayArgs, rec: &Recording, out: &Replayed, wall_s: f64) -> anyhow::Result<()> {
+    let w = out.what_if(rec);
+    say(&format!("what if, open loop over {:.1} s (in {wall_s:.2} s):", out.replayed_s));
+    if w.topics.is_empty() {
+        say(&format!("  no difference: all {} topics replayed as recorded", w.compared_topics));
+    } else {
+        say(&format!(
+            "  {:<32} {:>9} {:>9} {:>9} {:>10}  largest differences",
+            "topic", "recorded", "what-if", "differ", "from s"
+        ));
+        for (topic, d) in &w.topics {
+            let largest: Vec<String> = d
+                .largest
+                .iter()
+                .filter(|(k, _)| k.ends_with("v_m_s") || k.ends_with("omega_rad_s"))
+                .map(|(k, v)| format!("{k} {v:.4}"))
+                .collect();
+            say(&format!(
+                "  {:<32} {:>9} {:>9} {:>9} {:>10}  {}",
+                topic,
+                d.recorded,
+                d.replayed,
+                d.differing,
+                d.first_part_s.map_or("-".into(), |t| format!("{t:.3}")),
+                largest.join(", ")
+            ));
+        }
+    }
+    let names: std::collections::BTreeSet<&String> =
+        w.share_recorded.keys().chain(w.share_replayed.keys()).collect();
+    for n in names {
+        let (a, b) = (
+            w.share_recorded.get(n).copied().unwrap_or(0.0),
+            w.share_replayed.get(n).copied().unwrap_or(0.0),
+        );
+        say(&format!(
+            "  {n} drives {:.1}% recorded, {:.1}% what-if ({:+.1} points)",
+            100.0 * a,
+            100.0 * b,
+            100.0 * (b - a)
+        ));
+    }
+    if !w.wiring_parts_s.is_empty() {
+        say(&format!(
+            "  which behaviour drives first differs at {:.3} s ({} times in all)",
+            w.wiring_parts_s[0],
+            w.wiring_parts_s.len()
+        ));
+    }
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&w)?)
+            .with_context(|| format!("{}: cannot write the report", path.display()))?;
+    }
+    Ok(())
+}

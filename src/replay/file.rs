@@ -1,0 +1,294 @@
+//! Reading a recording for a replay: its description, and its messages sorted into what the
+//! replay feeds (the robot server's side) and what it compares (everything else).
+//!
+//! The whole file is checked before anything runs: its structure (MCAP magic, records,
+//! channels), its `run` metadata and versions, the schema of every channel the replay feeds,
+//! and every message it feeds (decoded into its communication object). Each error names the
+//! file and, where there is one, the channel and the message's log time.
+
+use super::ReplayError;
+use crate::record::RunMeta;
+use crate::record::meta::RUN_METADATA;
+use orsa_actors::{CommObject, Stamped, Timestamp};
+use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, RobotParams, SafetyCounters};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The MCAP magic that opens and closes a file.
+const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+
+/// One recorded message the replay compares.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Recorded {
+    /// Its log time, ns on the recording's clock.
+    pub log_time: u64,
+    /// Its JSON bytes, as recorded.
+    pub data: Vec<u8>,
+}
+
+/// What the robot server published, in the order it published it: the replay publishes it
+/// again at the same times.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Published {
+    /// An infrared scan (`distanceir`).
+    Ir(DistanceScan),
+    /// A sonar scan (`distanceson`).
+    Sonar(DistanceScan),
+    /// The bumpers (`bumpers`); the robot server also tests its `contact` events on them.
+    Bumpers(ContactScan),
+    /// The base state (`basestate`).
+    Base(BaseState),
+}
+
+/// The recorded answers of the robot server's queries, in order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Answers {
+    /// `robotparams/answer`.
+    pub robotparams: std::collections::VecDeque<RobotParams>,
+    /// `safety/answer`.
+    pub safety: std::collections::VecDeque<SafetyCounters>,
+}
+
+/// A recording, read and checked.
+#[derive(Debug)]
+pub struct Recording {
+    /// The file.
+    pub path: PathBuf,
+    /// What it says about the run that made it.
+    pub meta: RunMeta,
+    /// What the robot server published, at its log time (ns), in file order.
+    pub published: Vec<(u64, Published)>,
+    /// The robot server's recorded answers.
+    pub answers: Answers,
+    /// Every other message, per topic, in file order: what the replay compares.
+    pub outputs: BTreeMap<Arc<str>, Vec<Recorded>>,
+    /// The schema name of each topic.
+    pub schemas: BTreeMap<Arc<str>, String>,
+    /// Every message's log time ends at or before this (ns).
+    pub last_log_time: u64,
+    /// Messages read, in all.
+    pub messages: u64,
+}
+
+/// Which of the robot server's topics the replay feeds, and how to decode them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Feed {
+    Ir,
+    Sonar,
+    Bumpers,
+    Base,
+    ParamsAnswer,
+    SafetyAnswer,
+    /// Made again by the replayed robot side (its events and its own control topics): neither
+    /// fed nor compared.
+    Remade,
+}
+
+impl Feed {
+    /// What `service` (a topic of the robot server, without its name) is to a replay, or
+    /// `None` if it is a message *to* the robot (a Send or a query request: compared).
+    fn of(service: &str) -> Option<Feed> {
+        Some(match service {
+            "distanceir" => Feed::Ir,
+            "distanceson" => Feed::Sonar,
+            "bumpers" => Feed::Bumpers,
+            "basestate" => Feed::Base,
+            "robotparams/answer" => Feed::ParamsAnswer,
+            "safety/answer" => Feed::SafetyAnswer,
+            "contact" | "state" | "wiring" => Feed::Remade,
+            _ => return None,
+        })
+    }
+
+    fn schema(self) -> Option<&'static str> {
+        Some(match self {
+            Feed::Ir | Feed::Sonar => DistanceScan::ID,
+            Feed::Bumpers => ContactScan::ID,
+            Feed::Base => BaseState::ID,
+            Feed::ParamsAnswer => RobotParams::ID,
+            Feed::SafetyAnswer => SafetyCounters::ID,
+            Feed::Remade => return None,
+        })
+    }
+}
+
+/// Whether the robot server's topic `service` (without the server's name) is the robot's
+/// side of the conversation: fed from the recording, or made again by the stand-in. Messages
+/// *to* the robot (commands, query requests) are not: the replayed components make them.
+pub fn is_robot_side(service: &str) -> bool {
+    Feed::of(service).is_some()
+}
+
+/// A channel as the file declares it.
+struct Channel {
+    topic: Arc<str>,
+    schema: String,
+    feed: Option<Feed>,
+}
+
+impl Recording {
+    /// Reads and checks the recording at `path`.
+    pub fn open(path: &Path) -> Result<Recording, ReplayError> {
+        let bytes =
+            std::fs::read(path).map_err(|source| ReplayError::Read { path: path.to_path_buf(), source })?;
+        Recording::parse(path, &bytes)
+    }
+
+    /// Reads and checks a recording from its bytes; `path` names it in errors.
+    pub fn parse(path: &Path, bytes: &[u8]) -> Result<Recording, ReplayError> {
+        let corrupt = |problem: String| ReplayError::Corrupt { path: path.to_path_buf(), problem };
+        if !bytes.starts_with(MAGIC) {
+            return Err(corrupt("it is not an MCAP file (it does not start with MCAP's magic bytes)".into()));
+        }
+        if !bytes.ends_with(MAGIC) || bytes.len() < 2 * MAGIC.len() {
+            return Err(corrupt(format!(
+                "it is truncated: its {} bytes do not end with MCAP's closing magic (was the recording \
+                 interrupted before it was finished?)",
+                bytes.len()
+            )));
+        }
+        let reader = mcap::read::ChunkFlattener::new_with_options(
+            bytes,
+            mcap::read::Options::ValidateChunkCrcs.into(),
+        )
+        .map_err(|e| corrupt(e.to_string()))?;
+        let mut schemas: HashMap<u16, String> = HashMap::new();
+        let mut channels: HashMap<u16, Channel> = HashMap::new();
+        let mut metadata: Option<BTreeMap<String, String>> = None;
+        let mut topics: BTreeMap<Arc<str>, String> = BTreeMap::new();
+        let (mut messages, mut last_log_time) = (0u64, 0u64);
+        let mut robot: Option<String> = None;
+        // Messages come after the metadata record only if the writer wrote it first, as orsa
+        // does; a file from elsewhere may not, so messages are sorted once the robot is known.
+        let mut pending: Vec<(u16, u64, Vec<u8>)> = Vec::new();
+        for record in reader {
+            let record = record.map_err(|e| {
+                corrupt(format!(
+                    "{e}, after {} messages (the last at log time {})",
+                    messages,
+                    Timestamp(last_log_time)
+                ))
+            })?;
+            match record {
+                mcap::records::Record::Schema { header, .. } => {
+                    schemas.insert(header.id, header.name);
+                }
+                mcap::records::Record::Channel(c) => {
+                    let schema = schemas.get(&c.schema_id).cloned().ok_or_else(|| {
+                        corrupt(format!(
+                            "channel '{}' names schema {} that the file never defined",
+                            c.topic, c.schema_id
+                        ))
+                    })?;
+                    if c.message_encoding != crate::record::MESSAGE_ENCODING {
+                        return Err(ReplayError::Schema {
+                            path: path.to_path_buf(),
+                            topic: c.topic.clone(),
+                            problem: format!(
+                                "its messages are encoded as '{}', not '{}'",
+                                c.message_encoding,
+                                crate::record::MESSAGE_ENCODING
+                            ),
+                        });
+                    }
+                    let topic: Arc<str> = c.topic.as_str().into();
+                    topics.insert(topic.clone(), schema.clone());
+                    channels.insert(c.id, Channel { topic, schema, feed: None });
+                }
+                mcap::records::Record::Metadata(m) if m.name == RUN_METADATA => {
+                    robot = m.metadata.get("robot").cloned();
+                    metadata = Some(m.metadata);
+                }
+                mcap::records::Record::Message { header, data } => {
+                    if !channels.contains_key(&header.channel_id) {
+                        return Err(corrupt(format!(
+                            "message {} at log time {} is on channel {}, which the file never defined",
+                            messages + 1,
+                            Timestamp(header.log_time),
+                            header.channel_id
+                        )));
+                    }
+                    messages += 1;
+                    last_log_time = last_log_time.max(header.log_time);
+                    pending.push((header.channel_id, header.log_time, data.into_owned()));
+                }
+                _ => {}
+            }
+        }
+        let Some(metadata) = metadata else {
+            return Err(ReplayError::NoMetadata { path: path.to_path_buf() });
+        };
+        let meta = RunMeta::from_metadata(&metadata)
+            .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
+        meta.check_versions()
+            .map_err(|problem| ReplayError::Version { path: path.to_path_buf(), problem })?;
+        let robot = robot.unwrap_or_default();
+        let prefix = format!("{robot}/");
+        for c in channels.values_mut() {
+            c.feed = c.topic.strip_prefix(prefix.as_str()).and_then(Feed::of);
+            if let Some(expected) = c.feed.and_then(Feed::schema)
+                && c.schema != expected
+            {
+                return Err(ReplayError::Schema {
+                    path: path.to_path_buf(),
+                    topic: c.topic.to_string(),
+                    problem: format!(
+                        "its schema is '{}', and the robot's service carries '{expected}'",
+                        c.schema
+                    ),
+                });
+            }
+        }
+        let mut rec = Recording {
+            path: path.to_path_buf(),
+            meta,
+            published: Vec::new(),
+            answers: Answers::default(),
+            outputs: BTreeMap::new(),
+            schemas: topics,
+            last_log_time,
+            messages,
+        };
+        for (channel, log_time, data) in pending {
+            let c = &channels[&channel];
+            let decode = |what| ReplayError::Decode {
+                path: path.to_path_buf(),
+                topic: c.topic.to_string(),
+                log_time: Timestamp(log_time),
+                problem: what,
+            };
+            match c.feed {
+                Some(Feed::Ir) => {
+                    rec.published.push((log_time, Published::Ir(value(&data).map_err(decode)?)))
+                }
+                Some(Feed::Sonar) => {
+                    rec.published.push((log_time, Published::Sonar(value(&data).map_err(decode)?)))
+                }
+                Some(Feed::Bumpers) => {
+                    rec.published.push((log_time, Published::Bumpers(value(&data).map_err(decode)?)))
+                }
+                Some(Feed::Base) => {
+                    rec.published.push((log_time, Published::Base(value(&data).map_err(decode)?)))
+                }
+                Some(Feed::ParamsAnswer) => rec.answers.robotparams.push_back(value(&data).map_err(decode)?),
+                Some(Feed::SafetyAnswer) => rec.answers.safety.push_back(value(&data).map_err(decode)?),
+                Some(Feed::Remade) => {}
+                None => rec.outputs.entry(c.topic.clone()).or_default().push(Recorded { log_time, data }),
+            }
+        }
+        Ok(rec)
+    }
+
+    /// The number of messages the replay compares.
+    pub fn compared(&self) -> usize {
+        self.outputs.values().map(Vec::len).sum()
+    }
+}
+
+/// The communication object inside a recorded message (`{"seq", "stamp", "value"}`).
+fn value<T: CommObject>(data: &[u8]) -> Result<T, String> {
+    serde_json::from_slice::<Stamped<T>>(data)
+        .map(|s| s.value)
+        .map_err(|e| format!("it does not decode as a {}: {e}", T::ID))
+}

@@ -1,0 +1,276 @@
+//! Replaying a recording: running its deciding components again, bit for bit, or with other
+//! parameters ("what if").
+//!
+//! A recording made with `--record` carries what a replay needs (see [`crate::record::meta`]):
+//! the effective config, the world, the seed, the versions and the components that ran. A
+//! replay brings the same system up again on a paused clock, from the recorded config, with one
+//! change: the robot server is a stand-in ([`standin`]) that publishes and answers what the
+//! recording says the robot published and answered, at the recorded times. Everything else
+//! (behaviours, master, planner, or whatever the recording says ran) is the real code, and
+//! everything it produces (every Send, query, push, event, wiring and state change, restart)
+//! is compared with the recording, message by message, byte for byte.
+//!
+//! - [`file`]: reads and checks a recording;
+//! - [`standin`]: the robot server's stand-in;
+//! - [`diff`]: the first divergence, and what a what-if changed.
+//!
+//! The recording's last instant is left out of the comparison: the recording process stops
+//! recording in the middle of it, so which of its messages made it into the file is not part of
+//! what the system decided.
+
+pub mod command;
+pub mod diff;
+pub mod file;
+pub mod standin;
+
+use crate::config::Config;
+use crate::system::{Catalog, System};
+use diff::{Divergence, Messages, WhatIf};
+use file::{Recorded, Recording};
+use orsa_actors::supervision::SupervisorEvent;
+use orsa_actors::tap::Tap;
+use orsa_actors::{Clock, Registry, Timestamp};
+use parking_lot::Mutex;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Why a recording cannot be replayed. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The file could not be read.
+    #[error("{path}: cannot read the recording: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// It is not a readable MCAP file.
+    #[error("{path}: not a readable recording: {problem}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, and where.
+        problem: String,
+    },
+    /// It has no `run` metadata record.
+    #[error(
+        "{path}: the recording says nothing of the run that made it (no '{}' metadata record): \
+         it was not made by `orsa run|robot|executive --record` of this version, so it cannot be replayed",
+        crate::record::meta::RUN_METADATA
+    )]
+    NoMetadata {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Its metadata is incomplete or wrong.
+    #[error("{path}: {problem}")]
+    Metadata {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// It was made by another orsa or wire version.
+    #[error("{path}: cannot be replayed by this orsa: {problem}")]
+    Version {
+        /// The file.
+        path: PathBuf,
+        /// The versions.
+        problem: String,
+    },
+    /// A channel's schema or encoding is not the one its service carries.
+    #[error("{path}: channel '{topic}': {problem}")]
+    Schema {
+        /// The file.
+        path: PathBuf,
+        /// The channel's topic.
+        topic: String,
+        /// What does not match.
+        problem: String,
+    },
+    /// A message the replay feeds does not decode.
+    #[error("{path}: channel '{topic}', message at log time {log_time}: {problem}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// The channel's topic.
+        topic: String,
+        /// The message's log time.
+        log_time: Timestamp,
+        /// Why.
+        problem: String,
+    },
+    /// The recorded configuration (or the what-if's) cannot be used.
+    #[error("{0}")]
+    Config(String),
+    /// The system could not be brought up.
+    #[error("starting the replayed system: {0}")]
+    Start(String),
+}
+
+/// How to replay.
+#[derive(Default)]
+pub struct ReplayOptions {
+    /// Replay with this configuration instead of the recorded one (a what-if).
+    pub config: Option<Config>,
+    /// Called with the replayed time, s, every `progress_every_s`.
+    pub progress: Option<Arc<dyn Fn(f64) + Send + Sync>>,
+    /// How often to call `progress`, replayed seconds (default: every 10 s).
+    pub progress_every_s: Option<f64>,
+}
+
+/// What a replay produced.
+#[derive(Debug)]
+pub struct Replayed {
+    /// Messages the stand-in published or answered from the recording.
+    pub fed: usize,
+    /// Recorded messages compared (before the end).
+    pub compared: usize,
+    /// Topics compared.
+    pub topics: usize,
+    /// The end of the comparison: the recording's last instant, ns.
+    pub end: u64,
+    /// What the replayed components produced, per topic.
+    pub replayed: Messages,
+    /// The first divergence, if any.
+    pub divergence: Option<Divergence>,
+    /// Replayed seconds.
+    pub replayed_s: f64,
+}
+
+impl Replayed {
+    /// Whether every compared message was replayed bit for bit.
+    pub fn bit_exact(&self) -> bool {
+        self.divergence.is_none()
+    }
+
+    /// What a what-if changed against `recording`.
+    pub fn what_if(&self, recording: &Recording) -> WhatIf {
+        let driving =
+            format!("{}/{}", orsa_interfaces::executive::NAME, orsa_interfaces::executive::DRIVING.name());
+        diff::what_if(&recording.outputs, &self.replayed, self.end, &driving)
+    }
+}
+
+/// The configuration a recording ran with.
+pub fn recorded_config(rec: &Recording) -> Result<Config, ReplayError> {
+    let origin =
+        format!("{} (metadata '{}', key config_toml)", rec.path.display(), crate::record::meta::RUN_METADATA);
+    let config =
+        Config::from_toml(&rec.meta.config_toml, &origin).map_err(|e| ReplayError::Config(e.to_string()))?;
+    Ok(config)
+}
+
+/// A tap that keeps what the replayed components produce, leaving out the robot's side.
+struct Capture {
+    robot_prefix: String,
+    messages: Mutex<Messages>,
+}
+
+impl Capture {
+    fn keep<T: serde::Serialize + ?Sized>(&self, topic: &str, stamp: Timestamp, message: &T) {
+        if let Some(service) = topic.strip_prefix(self.robot_prefix.as_str())
+            && file::is_robot_side(service)
+        {
+            return;
+        }
+        // The recorder writes the same value with the same serialiser, so equal messages are
+        // equal bytes.
+        let Ok(data) = serde_json::to_vec(message) else { return };
+        let mut m = self.messages.lock();
+        let list = match m.get_mut(topic) {
+            Some(list) => list,
+            None => m.entry(Arc::from(topic)).or_default(),
+        };
+        list.push(Recorded { log_time: stamp.as_nanos(), data });
+    }
+}
+
+impl Tap for Capture {
+    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, message: serde_json::Value) {
+        self.keep(topic, stamp, &message);
+    }
+}
+
+/// Replays `rec` (see the module docs). Runs on whatever tokio runtime calls it: a paused
+/// current-thread runtime replays as fast as it can, and deterministically.
+pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, ReplayError> {
+    let config = match opts.config {
+        Some(c) => c,
+        None => recorded_config(rec)?,
+    };
+    if config.robot.name != rec.meta.robot {
+        return Err(ReplayError::Config(format!(
+            "robot.name: the recording's robot server is '{}', and the configuration names '{}'",
+            rec.meta.robot, config.robot.name
+        )));
+    }
+    let Some(robot) = config.system.components.iter().find(|c| c.name == rec.meta.robot) else {
+        return Err(ReplayError::Config(format!(
+            "system.components: the recording's robot server '{}' is not a component of the system",
+            rec.meta.robot
+        )));
+    };
+    let clock = match rec.meta.clock_origin_ns {
+        0 => Clock::simulated(),
+        origin => Clock::starting_at(tokio::time::Instant::now(), Timestamp(origin)),
+    };
+    let registry = Registry::with_clock(clock);
+    let capture =
+        Arc::new(Capture { robot_prefix: format!("{}/", rec.meta.robot), messages: Mutex::default() });
+    registry.set_tap(Some(capture.clone() as Arc<dyn Tap>));
+    registry.ledger().enable(true);
+
+    let playback = Arc::new(standin::Playback {
+        published: rec.published.clone(),
+        answers: Mutex::new(rec.answers.clone()),
+        cursor: Default::default(),
+    });
+    let mut catalog = Catalog::builtin();
+    let params = config.robot.clone();
+    catalog.register(robot.kind(), crate::system::Place::Robot, move |_, _| {
+        Ok(standin::RecordedRobot { params: params.clone(), playback: Arc::clone(&playback) })
+    });
+    let hosted: Vec<&str> = rec.meta.hosted.iter().map(String::as_str).collect();
+    let events = Arc::clone(&capture);
+    let system = System::builder(&config)
+        .catalog(catalog)
+        .select(&hosted)
+        .duration(rec.meta.duration_s)
+        .on_event(move |e: SupervisorEvent| events.keep("supervision/events", e.at, &e))
+        .start(&registry)
+        .await
+        .map_err(|e| ReplayError::Start(e.to_string()))?;
+
+    let end = rec.last_log_time;
+    let end_at = clock.instant_of(Timestamp(end));
+    let every = Duration::from_secs_f64(opts.progress_every_s.unwrap_or(10.0).max(0.001));
+    let mut next = tokio::time::Instant::now() + every;
+    while next < end_at {
+        tokio::time::sleep_until(next).await;
+        if let Some(p) = &opts.progress {
+            p(clock.since_start(clock.now()).as_secs_f64());
+        }
+        next += every;
+    }
+    tokio::time::sleep_until(end_at).await;
+    registry.set_tap(None);
+    let replayed_s = clock.since_start(clock.now()).as_secs_f64();
+    system.shutdown().await;
+
+    let replayed = std::mem::take(&mut *capture.messages.lock());
+    let divergence = diff::first_divergence(&rec.outputs, &replayed, end);
+    let compared = rec.outputs.values().map(|v| v.partition_point(|r| r.log_time < end)).sum();
+    let topics = rec.outputs.len();
+    Ok(Replayed {
+        fed: rec.published.len() + rec.answers.robotparams.len() + rec.answers.safety.len(),
+        compared,
+        topics,
+        end,
+        replayed,
+        divergence,
+        replayed_s,
+    })
+}
