@@ -244,6 +244,24 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         .await
         .map_err(|e| ReplayError::Start(e.to_string()))?;
 
+    // The recorded fault plan breaks the replayed system as it broke the recorded one: the
+    // same handler faults at the same times, the same messages dropped, delayed, duplicated.
+    // (Hardware faults are already in the recorded scans; nothing reads the boards here.)
+    let plan = match &rec.meta.faults_toml {
+        Some(text) => {
+            let origin = format!("{} (metadata '{}', key faults_toml)", rec.path.display(), crate::record::meta::RUN_METADATA);
+            let plan = crate::faults::FaultPlan::parse(text, &origin, &crate::faults::PlanTargets::for_stack(&config))
+                .map_err(|e| ReplayError::Config(e.to_string()))?;
+            let targets = crate::faults::FaultTargets {
+                faults: registry.faults(),
+                boards: orsa_hardware::faulty::BoardFaults::new(rec.meta.seed),
+                link: None,
+            };
+            Some(tokio::spawn(crate::faults::run_plan(plan, targets, rec.meta.duration_s)))
+        }
+        None => None,
+    };
+
     let end = rec.last_log_time;
     let end_at = clock.instant_of(Timestamp(end));
     let every = Duration::from_secs_f64(opts.progress_every_s.unwrap_or(10.0).max(0.001));
@@ -257,6 +275,9 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     }
     tokio::time::sleep_until(end_at).await;
     registry.set_tap(None);
+    if let Some(p) = plan {
+        p.abort();
+    }
     let replayed_s = clock.since_start(clock.now()).as_secs_f64();
     system.shutdown().await;
 
