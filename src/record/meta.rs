@@ -186,7 +186,9 @@ mod tests {
     #[test]
     fn another_version_is_refused_with_both_versions() {
         let m = RunMeta { wire: WIRE_VERSION + 1, ..meta() };
-        assert!(m.check_versions().expect_err("refused").contains(&format!("wire version {}", WIRE_VERSION + 1)));
+        assert!(
+            m.check_versions().expect_err("refused").contains(&format!("wire version {}", WIRE_VERSION + 1))
+        );
         let m = RunMeta { orsa: "0.0.1".into(), ..meta() };
         assert!(m.check_versions().expect_err("refused").contains("orsa 0.0.1"));
         assert!(meta().check_versions().is_ok());

@@ -249,9 +249,17 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     // (Hardware faults are already in the recorded scans; nothing reads the boards here.)
     let plan = match &rec.meta.faults_toml {
         Some(text) => {
-            let origin = format!("{} (metadata '{}', key faults_toml)", rec.path.display(), crate::record::meta::RUN_METADATA);
-            let plan = crate::faults::FaultPlan::parse(text, &origin, &crate::faults::PlanTargets::for_stack(&config))
-                .map_err(|e| ReplayError::Config(e.to_string()))?;
+            let origin = format!(
+                "{} (metadata '{}', key faults_toml)",
+                rec.path.display(),
+                crate::record::meta::RUN_METADATA
+            );
+            let plan = crate::faults::FaultPlan::parse(
+                text,
+                &origin,
+                &crate::faults::PlanTargets::for_stack(&config),
+            )
+            .map_err(|e| ReplayError::Config(e.to_string()))?;
             let targets = crate::faults::FaultTargets {
                 faults: registry.faults(),
                 boards: orsa_hardware::faulty::BoardFaults::new(rec.meta.seed),

@@ -1,0 +1,385 @@
+//! Record, then replay: the replayed components make every message they made, bit for bit;
+//! one altered message is found where it is; a what-if changes what the controller says it
+//! would; and a recording that cannot be replayed says why, and where.
+
+use orsa::config::Config;
+use orsa::faults::{FaultPlan, PlanTargets};
+use orsa::hardware::world::World;
+use orsa::mission::{self, RunOptions};
+use orsa::reactive::ring::{RingGeometry, ranges};
+use orsa::reactive::wallfollow::WallFollower;
+use orsa::replay::file::{Published, Recording};
+use orsa::replay::{ReplayError, ReplayOptions, Replayed, replay};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A folder of this test process's own.
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("orsa-replay-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Records a run of `duration_s` and reads the recording back.
+async fn record(
+    path: &Path,
+    config: Config,
+    seed: u64,
+    duration_s: f64,
+    faults: Option<FaultPlan>,
+) -> Recording {
+    let mut opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, seed, duration_s);
+    opts.record = Some(path.to_path_buf());
+    opts.faults = faults;
+    let out = mission::run(opts).await.expect("the run");
+    out.recording.expect("a recording").expect("written");
+    Recording::open(path).expect("a replayable recording")
+}
+
+async fn replay_as_recorded(rec: &Recording) -> Replayed {
+    replay(rec, ReplayOptions::default()).await.expect("the replay runs")
+}
+
+fn assert_bit_exact(out: &Replayed) {
+    assert!(out.bit_exact(), "first divergence: {:#?}", out.divergence);
+    assert!(out.compared > 1000 && out.fed > 1000, "compared {} fed {}", out.compared, out.fed);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_replay_is_bit_exact_on_several_seeds() {
+    let d = dir("seeds");
+    for seed in [1, 7] {
+        let rec = record(&d.join(format!("{seed}.mcap")), Config::default(), seed, 60.0, None).await;
+        assert_eq!(rec.meta.seed, seed);
+        let out = replay_as_recorded(&rec).await;
+        assert_bit_exact(&out);
+        // What is compared is what the deciding components made: commands, statuses, wiring.
+        for topic in
+            ["nomad200/navigationvelocity", "wallfollow/status", "centerfollow/status", "master/driving"]
+        {
+            assert!(out.replayed.get(topic).is_some_and(|m| m.len() > 1), "{topic} was replayed");
+        }
+    }
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_replay_under_the_standard_fault_plan_is_bit_exact() {
+    let d = dir("faults");
+    let config = Config::default();
+    let text = std::fs::read_to_string("config/faults.example.toml").expect("the standard plan");
+    let plan =
+        FaultPlan::parse(&text, "faults.example.toml", &PlanTargets::for_stack(&config)).expect("plan");
+    let rec = record(&d.join("f.mcap"), config, 3, 80.0, Some(plan)).await;
+    assert_eq!(rec.meta.faults_toml.as_deref(), Some(text.as_str()), "the plan travels in the recording");
+    let out = replay_as_recorded(&rec).await;
+    assert_bit_exact(&out);
+    // The restarts were replayed too: the supervisor's events are among the compared topics.
+    let restarts = &out.replayed["supervision/events"];
+    assert!(restarts.len() >= 8, "{} supervisor events", restarts.len());
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_replay_with_a_rewiring_mid_run_is_bit_exact() {
+    let d = dir("rewire");
+    // The planner switches modes mid-run, so the master rewires the motors to the other
+    // behaviour and back.
+    let config = Config::default()
+        .with_sets(&[r#"planner.mission=[{mode="patrol",for_s=20},{mode="follow_left_wall",for_s=20},{mode="patrol",for_s=40}]"#.into()])
+        .expect("a mission");
+    let rec = record(&d.join("w.mcap"), config, 2, 60.0, None).await;
+    let wiring = &rec.outputs["wallfollow/wiring"];
+    assert!(wiring.iter().any(|m| m.log_time >= 20_000_000_000), "the motors were rewired mid-run");
+    let out = replay_as_recorded(&rec).await;
+    assert_bit_exact(&out);
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+/// Copies the MCAP file `from` to `to` with `edit` applied to every message (topic, index on
+/// its topic, data) and `meta` to the `run` metadata.
+fn rewrite(
+    from: &Path,
+    to: &Path,
+    mut edit: impl FnMut(&str, usize, &mut Vec<u8>),
+    meta: impl Fn(&mut BTreeMap<String, String>),
+) {
+    let bytes = std::fs::read(from).expect("read");
+    let mut out = mcap::WriteOptions::new()
+        .create(std::io::BufWriter::new(std::fs::File::create(to).expect("create")))
+        .expect("writer");
+    for record in mcap::read::ChunkFlattener::new(&bytes).expect("mcap") {
+        if let mcap::records::Record::Metadata(mut m) = record.expect("record") {
+            meta(&mut m.metadata);
+            out.write_metadata(&m).expect("metadata");
+        }
+    }
+    let mut channels = BTreeMap::new();
+    let mut index: BTreeMap<String, usize> = BTreeMap::new();
+    for m in mcap::MessageStream::new(&bytes).expect("mcap") {
+        let m = m.expect("message");
+        let topic = m.channel.topic.clone();
+        let id = *channels.entry(topic.clone()).or_insert_with(|| {
+            let s = m.channel.schema.as_ref().expect("schema");
+            let schema = out.add_schema(&s.name, &s.encoding, &s.data).expect("schema");
+            out.add_channel(schema, &topic, &m.channel.message_encoding, &BTreeMap::new()).expect("channel")
+        });
+        let i = index.entry(topic.clone()).or_default();
+        let mut data = m.data.into_owned();
+        edit(&topic, *i, &mut data);
+        *i += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: m.sequence,
+            log_time: m.log_time,
+            publish_time: m.publish_time,
+        };
+        out.write_to_known_channel(&header, &data).expect("message");
+    }
+    out.finish().expect("finish");
+}
+
+#[tokio::test(start_paused = true)]
+async fn one_altered_message_is_reported_at_exactly_that_message() {
+    let d = dir("altered");
+    let rec = record(&d.join("a.mcap"), Config::default(), 4, 40.0, None).await;
+    let topic = "nomad200/navigationvelocity";
+    let k = 321;
+    let original = rec.outputs[topic][k].clone();
+    let altered =
+        String::from_utf8(original.data.clone()).expect("json").replace("\"v_m_s\":", "\"v_m_s\":1");
+    assert_ne!(altered.as_bytes(), original.data.as_slice());
+    let altered_path = d.join("altered.mcap");
+    rewrite(
+        &d.join("a.mcap"),
+        &altered_path,
+        |t, i, data| {
+            if t == topic && i == k {
+                *data = altered.clone().into_bytes();
+            }
+        },
+        |_| {},
+    );
+    let out = replay_as_recorded(&Recording::open(&altered_path).expect("readable")).await;
+    let div = out.divergence.expect("the altered message is found");
+    assert_eq!((div.topic.as_str(), div.index), (topic, k));
+    assert_eq!(div.at_s, orsa::actors::Timestamp(original.log_time).as_secs_f64());
+    assert_eq!(div.recorded.as_deref(), Some(altered.as_str()));
+    assert_eq!(
+        div.replayed.as_deref().map(str::as_bytes),
+        Some(original.data.as_slice()),
+        "the replay made the original"
+    );
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_what_if_with_the_recorded_config_differs_in_nothing() {
+    let d = dir("same");
+    let rec = record(&d.join("s.mcap"), Config::default(), 5, 60.0, None).await;
+    let config = orsa::replay::recorded_config(&rec).expect("config");
+    assert_eq!(config, Config::default(), "the recording holds the effective config");
+    let out =
+        replay(&rec, ReplayOptions { config: Some(config), ..Default::default() }).await.expect("replay");
+    let w = out.what_if(&rec);
+    assert!(w.topics.is_empty(), "{:?}", w.topics.keys());
+    assert!(w.compared_topics >= 10);
+    assert_eq!(w.share_recorded, w.share_replayed);
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+/// Wall following's commands, computed directly by its controller over the recorded infrared
+/// scans and odometry, for the scans it computed on (those with a status).
+fn wall_following_directly(rec: &Recording, config: &Config) -> Vec<(f64, f64)> {
+    let robot = rec.answers.robotparams.front().expect("the robot's parameters were recorded");
+    let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
+    let mut ctl = WallFollower::new(config.wallfollow, ring);
+    let computed: std::collections::BTreeSet<u64> = rec.outputs["wallfollow/status"]
+        .iter()
+        .map(|m| {
+            serde_json::from_slice::<serde_json::Value>(&m.data).expect("json")["value"]["stamp"]
+                .as_u64()
+                .expect("stamp")
+        })
+        .collect();
+    let mut cmds = Vec::new();
+    for (_, p) in &rec.published {
+        match p {
+            Published::Base(b) => ctl.note_position(b.x_m, b.y_m, b.stamp),
+            Published::Ir(scan) if computed.contains(&scan.stamp.0) => {
+                let cmd = ctl.step(&ranges(scan), scan.stamp).cmd;
+                cmds.push((cmd.v_m_s, cmd.omega_rad_s));
+            }
+            _ => {}
+        }
+    }
+    cmds
+}
+
+fn status_commands(messages: &[orsa::replay::file::Recorded]) -> Vec<(f64, f64)> {
+    messages
+        .iter()
+        .map(|m| {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).expect("json");
+            let cmd = &v["value"]["cmd"];
+            (cmd["v_m_s"].as_f64().expect("v"), cmd["omega_rad_s"].as_f64().expect("omega"))
+        })
+        .collect()
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_what_if_with_another_gain_differs_by_what_the_controller_computes() {
+    let d = dir("gain");
+    let recorded = Config::default();
+    let rec = record(&d.join("g.mcap"), recorded.clone(), 6, 60.0, None).await;
+    assert!(!rec.schemas.contains_key("nomad200/contact"), "no bump: the direct computation needs none");
+    let other = recorded.with_sets(&["wallfollow.target_m=0.3".into()]).expect("a valid gain");
+    let out = replay(&rec, ReplayOptions { config: Some(other.clone()), ..Default::default() })
+        .await
+        .expect("what-if");
+
+    // The direct computation agrees with the recording, and with the what-if, bit for bit.
+    let before = wall_following_directly(&rec, &recorded);
+    let after = wall_following_directly(&rec, &other);
+    assert_eq!(
+        before,
+        status_commands(&rec.outputs["wallfollow/status"]),
+        "the direct computation is the controller"
+    );
+    assert_eq!(after, status_commands(&out.replayed["wallfollow/status"]));
+    let largest = |f: fn(&(f64, f64)) -> f64| {
+        before.iter().zip(&after).map(|(a, b)| (f(a) - f(b)).abs()).fold(0.0, f64::max)
+    };
+    let (dv, dw) = (largest(|c| c.0), largest(|c| c.1));
+    assert!(dw > 0.01, "a 10 cm farther wall turns the robot: {dw}");
+
+    let w = out.what_if(&rec);
+    let status = &w.topics["wallfollow/status"];
+    assert_eq!(status.largest.get("value.cmd.omega_rad_s").copied().unwrap_or(0.0), dw);
+    assert_eq!(status.largest.get("value.cmd.v_m_s").copied().unwrap_or(0.0), dv);
+    // Centre following did not change: its gains are the same and its inputs are recorded.
+    assert!(!w.topics.contains_key("centerfollow/status"), "{:?}", w.topics.keys());
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_recording_that_cannot_be_replayed_says_why_and_where() {
+    let d = dir("bad");
+    let good = d.join("good.mcap");
+    record(&good, Config::default(), 1, 5.0, None).await;
+    let bytes = std::fs::read(&good).expect("read");
+    let err = |path: &Path| Recording::open(path).expect_err("refused").to_string();
+
+    let truncated = d.join("truncated.mcap");
+    std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).expect("write");
+    let e = err(&truncated);
+    assert!(e.contains("truncated.mcap") && e.contains("truncated"), "{e}");
+
+    let corrupt = d.join("corrupt.mcap");
+    let mut flipped = bytes.clone();
+    let mid = flipped.len() / 2;
+    for b in &mut flipped[mid..mid + 64] {
+        *b ^= 0x5a;
+    }
+    std::fs::write(&corrupt, &flipped).expect("write");
+    let e = err(&corrupt);
+    assert!(e.contains("corrupt.mcap") && e.contains("not a readable recording"), "{e}");
+
+    let not_mcap = d.join("not.mcap");
+    std::fs::write(&not_mcap, b"{\"hello\": 1}").expect("write");
+    assert!(err(&not_mcap).contains("not an MCAP file"));
+
+    let no_meta = d.join("nometa.mcap");
+    let mut r = orsa::record::Recorder::create(&no_meta).expect("recorder");
+    r.write(
+        "nomad200/bumpers",
+        "orsa.nomad200.ContactScan/1",
+        Default::default(),
+        Default::default(),
+        &serde_json::json!({}),
+    )
+    .expect("write");
+    r.finish().expect("finish");
+    assert!(matches!(Recording::open(&no_meta), Err(ReplayError::NoMetadata { .. })));
+    assert!(err(&no_meta).contains("nometa.mcap"));
+
+    let old = d.join("old.mcap");
+    rewrite(
+        &good,
+        &old,
+        |_, _, _| {},
+        |m| {
+            m.insert("orsa".into(), "0.0.9".into());
+        },
+    );
+    let e = err(&old);
+    assert!(e.contains("old.mcap") && e.contains("orsa 0.0.9"), "{e}");
+    let wire = d.join("wire.mcap");
+    rewrite(
+        &good,
+        &wire,
+        |_, _, _| {},
+        |m| {
+            m.insert("wire".into(), "99".into());
+        },
+    );
+    assert!(err(&wire).contains("wire version 99"));
+    let partial = d.join("partial.mcap");
+    rewrite(
+        &good,
+        &partial,
+        |_, _, _| {},
+        |m| {
+            m.remove("config_toml");
+        },
+    );
+    assert!(err(&partial).contains("config_toml"));
+
+    let undecodable = d.join("undecodable.mcap");
+    let mut log_time = None;
+    rewrite(
+        &good,
+        &undecodable,
+        |t, i, data| {
+            if t == "nomad200/distanceir" && i == 10 {
+                *data = br#"{"seq":11,"stamp":1,"value":{"readings":"none"}}"#.to_vec();
+            }
+        },
+        |_| {},
+    );
+    for m in mcap::MessageStream::new(&std::fs::read(&undecodable).expect("read")).expect("mcap") {
+        let m = m.expect("message");
+        if m.channel.topic == "nomad200/distanceir" && m.data.starts_with(b"{\"seq\":11,") {
+            log_time = Some(m.log_time);
+        }
+    }
+    let e = err(&undecodable);
+    let at = orsa::actors::Timestamp(log_time.expect("the altered message")).to_string();
+    assert!(e.contains("undecodable.mcap") && e.contains("'nomad200/distanceir'") && e.contains(&at), "{e}");
+
+    // A channel the replay feeds whose schema is not its service's.
+    let schema = d.join("schema.mcap");
+    let bytes2 = std::fs::read(&good).expect("read");
+    let mut out = mcap::WriteOptions::new()
+        .create(std::io::BufWriter::new(std::fs::File::create(&schema).expect("create")))
+        .expect("w");
+    for record in mcap::read::ChunkFlattener::new(&bytes2).expect("mcap") {
+        if let mcap::records::Record::Metadata(m) = record.expect("record") {
+            out.write_metadata(&m).expect("meta");
+        }
+    }
+    let s = out.add_schema("orsa.Other/1", "jsonschema", b"{}").expect("schema");
+    let c = out.add_channel(s, "nomad200/distanceir", "json", &BTreeMap::new()).expect("channel");
+    out.write_to_known_channel(
+        &mcap::records::MessageHeader { channel_id: c, sequence: 0, log_time: 1, publish_time: 1 },
+        b"{}",
+    )
+    .expect("msg");
+    out.finish().expect("finish");
+    let e = err(&schema);
+    assert!(
+        e.contains("schema.mcap") && e.contains("'nomad200/distanceir'") && e.contains("orsa.Other/1"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
