@@ -123,7 +123,6 @@ pub fn is_robot_side(service: &str) -> bool {
 /// A channel as the file declares it.
 struct Channel {
     topic: Arc<str>,
-    schema: String,
     feed: Option<Feed>,
 }
 
@@ -148,6 +147,35 @@ impl Recording {
                 bytes.len()
             )));
         }
+        // The description first: it is a top-level record, found without decompressing chunks.
+        let mut metadata: Option<BTreeMap<String, String>> = None;
+        for record in mcap::read::LinearReader::new(bytes).map_err(|e| corrupt(e.to_string()))? {
+            if let mcap::records::Record::Metadata(m) = record.map_err(|e| corrupt(e.to_string()))?
+                && m.name == RUN_METADATA
+            {
+                metadata = Some(m.metadata);
+            }
+        }
+        let Some(metadata) = metadata else {
+            return Err(ReplayError::NoMetadata { path: path.to_path_buf() });
+        };
+        let meta = RunMeta::from_metadata(&metadata)
+            .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
+        meta.check_versions()
+            .map_err(|problem| ReplayError::Version { path: path.to_path_buf(), problem })?;
+        let prefix = format!("{}/", meta.robot);
+        let mut rec = Recording {
+            path: path.to_path_buf(),
+            meta,
+            published: Vec::new(),
+            answers: Answers::default(),
+            outputs: BTreeMap::new(),
+            schemas: BTreeMap::new(),
+            last_log_time: 0,
+            messages: 0,
+        };
+
+        // Then every message, decoded (what is fed) or kept (what is compared) as it comes.
         let reader = mcap::read::ChunkFlattener::new_with_options(
             bytes,
             mcap::read::Options::ValidateChunkCrcs.into(),
@@ -155,19 +183,12 @@ impl Recording {
         .map_err(|e| corrupt(e.to_string()))?;
         let mut schemas: HashMap<u16, String> = HashMap::new();
         let mut channels: HashMap<u16, Channel> = HashMap::new();
-        let mut metadata: Option<BTreeMap<String, String>> = None;
-        let mut topics: BTreeMap<Arc<str>, String> = BTreeMap::new();
-        let (mut messages, mut last_log_time) = (0u64, 0u64);
-        let mut robot: Option<String> = None;
-        // Messages come after the metadata record only if the writer wrote it first, as orsa
-        // does; a file from elsewhere may not, so messages are sorted once the robot is known.
-        let mut pending: Vec<(u16, u64, Vec<u8>)> = Vec::new();
         for record in reader {
             let record = record.map_err(|e| {
                 corrupt(format!(
                     "{e}, after {} messages (the last at log time {})",
-                    messages,
-                    Timestamp(last_log_time)
+                    rec.messages,
+                    Timestamp(rec.last_log_time)
                 ))
             })?;
             match record {
@@ -181,103 +202,78 @@ impl Recording {
                             c.topic, c.schema_id
                         ))
                     })?;
+                    let mismatch = |problem: String| ReplayError::Schema {
+                        path: path.to_path_buf(),
+                        topic: c.topic.clone(),
+                        problem,
+                    };
                     if c.message_encoding != crate::record::MESSAGE_ENCODING {
-                        return Err(ReplayError::Schema {
-                            path: path.to_path_buf(),
-                            topic: c.topic.clone(),
-                            problem: format!(
-                                "its messages are encoded as '{}', not '{}'",
-                                c.message_encoding,
-                                crate::record::MESSAGE_ENCODING
-                            ),
-                        });
+                        return Err(mismatch(format!(
+                            "its messages are encoded as '{}', not '{}'",
+                            c.message_encoding,
+                            crate::record::MESSAGE_ENCODING
+                        )));
+                    }
+                    let feed = c.topic.strip_prefix(prefix.as_str()).and_then(Feed::of);
+                    if let Some(expected) = feed.and_then(Feed::schema)
+                        && schema != expected
+                    {
+                        return Err(mismatch(format!(
+                            "its schema is '{schema}', and the robot's service carries '{expected}'"
+                        )));
                     }
                     let topic: Arc<str> = c.topic.as_str().into();
-                    topics.insert(topic.clone(), schema.clone());
-                    channels.insert(c.id, Channel { topic, schema, feed: None });
-                }
-                mcap::records::Record::Metadata(m) if m.name == RUN_METADATA => {
-                    robot = m.metadata.get("robot").cloned();
-                    metadata = Some(m.metadata);
+                    rec.schemas.insert(topic.clone(), schema);
+                    channels.insert(c.id, Channel { topic, feed });
                 }
                 mcap::records::Record::Message { header, data } => {
-                    if !channels.contains_key(&header.channel_id) {
+                    let Some(c) = channels.get(&header.channel_id) else {
                         return Err(corrupt(format!(
                             "message {} at log time {} is on channel {}, which the file never defined",
-                            messages + 1,
+                            rec.messages + 1,
                             Timestamp(header.log_time),
                             header.channel_id
                         )));
-                    }
-                    messages += 1;
-                    last_log_time = last_log_time.max(header.log_time);
-                    pending.push((header.channel_id, header.log_time, data.into_owned()));
+                    };
+                    rec.messages += 1;
+                    rec.last_log_time = rec.last_log_time.max(header.log_time);
+                    rec.sort(path, c, header.log_time, data.into_owned())?;
                 }
                 _ => {}
             }
         }
-        let Some(metadata) = metadata else {
-            return Err(ReplayError::NoMetadata { path: path.to_path_buf() });
-        };
-        let meta = RunMeta::from_metadata(&metadata)
-            .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
-        meta.check_versions()
-            .map_err(|problem| ReplayError::Version { path: path.to_path_buf(), problem })?;
-        let robot = robot.unwrap_or_default();
-        let prefix = format!("{robot}/");
-        for c in channels.values_mut() {
-            c.feed = c.topic.strip_prefix(prefix.as_str()).and_then(Feed::of);
-            if let Some(expected) = c.feed.and_then(Feed::schema)
-                && c.schema != expected
-            {
-                return Err(ReplayError::Schema {
-                    path: path.to_path_buf(),
-                    topic: c.topic.to_string(),
-                    problem: format!(
-                        "its schema is '{}', and the robot's service carries '{expected}'",
-                        c.schema
-                    ),
-                });
-            }
-        }
-        let mut rec = Recording {
-            path: path.to_path_buf(),
-            meta,
-            published: Vec::new(),
-            answers: Answers::default(),
-            outputs: BTreeMap::new(),
-            schemas: topics,
-            last_log_time,
-            messages,
-        };
-        for (channel, log_time, data) in pending {
-            let c = &channels[&channel];
-            let decode = |what| ReplayError::Decode {
-                path: path.to_path_buf(),
-                topic: c.topic.to_string(),
-                log_time: Timestamp(log_time),
-                problem: what,
-            };
-            match c.feed {
-                Some(Feed::Ir) => {
-                    rec.published.push((log_time, Published::Ir(value(&data).map_err(decode)?)))
-                }
-                Some(Feed::Sonar) => {
-                    rec.published.push((log_time, Published::Sonar(value(&data).map_err(decode)?)))
-                }
-                Some(Feed::Bumpers) => {
-                    rec.published.push((log_time, Published::Bumpers(value(&data).map_err(decode)?)))
-                }
-                Some(Feed::Base) => {
-                    rec.published.push((log_time, Published::Base(value(&data).map_err(decode)?)))
-                }
-                Some(Feed::ParamsAnswer) => rec.answers.robotparams.push_back(value(&data).map_err(decode)?),
-                Some(Feed::SafetyAnswer) => rec.answers.safety.push_back(value(&data).map_err(decode)?),
-                Some(Feed::Remade) => {}
-                None => rec.outputs.entry(c.topic.clone()).or_default().push(Recorded { log_time, data }),
-            }
-        }
         Ok(rec)
+    }
+
+    /// Files one message: decoded into what the stand-in plays back, or kept for comparison.
+    fn sort(&mut self, path: &Path, c: &Channel, log_time: u64, data: Vec<u8>) -> Result<(), ReplayError> {
+        let decode = |problem| ReplayError::Decode {
+            path: path.to_path_buf(),
+            topic: c.topic.to_string(),
+            log_time: Timestamp(log_time),
+            problem,
+        };
+        let published = match c.feed {
+            Some(Feed::Ir) => Published::Ir(value(&data).map_err(decode)?),
+            Some(Feed::Sonar) => Published::Sonar(value(&data).map_err(decode)?),
+            Some(Feed::Bumpers) => Published::Bumpers(value(&data).map_err(decode)?),
+            Some(Feed::Base) => Published::Base(value(&data).map_err(decode)?),
+            Some(Feed::ParamsAnswer) => {
+                self.answers.robotparams.push_back(value(&data).map_err(decode)?);
+                return Ok(());
+            }
+            Some(Feed::SafetyAnswer) => {
+                self.answers.safety.push_back(value(&data).map_err(decode)?);
+                return Ok(());
+            }
+            Some(Feed::Remade) => return Ok(()),
+            None => {
+                self.outputs.entry(c.topic.clone()).or_default().push(Recorded { log_time, data });
+                return Ok(());
+            }
+        };
+        self.published.push((log_time, published));
+        Ok(())
     }
 
     /// The number of messages the replay compares.
