@@ -20,6 +20,9 @@ mod figure;
 mod font;
 mod headline;
 mod series;
+mod whatif;
+
+pub use whatif::{WhatIfPlot, render_what_if_svg, write_what_if};
 
 #[cfg(test)]
 mod tests;
@@ -124,10 +127,14 @@ pub fn render_svg(data: &PlotData<'_>) -> String {
 
 /// The figure as a PNG image [`WIDTH_PX`] wide; `path` only names the file in errors.
 pub fn render_png(data: &PlotData<'_>, path: &Path) -> Result<Vec<u8>, PlotError> {
+    rasterise(&figure::draw(data, canvas::TextMode::Outlined), path)
+}
+
+/// An SVG document (labels outlined) as a PNG image; `path` only names the file in errors.
+fn rasterise(svg: &str, path: &Path) -> Result<Vec<u8>, PlotError> {
     use resvg::{tiny_skia, usvg};
     let error = |problem: String| PlotError::Render { path: path.to_path_buf(), problem };
-    let svg = figure::draw(data, canvas::TextMode::Outlined);
-    let tree = usvg::Tree::from_str(&svg, &usvg::Options::default())
+    let tree = usvg::Tree::from_str(svg, &usvg::Options::default())
         .map_err(|e| error(format!("the figure's SVG does not parse: {e}")))?;
     let size = tree.size().to_int_size();
     let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
@@ -139,10 +146,16 @@ pub fn render_png(data: &PlotData<'_>, path: &Path) -> Result<Vec<u8>, PlotError
 
 /// Writes the figure to `path` as SVG or PNG, chosen by the extension (`.svg` or `.png`).
 pub fn write_plot(path: &Path, data: &PlotData<'_>) -> Result<(), PlotError> {
+    write_svg_or_png(path, |mode| figure::draw(data, mode))
+}
+
+/// Writes the figure `draw` makes to `path`, as SVG (labels as text) or PNG (labels outlined)
+/// by the extension.
+fn write_svg_or_png(path: &Path, draw: impl Fn(canvas::TextMode) -> String) -> Result<(), PlotError> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = match extension.as_str() {
-        "svg" => render_svg(data).into_bytes(),
-        "png" => render_png(data, path)?,
+        "svg" => draw(canvas::TextMode::Native).into_bytes(),
+        "png" => rasterise(&draw(canvas::TextMode::Outlined), path)?,
         _ => {
             let extension = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
             return Err(PlotError::Extension { path: path.to_path_buf(), extension });

@@ -42,7 +42,7 @@ impl TimeAxis {
     }
 
     /// Tick marks and labels under a panel whose bottom edge is at `y`.
-    fn ticks(&self, c: &mut Canvas, y: f64) {
+    pub(crate) fn ticks(&self, c: &mut Canvas, y: f64) {
         let unit = if self.minutes { 60.0 } else { 1.0 };
         let (t0, t1) = (self.scale.d0 / unit, self.scale.d1 / unit);
         let step = axis::nice_step(t1 - t0, 12);
@@ -214,7 +214,7 @@ impl Panel<'_> {
 
 /// Samples further apart than this belong to different stretches of driving: four times the
 /// median interval, at least half a second.
-fn max_gap(points: &[(f64, f64)]) -> f64 {
+pub(crate) fn max_gap(points: &[(f64, f64)]) -> f64 {
     let mut dts: Vec<f64> = points.windows(2).map(|w| w[1].0 - w[0].0).filter(|d| d.is_finite()).collect();
     if dts.is_empty() {
         return 0.5;

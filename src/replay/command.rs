@@ -20,6 +20,9 @@ pub struct ReplayArgs {
     /// What if: change one key of the configuration (`wallfollow.k_v=0.8`); repeatable.
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     pub sets: Vec<String>,
+    /// What if: draw the recorded and the what-if commands over time here (.svg or .png).
+    #[arg(long, value_name = "PATH.svg")]
+    pub plot: Option<PathBuf>,
     /// Write the result (divergence or what-if figures) as JSON here.
     #[arg(long, value_name = "PATH.json")]
     pub report: Option<PathBuf>,
@@ -32,6 +35,15 @@ pub struct ReplayArgs {
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     let rec = Recording::open(&args.recording)?;
     let what_if = args.config.is_some() || !args.sets.is_empty();
+    if args.plot.is_some() && !what_if {
+        anyhow::bail!("--plot draws a what-if: give another configuration with --config or --set");
+    }
+    if let Some(p) = &args.plot {
+        let ext = p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("svg" | "png")) {
+            anyhow::bail!("--plot {}: the file must end in .svg or .png", p.display());
+        }
+    }
     let config = if what_if {
         let base = match &args.config {
             Some(p) => Config::load(p)?,
@@ -41,7 +53,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    for p in [args.report.as_ref()].into_iter().flatten() {
+    for p in [args.plot.as_ref(), args.report.as_ref()].into_iter().flatten() {
         crate::cli::ensure_parent(p)?;
     }
     let m = &rec.meta;
@@ -157,16 +169,61 @@ fn report_what_if(args: &ReplayArgs, rec: &Recording, out: &Replayed, wall_s: f6
             100.0 * (b - a)
         ));
     }
-    if !w.wiring_parts_s.is_empty() {
+    if let Some((first, _)) = w.wiring_differs_s.first() {
+        let total: f64 = w.wiring_differs_s.iter().map(|(a, b)| b - a).sum();
         say(&format!(
-            "  which behaviour drives first differs at {:.3} s ({} times in all)",
-            w.wiring_parts_s[0],
-            w.wiring_parts_s.len()
+            "  another behaviour drives from {first:.3} s ({} stretches, {total:.1} s in all)",
+            w.wiring_differs_s.len()
         ));
     }
     if let Some(path) = &args.report {
         std::fs::write(path, serde_json::to_string_pretty(&w)?)
             .with_context(|| format!("{}: cannot write the report", path.display()))?;
     }
+    if let Some(path) = &args.plot {
+        crate::plot::write_what_if(path, &what_if_plot(args, rec, out, &w))?;
+        say(&format!("plot: {}", path.display()));
+    }
     Ok(())
+}
+
+/// The commands that reached the robot, recorded and what-if, and where the wiring differs.
+fn what_if_plot(
+    args: &ReplayArgs,
+    rec: &Recording,
+    out: &Replayed,
+    w: &super::diff::WhatIf,
+) -> crate::plot::WhatIfPlot {
+    let topic = format!("{}/{}", rec.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name());
+    let origin = rec.meta.clock_origin_ns;
+    let series = |messages: Option<&Vec<super::file::Recorded>>| {
+        let (mut v, mut omega) = (Vec::new(), Vec::new());
+        for m in messages.into_iter().flatten().filter(|m| m.log_time < out.end) {
+            #[derive(serde::Deserialize)]
+            struct Sent {
+                value: orsa_interfaces::nomad200::NavigationVelocity,
+            }
+            if let Ok(Sent { value }) = serde_json::from_slice::<Sent>(&m.data) {
+                let t = orsa_actors::Timestamp(m.log_time.saturating_sub(origin)).as_secs_f64();
+                v.push((t, value.v_m_s));
+                omega.push((t, value.omega_rad_s));
+            }
+        }
+        (v, omega)
+    };
+    let (rv, rw) = series(rec.outputs.get(topic.as_str()));
+    let (wv, ww) = series(out.replayed.get(topic.as_str()));
+    let origin_s = orsa_actors::Timestamp(origin).as_secs_f64();
+    let mut changed: Vec<String> = args.sets.clone();
+    if let Some(c) = &args.config {
+        changed.insert(0, format!("--config {}", c.display()));
+    }
+    crate::plot::WhatIfPlot {
+        title: format!("What if · {} · seed {} · {}", rec.path.display(), rec.meta.seed, topic),
+        subtitle: format!("recorded vs {}", changed.join(", ")),
+        v: [rv, wv],
+        omega: [rw, ww],
+        wiring_differs: w.wiring_differs_s.iter().map(|(a, b)| (a - origin_s, b - origin_s)).collect(),
+        span_s: (0.0, out.replayed_s),
+    }
 }

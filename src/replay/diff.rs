@@ -74,7 +74,8 @@ pub struct TopicDiff {
     pub recorded: usize,
     /// Replayed messages (before the end).
     pub replayed: usize,
-    /// Messages that differ, pairing them in order (a message one side lacks counts).
+    /// Messages that differ: paired by log time, those whose contents differ (sequence numbers
+    /// aside), and each that has no counterpart at its instant on the other side.
     pub differing: usize,
     /// When they first part, s (none if they never do).
     pub first_part_s: Option<f64>,
@@ -94,8 +95,8 @@ pub struct WhatIf {
     pub share_recorded: BTreeMap<String, f64>,
     /// Share of time each behaviour drove, replayed.
     pub share_replayed: BTreeMap<String, f64>,
-    /// The times (s) at which which behaviour drives starts to differ.
-    pub wiring_parts_s: Vec<f64>,
+    /// The stretches `(from_s, to_s)` in which another behaviour drives in the what-if.
+    pub wiring_differs_s: Vec<(f64, f64)>,
 }
 
 /// Compares a what-if replay with its recording before `end` (ns); `driving` is the topic of
@@ -106,9 +107,10 @@ pub fn what_if(recorded: &Messages, replayed: &Messages, end: u64, driving: &str
         out.compared_topics += 1;
         let (a, b) = (window(recorded, topic, end), window(replayed, topic, end));
         let mut d = TopicDiff { recorded: a.len(), replayed: b.len(), ..TopicDiff::default() };
-        for i in 0..a.len().max(b.len()) {
-            let (x, y) = (a.get(i), b.get(i));
-            if x == y {
+        for (x, y) in paired(a, b) {
+            if let (Some(x), Some(y)) = (x, y)
+                && same_but_sequence(x, y)
+            {
                 continue;
             }
             d.differing += 1;
@@ -127,8 +129,54 @@ pub fn what_if(recorded: &Messages, replayed: &Messages, end: u64, driving: &str
     let (ra, rb) = (drives(window(recorded, driving, end), end), drives(window(replayed, driving, end), end));
     out.share_recorded = share(&ra, end);
     out.share_replayed = share(&rb, end);
-    out.wiring_parts_s = parts(&ra, &rb, end);
+    out.wiring_differs_s = differing(&ra, &rb, end);
     out
+}
+
+/// The messages of both sides paired by log time: those of one instant in order, and a
+/// message the other side has no counterpart for at that instant alone. (Pairing by index
+/// would let one extra message make every later one look different.)
+fn paired<'a>(a: &'a [Recorded], b: &'a [Recorded]) -> Vec<(Option<&'a Recorded>, Option<&'a Recorded>)> {
+    let (mut i, mut j, mut out) = (0, 0, Vec::with_capacity(a.len().max(b.len())));
+    while i < a.len() || j < b.len() {
+        match (a.get(i), b.get(j)) {
+            (Some(x), Some(y)) if x.log_time == y.log_time => {
+                out.push((Some(x), Some(y)));
+                (i, j) = (i + 1, j + 1);
+            }
+            (Some(x), Some(y)) if x.log_time < y.log_time => {
+                out.push((Some(x), None));
+                i += 1;
+            }
+            (Some(x), None) => {
+                out.push((Some(x), None));
+                i += 1;
+            }
+            (_, Some(y)) => {
+                out.push((None, Some(y)));
+                j += 1;
+            }
+            (None, None) => break,
+        }
+    }
+    out
+}
+
+/// Whether two messages are the same but for their sequence number (which a what-if shifts
+/// once one message more or less was sent).
+fn same_but_sequence(x: &Recorded, y: &Recorded) -> bool {
+    if x.data == y.data {
+        return true;
+    }
+    let parse = |r: &Recorded| serde_json::from_slice::<serde_json::Value>(&r.data).ok();
+    match (parse(x), parse(y)) {
+        (Some(serde_json::Value::Object(mut p)), Some(serde_json::Value::Object(mut q))) => {
+            p.remove("seq");
+            q.remove("seq");
+            p == q
+        }
+        _ => false,
+    }
 }
 
 /// The largest difference of every numeric field of two JSON messages, merged into `largest`.
@@ -213,19 +261,26 @@ fn driver_at(drives: &[(u64, Option<String>)], t: u64) -> Option<&str> {
     i.checked_sub(1).and_then(|i| drives[i].1.as_deref())
 }
 
-/// The moments the two sides start to disagree on who drives.
-fn parts(a: &[(u64, Option<String>)], b: &[(u64, Option<String>)], end: u64) -> Vec<f64> {
+/// The stretches in which the two sides disagree on who drives.
+fn differing(a: &[(u64, Option<String>)], b: &[(u64, Option<String>)], end: u64) -> Vec<(f64, f64)> {
     let mut moments: Vec<u64> = a.iter().chain(b).map(|(t, _)| *t).filter(|t| *t < end).collect();
     moments.sort_unstable();
     moments.dedup();
     let mut out = Vec::new();
-    let mut agreed = true;
+    let mut since: Option<u64> = None;
     for t in moments {
         let agree = driver_at(a, t) == driver_at(b, t);
-        if agreed && !agree {
-            out.push(Timestamp(t).as_secs_f64());
+        match (since, agree) {
+            (None, false) => since = Some(t),
+            (Some(from), true) => {
+                out.push((Timestamp(from).as_secs_f64(), Timestamp(t).as_secs_f64()));
+                since = None;
+            }
+            _ => {}
         }
-        agreed = agree;
+    }
+    if let Some(from) = since {
+        out.push((Timestamp(from).as_secs_f64(), Timestamp(end).as_secs_f64()));
     }
     out
 }
@@ -283,7 +338,21 @@ mod tests {
         assert!((v.largest["value.omega_rad_s"] - 0.3).abs() < 1e-12);
         assert!((w.share_recorded["wallfollow"] - 0.4).abs() < 1e-12);
         assert!((w.share_replayed["wallfollow"] - 0.6).abs() < 1e-12);
-        assert_eq!(w.wiring_parts_s, vec![4e-9]);
+        assert_eq!(w.wiring_differs_s, vec![(Timestamp(4).as_secs_f64(), Timestamp(6).as_secs_f64())]);
         assert!(what_if(&rec, &rec.clone(), 10, "d").topics.is_empty());
+        // One extra message shifts every later sequence number, and is the only difference.
+        let rec = messages(&[
+            ("v", 1, r#"{"seq":1,"x":1}"#),
+            ("v", 3, r#"{"seq":2,"x":2}"#),
+            ("v", 5, r#"{"seq":3,"x":3}"#),
+        ]);
+        let rep = messages(&[
+            ("v", 1, r#"{"seq":1,"x":1}"#),
+            ("v", 2, r#"{"seq":2,"x":9}"#),
+            ("v", 3, r#"{"seq":3,"x":2}"#),
+            ("v", 5, r#"{"seq":4,"x":3}"#),
+        ]);
+        let w = what_if(&rec, &rep, 10, "d");
+        assert_eq!((w.topics["v"].differing, w.topics["v"].first_part_s), (1, Some(2e-9)));
     }
 }
