@@ -1,0 +1,60 @@
+"""Reads an orsa recording with the `mcap` Python package alone, as a user's tool would.
+
+Prints, as JSON: the `run` metadata's keys, the world and config it holds (parsed with the
+standard library's TOML reader), the message count per topic, and the log time span. Exits
+non-zero, naming what is wrong, if the file is not a finished MCAP file, a message is not JSON,
+or the metadata is missing what a replay needs.
+"""
+
+import json
+import sys
+import tomllib
+
+from mcap.reader import make_reader
+
+REQUIRED = ["orsa", "wire", "process", "world", "world_toml", "seed", "duration_s",
+            "config_toml", "hosted", "robot", "clock_origin_ns"]
+
+
+def main(path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        if summary is None:
+            sys.exit(f"{path}: no summary section: the file was not finished")
+        runs = [m for m in reader.iter_metadata() if m.name == "run"]
+        if len(runs) != 1:
+            sys.exit(f"{path}: {len(runs)} 'run' metadata records, expected 1")
+        meta = runs[0].metadata
+        missing = [k for k in REQUIRED if k not in meta]
+        if missing:
+            sys.exit(f"{path}: the 'run' metadata lacks {missing}")
+        config = tomllib.loads(meta["config_toml"])
+        world = tomllib.loads(meta["world_toml"])
+        counts = {}
+        first, last = None, None
+        for schema, channel, message in reader.iter_messages():
+            if channel.message_encoding != "json" or schema.encoding != "jsonschema":
+                sys.exit(f"{path}: channel {channel.topic} is {channel.message_encoding}/{schema.encoding}")
+            try:
+                json.loads(message.data)
+            except ValueError as e:
+                sys.exit(f"{path}: channel {channel.topic}, log time {message.log_time}: not JSON: {e}")
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            first = message.log_time if first is None else min(first, message.log_time)
+            last = message.log_time if last is None else max(last, message.log_time)
+    print(json.dumps({
+        "metadata_keys": sorted(meta),
+        "seed": int(meta["seed"]),
+        "robot_name": config["robot"]["name"],
+        "config_sections": sorted(config),
+        "world_name": world.get("name"),
+        "hosted": meta["hosted"].split(","),
+        "counts": counts,
+        "first_log_time": first,
+        "last_log_time": last,
+    }))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

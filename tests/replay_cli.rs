@@ -1,0 +1,169 @@
+//! `orsa run --record` then `orsa replay`, as a user types them: exit status 0 only when the
+//! replay is bit-exact, the first divergence printed when it is not, a what-if's report and
+//! plot, clear errors; and the recording read by the Python `mcap` package, which knows
+//! nothing of orsa (`pip install -r tests/python/requirements.txt`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn orsa(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_orsa")).args(args).output().expect("orsa runs")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("orsa-replay-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Records `secs` simulated seconds of seed `seed` into `dir/run.mcap`.
+fn record(d: &Path, seed: &str, secs: &str) -> PathBuf {
+    let path = d.join("run.mcap");
+    let p = |f: &str| d.join(f).display().to_string();
+    let out = orsa(&[
+        "run",
+        "--quiet",
+        "--seed",
+        seed,
+        "--duration",
+        secs,
+        "--record",
+        &p("run.mcap"),
+        "--report",
+        &p("report.json"),
+        "--plot",
+        &p("run.svg"),
+    ]);
+    assert!(out.status.success(), "orsa run: {}", text(&out.stderr));
+    path
+}
+
+#[test]
+fn orsa_replay_says_bit_exact_and_exits_zero_only_when_it_is() {
+    let d = dir("exact");
+    let rec = record(&d, "9", "30");
+    let rec_s = rec.display().to_string();
+    let out = orsa(&["replay", "--quiet", &rec_s]);
+    assert!(out.status.success(), "{}{}", text(&out.stdout), text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("bit-exact:") && stdout.contains("messages on"), "{stdout}");
+
+    // A recording whose command differs from what the behaviour computes: exit 1, and where.
+    let bytes = std::fs::read(&rec).expect("read");
+    let mut altered = Vec::new();
+    let mut out_w = mcap::WriteOptions::new().create(std::io::Cursor::new(&mut altered)).expect("writer");
+    for r in mcap::read::ChunkFlattener::new(&bytes).expect("mcap") {
+        if let mcap::records::Record::Metadata(m) = r.expect("record") {
+            out_w.write_metadata(&m).expect("meta");
+        }
+    }
+    let mut ids = std::collections::BTreeMap::new();
+    let mut n = 0;
+    for m in mcap::MessageStream::new(&bytes).expect("mcap") {
+        let m = m.expect("message");
+        let s = m.channel.schema.as_ref().expect("schema");
+        let id = *ids.entry(m.channel.topic.clone()).or_insert_with(|| {
+            let sid = out_w.add_schema(&s.name, &s.encoding, &s.data).expect("schema");
+            out_w.add_channel(sid, &m.channel.topic, "json", &Default::default()).expect("channel")
+        });
+        let mut data = m.data.into_owned();
+        if m.channel.topic == "wallfollow/status" {
+            n += 1;
+            if n == 50 {
+                data = text(&data).replacen("\"v_m_s\":", "\"v_m_s\":-", 1).into_bytes();
+            }
+        }
+        let h = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: m.sequence,
+            log_time: m.log_time,
+            publish_time: m.publish_time,
+        };
+        out_w.write_to_known_channel(&h, &data).expect("write");
+    }
+    out_w.finish().expect("finish");
+    drop(out_w);
+    let bad = d.join("altered.mcap");
+    std::fs::write(&bad, &altered).expect("write");
+    let out = orsa(&["replay", "--quiet", &bad.display().to_string()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("DIVERGED at") && stdout.contains("wallfollow/status (message 50 of the topic)"),
+        "{stdout}"
+    );
+    assert!(text(&out.stderr).contains("not bit-exact"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[test]
+fn orsa_replay_what_if_reports_and_draws_and_refuses_bad_flags() {
+    let d = dir("whatif");
+    let rec = record(&d, "2", "60").display().to_string();
+    let (report, plot) = (d.join("w.json"), d.join("w.svg"));
+    let out = orsa(&[
+        "replay",
+        "--quiet",
+        &rec,
+        "--set",
+        "wallfollow.target_m=0.3",
+        "--report",
+        &report.display().to_string(),
+        "--plot",
+        &plot.display().to_string(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("wallfollow/status") && stdout.contains("value.cmd.omega_rad_s"), "{stdout}");
+    let w: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    assert!(w["topics"]["wallfollow/status"]["differing"].as_u64().is_some_and(|n| n > 0), "{w}");
+    let svg = std::fs::read_to_string(&plot).expect("plot");
+    assert_eq!(svg.matches(r#"class="series""#).count(), 4, "recorded and what-if, v and omega");
+
+    for (args, says) in [
+        (vec!["replay", &rec, "--plot", "x.svg"], "--plot draws a what-if"),
+        (vec!["replay", &rec, "--set", "wallfollow.target_m=-1"], "wallfollow.target_m"),
+        (vec!["replay", &rec, "--set", "nonsense"], "section.key=value"),
+        (vec!["replay", "/no/such/file.mcap"], "/no/such/file.mcap"),
+    ] {
+        let out = orsa(&args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert!(text(&out.stderr).contains(says), "{args:?}: {}", text(&out.stderr));
+    }
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+#[test]
+fn a_recording_is_read_whole_by_the_python_mcap_package() {
+    let d = dir("python");
+    let rec = record(&d, "4", "20");
+    let out = Command::new("python3")
+        .arg("tests/python/read_recording.py")
+        .arg(&rec)
+        .output()
+        .expect("python3 runs (a Python 3.11 with `pip install -r tests/python/requirements.txt`)");
+    assert!(
+        out.status.success(),
+        "the Python reader refused the recording (is `pip install -r tests/python/requirements.txt` done?): {}",
+        text(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the reader prints JSON");
+    assert_eq!(v["seed"], 4);
+    assert_eq!(v["robot_name"], "nomad200");
+    assert_eq!(v["world_name"], "Palazzina 1 corridor");
+    assert_eq!(
+        v["hosted"],
+        serde_json::json!(["nomad200", "wallfollow", "centerfollow", "master", "planner"])
+    );
+    // What Python counted is what orsa's own reader counted.
+    let recording = orsa::replay::file::Recording::open(&rec).expect("replayable");
+    let total: u64 = v["counts"].as_object().expect("counts").values().map(|n| n.as_u64().expect("n")).sum();
+    assert_eq!(total, recording.messages);
+    assert_eq!(v["last_log_time"].as_u64(), Some(recording.last_log_time));
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
