@@ -23,8 +23,9 @@ struct WiringWatch {
     most_at_once: Mutex<usize>,
 }
 impl Tap for WiringWatch {
-    fn record(&self, topic: &str, _type_id: &str, _stamp: Timestamp, message: serde_json::Value) {
+    fn record(&self, topic: &str, _type_id: &str, _stamp: Timestamp, json: &[u8]) {
         if let Some(component) = topic.strip_suffix("/wiring") {
+            let message: serde_json::Value = serde_json::from_slice(json).expect("the tap gets JSON");
             let to_motors = message["target"]["service"] == "navigationvelocity";
             let mut wired = self.wired.lock();
             wired.insert(component.to_string(), to_motors);

@@ -8,8 +8,9 @@
 //! `component/service` (`component/service/answer` for query answers), so a recording reads
 //! like the system's own map. `orsa run --record` writes what a tap sees as MCAP.
 //!
-//! With no tap installed, the cost is one uncontended read of a lock per message; with one,
-//! the message is turned into JSON for it.
+//! With no tap installed, the cost is one atomic load per message; with one, the message is
+//! serialised to JSON once, straight from its type (no intermediate `serde_json::Value`), and
+//! the tap gets the bytes.
 
 use crate::clock::Timestamp;
 use parking_lot::RwLock;
@@ -19,8 +20,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Something that wants to see every message.
 pub trait Tap: Send + Sync + 'static {
-    /// One message on `topic`, of communication object `type_id`, stamped `stamp`.
-    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, message: serde_json::Value);
+    /// One message on `topic`, of communication object `type_id`, stamped `stamp`, as JSON
+    /// (`serde_json::from_slice` reads it back; a recording stores it as is).
+    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]);
 }
 
 /// The tap shared by a registry and all its endpoints.
@@ -60,8 +62,9 @@ impl TapSlot {
         }
         let tap = self.0.tap.read().clone();
         if let Some(tap) = tap {
-            match serde_json::to_value(message) {
-                Ok(value) => tap.record(topic, type_id, stamp, value),
+            let mut json = Vec::with_capacity(256);
+            match serde_json::to_writer(&mut json, message) {
+                Ok(()) => tap.record(topic, type_id, stamp, &json),
                 Err(e) => tracing::warn!("tap: cannot encode a message on {topic}: {e}"),
             }
         }

@@ -104,6 +104,9 @@ struct Plan {
     sense_s: f64,
     net: net::NetSizes,
     mission_s: f64,
+    /// Simulated seconds recorded and replayed, and how many times.
+    replay_s: f64,
+    replay_runs: usize,
     scale: Vec<usize>,
     scale_warm_s: f64,
     /// Simulated seconds measured for N robots: this over N, at least `scale_min_s`.
@@ -138,6 +141,8 @@ impl Plan {
                 sense_s: 20.0,
                 net: net::NetSizes { warmup: 300, back_to_back: 2_000, at_25hz: 150, sense_s: 10.0 },
                 mission_s: 120.0,
+                replay_s: 300.0,
+                replay_runs: 3,
                 scale: vec![1, 10, 100, 1000],
                 scale_warm_s: 2.0,
                 scale_robot_s: 60.0,
@@ -165,6 +170,8 @@ impl Plan {
                 sense_s: 60.0,
                 net: net::NetSizes { warmup: 1_000, back_to_back: 10_000, at_25hz: 750, sense_s: 60.0 },
                 mission_s: 600.0,
+                replay_s: 3600.0,
+                replay_runs: 3,
                 scale: vec![1, 10, 100, 1000],
                 scale_warm_s: 2.0,
                 scale_robot_s: 300.0,
@@ -226,6 +233,12 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
 
     say(format!("simulation: the corridor mission, {:.0} simulated s", plan.mission_s));
     let mission = part::mission(part::exe_launcher, plan.mission_s)?;
+    say(format!("recording and replay: {:.0} simulated s, {} runs each", plan.replay_s, plan.replay_runs));
+    let record_replay = part::record_replay(part::exe_launcher, plan.replay_s, plan.replay_runs)?;
+    say(format!(
+        "  --record {:.2}x a plain run, replay {:.2}x, bit-exact: {}",
+        record_replay.record_ratio, record_replay.replay_ratio, record_replay.bit_exact
+    ));
     let mut scale = Vec::new();
     for &n in &plan.scale {
         let measure = (plan.scale_robot_s / n as f64).max(plan.scale_min_s);
@@ -306,6 +319,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         net,
         net_error,
         mission,
+        record_replay,
         scale,
         targets: Vec::new(),
     };
@@ -326,6 +340,20 @@ fn net_p50(net: Option<&NetReport>, path: &str) -> Option<f64> {
 /// The targets against what the run measured.
 fn judge(r: &BenchReport) -> Vec<TargetCheck> {
     let mut t = Vec::new();
+    let rr = &r.record_replay;
+    t.push(TargetCheck {
+        target: format!(
+            "orsa replay of {:.0} simulated s takes less wall time than orsa run takes to produce it",
+            rr.simulated_s
+        ),
+        measured: format!("{:.2}x ({}bit-exact)", rr.replay_ratio, if rr.bit_exact { "" } else { "NOT " }),
+        met: Some(rr.replay_ratio < 1.0 && rr.bit_exact),
+    });
+    t.push(TargetCheck {
+        target: "orsa run --record costs at most 1.25x a run without it".into(),
+        measured: format!("{:.2}x", rr.record_ratio),
+        met: Some(rr.record_ratio <= 1.25),
+    });
     for row in r.latency.iter().filter(|row| row.path == inproc::ORSA_PUSH) {
         t.push(TargetCheck {
             target: format!("in-process push p50 <= 1.5x raw ractor cast ({}, {})", row.runtime, row.mode),

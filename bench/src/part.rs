@@ -28,6 +28,9 @@ pub(crate) enum Part {
     Mission { duration_s: f64 },
     /// N whole stacks ([`sim::scale`]).
     Stack { robots: usize, warm_s: f64, measure_s: f64 },
+    /// `orsa run` without and with `--record`, and `orsa replay`, alternated this many runs
+    /// ([`sim::record_replay`]).
+    Replay { duration_s: f64, runs: usize },
     /// N skeletons of the stack, of raw tokio or of ractor actors ([`sim::raw_scale`]).
     Raw { skeleton: Skeleton, robots: usize, warm_s: f64, measure_s: f64 },
 }
@@ -38,6 +41,7 @@ pub(crate) enum PartOut {
     Mission(MissionRtf),
     Stack(ScaleRow),
     Raw(RawScale),
+    Replay(super::RecordReplay),
 }
 
 impl Part {
@@ -47,6 +51,7 @@ impl Part {
     pub(crate) fn spec(&self) -> String {
         match *self {
             Part::Mission { duration_s } => format!("mission:{duration_s}"),
+            Part::Replay { duration_s, runs } => format!("replay:{duration_s}:{runs}"),
             Part::Stack { robots, warm_s, measure_s } => format!("stack:{robots}:{warm_s}:{measure_s}"),
             Part::Raw { skeleton, robots, warm_s, measure_s } => {
                 let kind = match skeleton {
@@ -79,6 +84,7 @@ impl Part {
         };
         match fields.as_slice() {
             ["mission", _] => Ok(Part::Mission { duration_s: secs(1, "duration")? }),
+            ["replay", _, n] => Ok(Part::Replay { duration_s: secs(1, "duration")?, runs: robots(n)? }),
             ["stack", n, _, _] => Ok(Part::Stack {
                 robots: robots(n)?,
                 warm_s: secs(2, "warm-up")?,
@@ -91,7 +97,7 @@ impl Part {
                 measure_s: secs(3, "span")?,
             }),
             _ => bail!(
-                "--sim-part `{spec}`: expected mission:SECS, stack:N:WARM:SECS, raw:N:WARM:SECS or ractor:N:WARM:SECS"
+                "--sim-part `{spec}`: expected mission:SECS, replay:SECS:RUNS, stack:N:WARM:SECS, raw:N:WARM:SECS or ractor:N:WARM:SECS"
             ),
         }
     }
@@ -100,6 +106,7 @@ impl Part {
     pub(crate) fn run_here(&self) -> anyhow::Result<PartOut> {
         Ok(match *self {
             Part::Mission { duration_s } => PartOut::Mission(sim::mission(duration_s)?),
+            Part::Replay { duration_s, runs } => PartOut::Replay(sim::record_replay(duration_s, runs)?),
             Part::Stack { robots, warm_s, measure_s } => {
                 PartOut::Stack(sim::scale(robots, warm_s, measure_s)?)
             }
@@ -159,6 +166,18 @@ pub(crate) fn mission(launcher: Launcher, duration_s: f64) -> anyhow::Result<Mis
     match in_child(launcher, Part::Mission { duration_s })? {
         PartOut::Mission(m) => Ok(m),
         other => Err(anyhow!("expected a mission's figures, got {other:?}")),
+    }
+}
+
+/// [`in_child`] for recording and replaying.
+pub(crate) fn record_replay(
+    launcher: Launcher,
+    duration_s: f64,
+    runs: usize,
+) -> anyhow::Result<super::RecordReplay> {
+    match in_child(launcher, Part::Replay { duration_s, runs })? {
+        PartOut::Replay(r) => Ok(r),
+        other => Err(anyhow!("expected the recording and replay figures, got {other:?}")),
     }
 }
 

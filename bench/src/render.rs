@@ -171,6 +171,26 @@ pub fn render_markdown(r: &BenchReport) -> String {
          shutdown included, in a fresh process): {:.0} simulated s in {:.2} wall s, **{:.0}x real time** ({:.1} m driven, {} restarts).\n",
         mi.simulated_s, mi.wall_s, mi.rtf, mi.distance_m, mi.restarts
     );
+    let rr = &r.record_replay;
+    let runs = |v: &[f64]| v.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(", ");
+    let _ = writeln!(
+        s,
+        "Recording and replay ({:.0} simulated s, seed 1, in a fresh process; plain run, recorded run and replay \
+         alternated, {} runs each, medians): `orsa run --record` takes **{:.2}x** a plain run ({} vs {} wall s) and \
+         writes {} messages in {:.1} MB; `orsa replay` of that file, reading and checking it included, takes \
+         **{:.2}x** the plain run ({} wall s) and compares {} messages: {}.\n",
+        rr.simulated_s,
+        rr.run_wall_s.len(),
+        rr.record_ratio,
+        runs(&rr.record_wall_s),
+        runs(&rr.run_wall_s),
+        rr.messages,
+        rr.file_bytes as f64 / 1e6,
+        rr.replay_ratio,
+        runs(&rr.replay_wall_s),
+        rr.compared,
+        if rr.bit_exact { "bit-exact every time" } else { "NOT bit-exact" }
+    );
     let _ = writeln!(
         s,
         "N robots, each with its whole stack (simulator, server, two behaviours, master, planner, supervisor, \

@@ -199,6 +199,33 @@ pub struct MissionRtf {
     pub restarts: u64,
 }
 
+/// What recording costs `orsa run`, and what replaying the recording costs, in one fresh
+/// process, runs alternated (plain, recorded, replay) so the machine's drift hits all three.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct RecordReplay {
+    /// Simulated seconds of each run.
+    pub simulated_s: f64,
+    /// `orsa run` without `--record`: wall s of each run.
+    pub run_wall_s: Vec<f64>,
+    /// `orsa run --record`: wall s of each run (the file written and closed).
+    pub record_wall_s: Vec<f64>,
+    /// `orsa replay` of that recording: wall s of each run (reading and checking the file
+    /// included).
+    pub replay_wall_s: Vec<f64>,
+    /// Median recorded run over median plain run.
+    pub record_ratio: f64,
+    /// Median replay over median plain run.
+    pub replay_ratio: f64,
+    /// Every replay was bit-exact.
+    pub bit_exact: bool,
+    /// Messages in the recording.
+    pub messages: u64,
+    /// Messages a replay compared.
+    pub compared: u64,
+    /// The recording's size, bytes.
+    pub file_bytes: u64,
+}
+
 /// N whole stacks in one process on one paused clock.
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct ScaleRow {
@@ -311,6 +338,8 @@ pub struct BenchReport {
     pub net_error: Option<String>,
     /// `orsa run`'s speed.
     pub mission: MissionRtf,
+    /// What recording and replaying cost.
+    pub record_replay: RecordReplay,
     /// N robots in one process.
     pub scale: Vec<ScaleRow>,
     /// The targets, judged.

@@ -59,6 +59,56 @@ pub(crate) fn mission(duration_s: f64) -> anyhow::Result<MissionRtf> {
     })
 }
 
+/// `orsa run` without and with `--record`, and `orsa replay` of the recording, `runs` times
+/// each, alternated, for `duration_s` simulated seconds.
+pub(crate) fn record_replay(duration_s: f64, runs: usize) -> anyhow::Result<super::RecordReplay> {
+    let world = World::palazzina()?;
+    let dir = std::env::temp_dir().join(format!("orsa-bench-replay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let path = dir.join("run.mcap");
+    let (mut plain, mut recorded, mut replayed) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut bit_exact, mut messages, mut compared) = (true, 0, 0);
+    for _ in 0..runs.max(1) {
+        for record in [false, true] {
+            let mut opts =
+                RunOptions::new(world.clone(), "palazzina (built in)", Config::default(), 1, duration_s);
+            opts.record = record.then(|| path.clone());
+            let rt = paused_runtime()?;
+            let wall = Instant::now();
+            let out = rt.block_on(mission::run(opts))?;
+            if let Some(r) = out.recording {
+                r?;
+            }
+            let wall_s = wall.elapsed().as_secs_f64();
+            if record { recorded.push(wall_s) } else { plain.push(wall_s) }
+        }
+        let rt = paused_runtime()?;
+        let wall = Instant::now();
+        let rec = orsa::replay::file::Recording::open(&path)?;
+        let out = rt.block_on(orsa::replay::replay(&rec, orsa::replay::ReplayOptions::default()))?;
+        replayed.push(wall.elapsed().as_secs_f64());
+        bit_exact &= out.bit_exact();
+        messages = rec.messages;
+        compared = out.compared as u64;
+    }
+    let file_bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let _ = std::fs::remove_dir_all(&dir);
+    let median = |v: &[f64]| super::stats::median(v.to_vec()).unwrap_or(f64::NAN);
+    let base = median(&plain);
+    Ok(super::RecordReplay {
+        simulated_s: duration_s,
+        record_ratio: median(&recorded) / base,
+        replay_ratio: median(&replayed) / base,
+        run_wall_s: plain,
+        record_wall_s: recorded,
+        replay_wall_s: replayed,
+        bit_exact,
+        messages,
+        compared,
+        file_bytes,
+    })
+}
+
 /// What the skeleton's server receives.
 enum RawServerMsg {
     /// A timed sensor service ticked (0: infrared, 1: sonar, 2: bumpers, 3: base state).

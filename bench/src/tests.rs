@@ -71,6 +71,18 @@ fn sample_report() -> BenchReport {
         net: None,
         net_error: Some("not run in this test".into()),
         mission: MissionRtf { simulated_s: 1.0, wall_s: 0.0025, rtf: 400.0, distance_m: 0.1, restarts: 0 },
+        record_replay: RecordReplay {
+            simulated_s: 60.0,
+            run_wall_s: vec![1.0, 1.1, 0.9],
+            record_wall_s: vec![1.1, 1.2, 1.0],
+            replay_wall_s: vec![0.5, 0.6, 0.4],
+            record_ratio: 1.1,
+            replay_ratio: 0.5,
+            bit_exact: true,
+            messages: 1000,
+            compared: 500,
+            file_bytes: 100_000,
+        },
         scale: vec![scale(1, 2000.0), scale(10, 2500.0), scale(100, 3500.0)],
         targets: Vec::new(),
     };

@@ -230,8 +230,6 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     if let Some(p) = plan {
         p.abort();
     }
-    // The recording holds the mission, not the bookkeeping that follows it.
-    stack.registry.set_tap(None);
     let robot = opts.config.robot.name.as_str();
     let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot))?
         .query(Empty {}, Some(Duration::from_secs(1)))

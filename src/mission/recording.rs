@@ -1,58 +1,172 @@
 //! A run recorded as MCAP: every pattern message and control event the registry's tap sees,
-//! plus the supervisor's events and the run's parameters as metadata.
+//! plus the supervisor's events and the run's description as metadata.
+//!
+//! The file is written on a thread of its own. On the control loop's thread the tap only
+//! serialises each message to JSON (straight from its type) and appends it to a batch; every
+//! [`BATCH`] messages the batch goes to the writer thread, which puts each message in its
+//! channel, compresses the chunks and writes them. At most [`QUEUED`] batches wait, so a disk
+//! slower than the run slows the run rather than filling memory. A write error stops the
+//! recording (the writer drains the queue from then on, so the run never waits on a dead file)
+//! and is reported by [`McapTap::finish`].
 
 use crate::record::{RecordError, RecordSummary, Recorder};
 use orsa_actors::Timestamp;
 use orsa_actors::supervision::SupervisorEvent;
 use orsa_actors::tap::Tap;
 use parking_lot::Mutex;
-use std::collections::BTreeMap;
-use std::path::Path;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+
+/// Messages per batch handed to the writer thread.
+pub const BATCH: usize = 1024;
+/// Batches waiting for the writer at most (a few MB).
+pub const QUEUED: usize = 8;
+
+/// One message of a batch: its topic's number, its stamp, and where its JSON ends.
+struct Item {
+    topic: u32,
+    stamp: Timestamp,
+    end: usize,
+}
+
+/// Messages on their way to the writer.
+#[derive(Default)]
+struct Batch {
+    /// Topics first seen in this batch: number, topic, communication object.
+    new_topics: Vec<(u32, String, String)>,
+    items: Vec<Item>,
+    /// Every message's JSON, one after the other.
+    json: Vec<u8>,
+}
+
+/// The control loop's side: topic numbers and the batch being filled.
+struct Producer {
+    topics: HashMap<String, u32>,
+    batch: Batch,
+    queue: Option<mpsc::SyncSender<Batch>>,
+}
+
+impl Producer {
+    fn push(&mut self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        let next = self.topics.len() as u32;
+        let id = match self.topics.get(topic) {
+            Some(id) => *id,
+            None => {
+                self.topics.insert(topic.to_owned(), next);
+                self.batch.new_topics.push((next, topic.to_owned(), type_id.to_owned()));
+                next
+            }
+        };
+        self.batch.json.extend_from_slice(json);
+        self.batch.items.push(Item { topic: id, stamp, end: self.batch.json.len() });
+        if self.batch.items.len() >= BATCH {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        if self.batch.items.is_empty() && self.batch.new_topics.is_empty() {
+            return;
+        }
+        let capacity = self.batch.json.capacity();
+        let full = std::mem::replace(
+            &mut self.batch,
+            Batch {
+                new_topics: Vec::new(),
+                items: Vec::with_capacity(BATCH),
+                json: Vec::with_capacity(capacity),
+            },
+        );
+        if let Some(queue) = &self.queue {
+            // The writer lives until the queue closes.
+            let _ = queue.send(full);
+        }
+    }
+}
 
 /// A tap that writes what it sees into an MCAP file.
 pub struct McapTap {
-    recorder: Mutex<Option<Recorder>>,
-    first_error: Mutex<Option<RecordError>>,
+    path: PathBuf,
+    producer: Mutex<Producer>,
+    writer: Mutex<Option<std::thread::JoinHandle<Result<RecordSummary, RecordError>>>>,
 }
 
 impl McapTap {
-    /// A recording to `path`, with the run's parameters as metadata named `run`.
+    /// A recording to `path`, with the run's description as metadata named `run`.
     pub fn create(path: &Path, metadata: BTreeMap<String, String>) -> Result<McapTap, RecordError> {
         let mut recorder = Recorder::create(path)?;
-        recorder.write_metadata("run", metadata)?;
-        Ok(McapTap { recorder: Mutex::new(Some(recorder)), first_error: Mutex::new(None) })
-    }
-
-    fn write<T: serde::Serialize + ?Sized>(&self, topic: &str, type_id: &str, stamp: Timestamp, msg: &T) {
-        let mut guard = self.recorder.lock();
-        let Some(rec) = guard.as_mut() else { return };
-        if let Err(e) = rec.write(topic, type_id, stamp, stamp, msg) {
-            // The first failure is kept for the end of the run; recording stops there.
-            tracing::error!("recording stopped: {e}");
-            *self.first_error.lock() = Some(e);
-            *guard = None;
-        }
+        recorder.write_metadata(crate::record::meta::RUN_METADATA, metadata)?;
+        let (tx, rx) = mpsc::sync_channel::<Batch>(QUEUED);
+        let writer = std::thread::Builder::new()
+            .name("orsa-recorder".into())
+            .spawn(move || write_all(recorder, rx))
+            .map_err(|source| RecordError::Create { path: path.to_path_buf(), source })?;
+        let producer = Producer { topics: HashMap::new(), batch: Batch::default(), queue: Some(tx) };
+        Ok(McapTap {
+            path: path.to_path_buf(),
+            producer: Mutex::new(producer),
+            writer: Mutex::new(Some(writer)),
+        })
     }
 
     /// Records a supervisor event on `supervision/events`.
     pub fn supervisor_event(&self, e: &SupervisorEvent) {
-        self.write("supervision/events", "orsa.SupervisorEvent/1", e.at, e);
+        match serde_json::to_vec(e) {
+            Ok(json) => {
+                self.producer.lock().push("supervision/events", "orsa.SupervisorEvent/1", e.at, &json)
+            }
+            Err(e) => tracing::warn!("recording: a supervisor event does not serialise: {e}"),
+        }
     }
 
-    /// Closes the file: its summary, or the first error met while writing.
+    /// Closes the file once everything recorded is written: its summary, or the first error
+    /// met while writing. Later messages are not recorded.
     pub fn finish(&self) -> Result<Option<RecordSummary>, RecordError> {
-        if let Some(e) = self.first_error.lock().take() {
-            return Err(e);
+        {
+            let mut p = self.producer.lock();
+            p.flush();
+            p.queue = None;
         }
-        match self.recorder.lock().take() {
-            Some(rec) => rec.finish().map(Some),
-            None => Ok(None),
-        }
+        let Some(writer) = self.writer.lock().take() else { return Ok(None) };
+        writer
+            .join()
+            .unwrap_or_else(|_| {
+                Err(RecordError::Create {
+                    path: self.path.clone(),
+                    source: std::io::Error::other("the recording thread panicked"),
+                })
+            })
+            .map(Some)
     }
 }
 
+/// The writer thread: every batch, in order, until the queue closes.
+fn write_all(mut recorder: Recorder, queue: mpsc::Receiver<Batch>) -> Result<RecordSummary, RecordError> {
+    let mut topics: Vec<(String, String)> = Vec::new();
+    for batch in queue.iter() {
+        for (id, topic, type_id) in batch.new_topics {
+            debug_assert_eq!(id as usize, topics.len());
+            topics.push((topic, type_id));
+        }
+        let mut start = 0;
+        for item in &batch.items {
+            let (topic, type_id) = &topics[item.topic as usize];
+            let json = &batch.json[start..item.end];
+            start = item.end;
+            if let Err(error) = recorder.write_json(topic, type_id, item.stamp, item.stamp, json) {
+                tracing::error!("recording stopped: {error}");
+                // Drain what is still coming, so the run never waits on a dead file.
+                for _ in queue.iter() {}
+                return Err(error);
+            }
+        }
+    }
+    recorder.finish()
+}
+
 impl Tap for McapTap {
-    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, message: serde_json::Value) {
-        self.write(topic, type_id, stamp, &message);
+    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.producer.lock().push(topic, type_id, stamp, json);
     }
 }

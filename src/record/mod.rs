@@ -128,8 +128,10 @@ impl Recorder {
             .profile(PROFILE)
             .library(concat!("orsa ", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Zstd))
+            .compression_level(1)
             .chunk_size(Some(CHUNK_SIZE_BYTES))
-            // The control loop shares few cores; one compressing thread is plenty for ~100 msg/s.
+            // The recorder runs on a thread of its own (see `mission::recording`): no extra
+            // compressing threads.
             .compression_threads(0);
         let writer = options.create(BufWriter::with_capacity(1 << 16, file)).map_err(|source| {
             RecordError::Write { path: path.to_path_buf(), what: "the header".into(), source }
@@ -166,6 +168,22 @@ impl Recorder {
             topic: topic.to_owned(),
             source,
         })?;
+        let json = std::mem::take(&mut self.buf);
+        let written = self.write_json(topic, schema_name, log_time, publish_time, &json);
+        self.buf = json;
+        written
+    }
+
+    /// As [`write`](Self::write), for a message already serialised as JSON (what a
+    /// [`Tap`](orsa_actors::tap::Tap) gets).
+    pub fn write_json(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        log_time: Timestamp,
+        publish_time: Timestamp,
+        json: &[u8],
+    ) -> Result<(), RecordError> {
         let Some(writer) = self.writer.as_mut() else {
             // Unreachable: `finish` consumes the recorder.
             return Ok(());
@@ -173,7 +191,7 @@ impl Recorder {
         let channel = match self.channels.get_mut(topic) {
             Some(channel) => channel,
             None => {
-                let id = add_channel(writer, &self.path, topic, schema_name, &self.buf)?;
+                let id = add_channel(writer, &self.path, topic, schema_name, json)?;
                 self.channels.entry(topic.to_owned()).or_insert(Channel { id, sequence: 0, count: 0 })
             }
         };
@@ -183,7 +201,7 @@ impl Recorder {
             log_time: log_time.as_nanos(),
             publish_time: publish_time.as_nanos(),
         };
-        writer.write_to_known_channel(&header, &self.buf).map_err(|source| RecordError::Write {
+        writer.write_to_known_channel(&header, json).map_err(|source| RecordError::Write {
             path: self.path.clone(),
             what: format!("a message on topic {topic}"),
             source,

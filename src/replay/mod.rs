@@ -170,15 +170,14 @@ struct Capture {
 }
 
 impl Capture {
-    fn keep<T: serde::Serialize + ?Sized>(&self, topic: &str, stamp: Timestamp, message: &T) {
+    fn keep(&self, topic: &str, stamp: Timestamp, json: &[u8]) {
         if let Some(service) = topic.strip_prefix(self.robot_prefix.as_str())
             && file::is_robot_side(service)
         {
             return;
         }
-        // The recorder writes the same value with the same serialiser, so equal messages are
-        // equal bytes.
-        let Ok(data) = serde_json::to_vec(message) else { return };
+        // The recorder stores the tap's bytes as they are, so equal messages are equal bytes.
+        let data = json.to_vec();
         let mut m = self.messages.lock();
         let list = match m.get_mut(topic) {
             Some(list) => list,
@@ -189,8 +188,8 @@ impl Capture {
 }
 
 impl Tap for Capture {
-    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, message: serde_json::Value) {
-        self.keep(topic, stamp, &message);
+    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.keep(topic, stamp, json);
     }
 }
 
@@ -239,7 +238,12 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         .catalog(catalog)
         .select(&hosted)
         .duration(rec.meta.duration_s)
-        .on_event(move |e: SupervisorEvent| events.keep("supervision/events", e.at, &e))
+        .on_event(move |e: SupervisorEvent| {
+            // As the recording writes them (`McapTap::supervisor_event`).
+            if let Ok(json) = serde_json::to_vec(&e) {
+                events.keep("supervision/events", e.at, &json);
+            }
+        })
         .start(&registry)
         .await
         .map_err(|e| ReplayError::Start(e.to_string()))?;

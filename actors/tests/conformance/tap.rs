@@ -25,7 +25,8 @@ const VEL: SendPortDesc<u64> = SendPortDesc::new("vel");
 #[derive(Default)]
 struct Log(Mutex<Vec<(String, String, serde_json::Value)>>);
 impl Tap for Log {
-    fn record(&self, topic: &str, type_id: &str, _stamp: Timestamp, message: serde_json::Value) {
+    fn record(&self, topic: &str, type_id: &str, _stamp: Timestamp, json: &[u8]) {
+        let message = serde_json::from_slice(json).expect("the tap gets JSON");
         self.0.lock().push((topic.to_string(), type_id.to_string(), message));
     }
 }
