@@ -175,22 +175,34 @@ impl Recording {
             messages: 0,
         };
 
-        // Then every message, decoded (what is fed) or kept (what is compared) as it comes.
-        let reader = mcap::read::ChunkFlattener::new_with_options(
-            bytes,
-            mcap::read::Options::ValidateChunkCrcs.into(),
-        )
-        .map_err(|e| corrupt(e.to_string()))?;
+        // Then every message, decoded (what is fed) or kept (what is compared) as it comes. Each
+        // chunk's CRC is checked before any of its messages is yielded, so a damaged chunk is
+        // reported as damage, not as a message that does not decode.
+        let options =
+            mcap::sans_io::linear_reader::LinearReaderOptions::default().with_prevalidate_chunk_crcs(true);
+        let mut reader = mcap::sans_io::linear_reader::LinearReader::new_with_options(options);
+        let mut input = bytes;
         let mut schemas: HashMap<u16, String> = HashMap::new();
         let mut channels: HashMap<u16, Channel> = HashMap::new();
-        for record in reader {
-            let record = record.map_err(|e| {
+        while let Some(event) = reader.next_event() {
+            let damaged = |e: mcap::McapError, rec: &Recording| {
                 corrupt(format!(
                     "{e}, after {} messages (the last at log time {})",
                     rec.messages,
                     Timestamp(rec.last_log_time)
                 ))
-            })?;
+            };
+            let (opcode, data) = match event.map_err(|e| damaged(e, &rec))? {
+                mcap::sans_io::linear_reader::LinearReadEvent::ReadRequest(need) => {
+                    let n = need.min(input.len());
+                    reader.insert(n).copy_from_slice(&input[..n]);
+                    reader.notify_read(n);
+                    input = &input[n..];
+                    continue;
+                }
+                mcap::sans_io::linear_reader::LinearReadEvent::Record { opcode, data } => (opcode, data),
+            };
+            let record = mcap::parse_record(opcode, data).map_err(|e| damaged(e, &rec))?;
             match record {
                 mcap::records::Record::Schema { header, .. } => {
                     schemas.insert(header.id, header.name);
