@@ -143,6 +143,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
     opts.record = args.record.clone();
+    opts.realtime = args.realtime;
 
     let mut rt = tokio::runtime::Builder::new_current_thread();
     rt.enable_time();

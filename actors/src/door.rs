@@ -96,6 +96,18 @@ impl Door {
         self.tap.record(&self.topic, type_id, sent_at, msg);
     }
 
+    /// Shows a message that came from another process if `remote` to the tap.
+    #[inline]
+    pub(crate) fn show_from<M: Serialize + ?Sized>(
+        &self,
+        type_id: &str,
+        sent_at: Timestamp,
+        msg: &M,
+        remote: bool,
+    ) {
+        self.tap.record_from(&self.topic, type_id, sent_at, msg, remote);
+    }
+
     /// What the fault plan makes of the next message. A delay with no runtime to wait on is
     /// no delay.
     #[inline]
@@ -115,6 +127,19 @@ impl Door {
     #[inline]
     pub(crate) fn enter<M: Serialize + ?Sized>(&self, type_id: &str, sent_at: Timestamp, msg: &M) -> Pass {
         self.show(type_id, sent_at, msg);
+        self.pass()
+    }
+
+    /// As [`enter`](Self::enter), for a message from another process if `remote`.
+    #[inline]
+    pub(crate) fn enter_from<M: Serialize + ?Sized>(
+        &self,
+        type_id: &str,
+        sent_at: Timestamp,
+        msg: &M,
+        remote: bool,
+    ) -> Pass {
+        self.show_from(type_id, sent_at, msg, remote);
         self.pass()
     }
 

@@ -72,13 +72,15 @@ pub struct Responder<Ans> {
     stamp: crate::clock::Clock,
     tap: crate::tap::TapSlot,
     answer_topic: Arc<str>,
+    /// Whether the request came from another process.
+    remote: bool,
 }
 
 impl<Ans: CommObject> Responder<Ans> {
     /// Sends the answer. Fails with [`PatternError::NotActive`] if the client stopped waiting.
     pub fn answer(self, answer: Ans) -> PatternResult<()> {
         let msg = Stamped { seq: self.seq, sent_at: self.stamp.now(), value: answer };
-        self.tap.record(&self.answer_topic, Ans::ID, msg.sent_at, &msg);
+        self.tap.record_from(&self.answer_topic, Ans::ID, msg.sent_at, &msg, self.remote);
         self.tx
             .send(Ok(msg))
             .map_err(|_| PatternError::NotActive("the client no longer waits for this answer".into()))
@@ -98,6 +100,7 @@ impl<Req: Clone, Ans> Duplicate for QueryRequest<Req, Ans> {
                 stamp: r.stamp,
                 tap: r.tap.clone(),
                 answer_topic: Arc::clone(&r.answer_topic),
+                remote: r.remote,
             },
         }
     }
@@ -123,7 +126,9 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
     ) -> PatternResult<oneshot::Receiver<PatternResult<Stamped<Ans>>>> {
         let (tx, rx) = oneshot::channel();
         let seq = request.seq;
-        let pass = self.door.enter(Req::ID, request.sent_at, &request);
+        // A request with no client's sequence came through the transport.
+        let remote = from.is_none();
+        let pass = self.door.enter_from(Req::ID, request.sent_at, &request, remote);
         let msg = QueryRequest {
             request,
             responder: Responder {
@@ -132,6 +137,7 @@ impl<Req: CommObject, Ans: CommObject> QueryEndpoint<Req, Ans> {
                 stamp: self.clock,
                 tap: self.door.tap().clone(),
                 answer_topic: Arc::clone(&self.answer_topic),
+                remote,
             },
         };
         // A request that vanishes (lost, or its server gone) drops its responder, so its client

@@ -49,7 +49,8 @@ impl<T: CommObject> SendEndpoint<T> {
     /// detection), unknown for messages from other processes.
     pub(crate) fn accept(&self, msg: Stamped<T>, from: Option<&Arc<Stream>>) -> PatternResult<()> {
         let n = msg.seq;
-        let copies = match self.door.enter(T::ID, msg.sent_at, &msg) {
+        // A message with no sender's sequence came through the transport.
+        let copies = match self.door.enter_from(T::ID, msg.sent_at, &msg, from.is_none()) {
             Pass::Now(copies) => copies,
             Pass::Lost => {
                 self.door.lost();

@@ -23,6 +23,14 @@ pub trait Tap: Send + Sync + 'static {
     /// One message on `topic`, of communication object `type_id`, stamped `stamp`, as JSON
     /// (`serde_json::from_slice` reads it back; a recording stores it as is).
     fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]);
+
+    /// As [`record`](Self::record), for a message that came from another process through the
+    /// transport (a Send, a query's request) or answers one. A recording keeps them apart,
+    /// so that a replay of one process knows what it must not expect its own components to
+    /// make. By default, the same as `record`.
+    fn record_remote(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.record(topic, type_id, stamp, json);
+    }
 }
 
 /// The tap shared by a registry and all its endpoints.
@@ -57,6 +65,18 @@ impl TapSlot {
         stamp: Timestamp,
         message: &T,
     ) {
+        self.record_from(topic, type_id, stamp, message, false);
+    }
+
+    /// Hands `message`, from another process if `remote`, to the tap, if one is installed.
+    pub(crate) fn record_from<T: Serialize + ?Sized>(
+        &self,
+        topic: &str,
+        type_id: &str,
+        stamp: Timestamp,
+        message: &T,
+        remote: bool,
+    ) {
         if !self.0.installed.load(Ordering::Acquire) {
             return;
         }
@@ -64,6 +84,7 @@ impl TapSlot {
         if let Some(tap) = tap {
             let mut json = Vec::with_capacity(256);
             match serde_json::to_writer(&mut json, message) {
+                Ok(()) if remote => tap.record_remote(topic, type_id, stamp, &json),
                 Ok(()) => tap.record(topic, type_id, stamp, &json),
                 Err(e) => tracing::warn!("tap: cannot encode a message on {topic}: {e}"),
             }

@@ -53,6 +53,9 @@ pub struct RunOptions {
     pub record: Option<std::path::PathBuf>,
     /// Break the stack on purpose as this plan says.
     pub faults: Option<crate::faults::FaultPlan>,
+    /// Whether the run goes in real time (the caller's runtime is not paused): a recording
+    /// then says its times are live, and a replay holds them to a tolerance.
+    pub realtime: bool,
     /// The kinds of component the config's `[system]` table may name (default: the built-in
     /// ones; a program adds its own, see `examples/new_behaviour.rs`).
     pub catalog: crate::system::Catalog,
@@ -78,6 +81,7 @@ impl RunOptions {
             progress_every_s: 10.0,
             record: None,
             faults: None,
+            realtime: false,
             catalog: crate::system::Catalog::builtin(),
         }
     }
@@ -115,23 +119,19 @@ pub enum MissionError {
 
 /// What the recording of a run says about it (see [`crate::record::meta`]).
 fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
-    let toml = |what: &str, r: Result<String, toml::ser::Error>| {
-        r.map_err(|e| MissionError::Invalid(format!("cannot write the {what} into the recording: {e}")))
-    };
-    Ok(crate::record::RunMeta {
-        orsa: crate::record::meta::ORSA_VERSION.into(),
-        wire: orsa_actors::wire::WIRE_VERSION,
-        process: "run".into(),
-        world: opts.world_label.clone(),
-        world_toml: toml("world", toml::to_string(&opts.world))?,
-        seed: opts.seed,
-        duration_s: opts.duration_s,
-        config_toml: toml("configuration", toml::to_string(&opts.config))?,
-        hosted: opts.config.system.components.iter().map(|c| c.name.clone()).collect(),
-        robot: opts.config.robot.name.clone(),
-        clock_origin_ns: 0,
-        faults_toml: opts.faults.as_ref().map(|f| f.source.clone()),
-    })
+    crate::record::RunMeta::describe(
+        "run",
+        &opts.world_label,
+        &opts.world,
+        opts.seed,
+        opts.duration_s,
+        &opts.config,
+        opts.config.system.components.iter().map(|c| c.name.clone()).collect(),
+        opts.realtime,
+        0,
+        opts.faults.as_ref(),
+    )
+    .map_err(MissionError::Invalid)
 }
 
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.

@@ -33,8 +33,9 @@ struct Item {
 /// Messages on their way to the writer.
 #[derive(Default)]
 struct Batch {
-    /// Topics first seen in this batch: number, topic, communication object.
-    new_topics: Vec<(u32, String, String)>,
+    /// Topics first seen in this batch: number, topic, communication object, and whether
+    /// its messages came from another process.
+    new_topics: Vec<(u32, String, String, bool)>,
     items: Vec<Item>,
     /// Every message's JSON, one after the other.
     json: Vec<u8>,
@@ -42,19 +43,21 @@ struct Batch {
 
 /// The control loop's side: topic numbers and the batch being filled.
 struct Producer {
-    topics: HashMap<String, u32>,
+    /// Topic numbers of this process's messages, and of those from other processes.
+    topics: [HashMap<String, u32>; 2],
     batch: Batch,
     queue: Option<mpsc::SyncSender<Batch>>,
 }
 
 impl Producer {
-    fn push(&mut self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
-        let next = self.topics.len() as u32;
-        let id = match self.topics.get(topic) {
+    fn push(&mut self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8], remote: bool) {
+        let next = (self.topics[0].len() + self.topics[1].len()) as u32;
+        let topics = &mut self.topics[usize::from(remote)];
+        let id = match topics.get(topic) {
             Some(id) => *id,
             None => {
-                self.topics.insert(topic.to_owned(), next);
-                self.batch.new_topics.push((next, topic.to_owned(), type_id.to_owned()));
+                topics.insert(topic.to_owned(), next);
+                self.batch.new_topics.push((next, topic.to_owned(), type_id.to_owned(), remote));
                 next
             }
         };
@@ -102,7 +105,7 @@ impl McapTap {
             .name("orsa-recorder".into())
             .spawn(move || write_all(recorder, rx))
             .map_err(|source| RecordError::Create { path: path.to_path_buf(), source })?;
-        let producer = Producer { topics: HashMap::new(), batch: Batch::default(), queue: Some(tx) };
+        let producer = Producer { topics: Default::default(), batch: Batch::default(), queue: Some(tx) };
         Ok(McapTap {
             path: path.to_path_buf(),
             producer: Mutex::new(producer),
@@ -112,11 +115,15 @@ impl McapTap {
 
     /// Records a supervisor event on `supervision/events`.
     pub fn supervisor_event(&self, e: &SupervisorEvent) {
-        match serde_json::to_vec(e) {
-            Ok(json) => {
-                self.producer.lock().push("supervision/events", "orsa.SupervisorEvent/1", e.at, &json)
-            }
-            Err(e) => tracing::warn!("recording: a supervisor event does not serialise: {e}"),
+        self.note("supervision/events", "orsa.SupervisorEvent/1", e.at, e);
+    }
+
+    /// Records a control event that is not a pattern message (a supervisor's, a link
+    /// watchdog's, a fault plan's) on `topic`, as `type_id`, at `at`.
+    pub fn note<T: serde::Serialize + ?Sized>(&self, topic: &str, type_id: &str, at: Timestamp, value: &T) {
+        match serde_json::to_vec(value) {
+            Ok(json) => self.producer.lock().push(topic, type_id, at, &json, false),
+            Err(e) => tracing::warn!("recording: an event on {topic} does not serialise: {e}"),
         }
     }
 
@@ -143,18 +150,20 @@ impl McapTap {
 
 /// The writer thread: every batch, in order, until the queue closes.
 fn write_all(mut recorder: Recorder, queue: mpsc::Receiver<Batch>) -> Result<RecordSummary, RecordError> {
-    let mut topics: Vec<(String, String)> = Vec::new();
+    let mut topics: Vec<(String, String, bool)> = Vec::new();
     for batch in queue.iter() {
-        for (id, topic, type_id) in batch.new_topics {
+        for (id, topic, type_id, remote) in batch.new_topics {
             debug_assert_eq!(id as usize, topics.len());
-            topics.push((topic, type_id));
+            topics.push((topic, type_id, remote));
         }
         let mut start = 0;
         for item in &batch.items {
-            let (topic, type_id) = &topics[item.topic as usize];
+            let (topic, type_id, remote) = &topics[item.topic as usize];
             let json = &batch.json[start..item.end];
             start = item.end;
-            if let Err(error) = recorder.write_json(topic, type_id, item.stamp, item.stamp, json) {
+            if let Err(error) =
+                recorder.write_json_from(topic, type_id, item.stamp, item.stamp, json, *remote)
+            {
                 tracing::error!("recording stopped: {error}");
                 // Drain what is still coming, so the run never waits on a dead file.
                 for _ in queue.iter() {}
@@ -167,6 +176,10 @@ fn write_all(mut recorder: Recorder, queue: mpsc::Receiver<Batch>) -> Result<Rec
 
 impl Tap for McapTap {
     fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
-        self.producer.lock().push(topic, type_id, stamp, json);
+        self.producer.lock().push(topic, type_id, stamp, json, false);
+    }
+
+    fn record_remote(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.producer.lock().push(topic, type_id, stamp, json, true);
     }
 }

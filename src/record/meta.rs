@@ -14,7 +14,8 @@
 //! | `config_toml` | the effective configuration, every key, as TOML |
 //! | `hosted` | the components the recording process hosted, comma-separated, in start order |
 //! | `robot` | the robot server's name (what a replay feeds from the recording) |
-//! | `clock_origin_ns` | the recording clock's first stamp: 0 on a paused clock, UNIX time live |
+//! | `clock` | `paused` (simulated time: a replay is bit for bit, instants included) or `live` (real time: a replay matches values and order; times within a tolerance) |
+//! | `clock_origin_ns` | the recording clock's first stamp: 0 on a simulated clock, UNIX time live |
 //! | `faults_toml` | the fault plan, if the run had one |
 
 use orsa_actors::wire::WIRE_VERSION;
@@ -49,6 +50,8 @@ pub struct RunMeta {
     pub hosted: Vec<String>,
     /// The robot server's name.
     pub robot: String,
+    /// Whether the run went in real time (`live`) rather than on a paused clock.
+    pub live: bool,
     /// The recording clock's first stamp, ns.
     pub clock_origin_ns: u64,
     /// The fault plan's text, if the run had one.
@@ -56,6 +59,43 @@ pub struct RunMeta {
 }
 
 impl RunMeta {
+    /// The description of a run of `process` (`run`, `robot` or `executive`) that hosts
+    /// `hosted`, recorded on a clock whose first stamp is `clock_origin_ns`, live (real time)
+    /// or paused. Fails only if the
+    /// world or the configuration cannot be written as TOML (the error says which).
+    #[allow(clippy::too_many_arguments)]
+    pub fn describe(
+        process: &str,
+        world_label: &str,
+        world: &orsa_hardware::world::World,
+        seed: u64,
+        duration_s: f64,
+        config: &crate::config::Config,
+        hosted: Vec<String>,
+        live: bool,
+        clock_origin_ns: u64,
+        faults: Option<&crate::faults::FaultPlan>,
+    ) -> Result<RunMeta, String> {
+        let toml = |what: &str, r: Result<String, toml::ser::Error>| {
+            r.map_err(|e| format!("cannot write the {what} into the recording: {e}"))
+        };
+        Ok(RunMeta {
+            orsa: ORSA_VERSION.into(),
+            wire: WIRE_VERSION,
+            process: process.into(),
+            world: world_label.into(),
+            world_toml: toml("world", toml::to_string(world))?,
+            seed,
+            duration_s,
+            config_toml: toml("configuration", toml::to_string(config))?,
+            hosted,
+            robot: config.robot.name.clone(),
+            live,
+            clock_origin_ns,
+            faults_toml: faults.map(|f| f.source.clone()),
+        })
+    }
+
     /// As an MCAP metadata map.
     pub fn to_metadata(&self) -> BTreeMap<String, String> {
         let mut m = BTreeMap::new();
@@ -72,6 +112,7 @@ impl RunMeta {
         put("config_toml", self.config_toml.clone());
         put("hosted", self.hosted.join(","));
         put("robot", self.robot.clone());
+        put("clock", if self.live { "live" } else { "paused" }.to_string());
         put("clock_origin_ns", self.clock_origin_ns.to_string());
         if let Some(f) = &self.faults_toml {
             put("faults_toml", f.clone());
@@ -104,6 +145,15 @@ impl RunMeta {
                 format!("metadata '{RUN_METADATA}': key 'duration_s' is '{duration}', not a positive number")
             })?;
         let wire = num("wire")?;
+        let live = match parse("clock", "'paused' or 'live'")?.as_str() {
+            "paused" => false,
+            "live" => true,
+            other => {
+                return Err(format!(
+                    "metadata '{RUN_METADATA}': key 'clock' is '{other}', not 'paused' or 'live'"
+                ));
+            }
+        };
         Ok(RunMeta {
             orsa: parse("orsa", "a version")?,
             wire: u32::try_from(wire)
@@ -116,6 +166,7 @@ impl RunMeta {
             config_toml: get("config_toml")?,
             hosted: parse("hosted", "a list of components")?.split(',').map(str::to_string).collect(),
             robot: parse("robot", "a component name")?,
+            live,
             clock_origin_ns: num("clock_origin_ns")?,
             faults_toml: m.get("faults_toml").cloned(),
         })
@@ -157,6 +208,7 @@ mod tests {
             config_toml: "[robot]\n".into(),
             hosted: vec!["nomad200".into(), "master".into()],
             robot: "nomad200".into(),
+            live: false,
             clock_origin_ns: 0,
             faults_toml: None,
         }
@@ -166,6 +218,8 @@ mod tests {
     fn the_metadata_reads_back_as_written() {
         let m = meta();
         assert_eq!(RunMeta::from_metadata(&m.to_metadata()).expect("it reads back"), m);
+        let live = RunMeta { live: true, clock_origin_ns: 1_764_000_000_000_000_000, ..meta() };
+        assert_eq!(RunMeta::from_metadata(&live.to_metadata()).expect("it reads back"), live);
         let with_faults = RunMeta { faults_toml: Some("[[fault]]".into()), ..meta() };
         assert_eq!(RunMeta::from_metadata(&with_faults.to_metadata()).expect("it reads back"), with_faults);
     }
@@ -181,6 +235,9 @@ mod tests {
         let mut m = meta().to_metadata();
         m.insert("duration_s".into(), "-3".into());
         assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'duration_s'"));
+        let mut m = meta().to_metadata();
+        m.insert("clock".into(), "fast".into());
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'clock' is 'fast'"));
     }
 
     #[test]

@@ -14,6 +14,7 @@
 //! into one reused buffer and looks its channel up by `&str`; a topic's first message also
 //! builds its schema.
 
+pub mod events;
 pub mod meta;
 mod schema;
 
@@ -31,6 +32,10 @@ use std::path::{Path, PathBuf};
 
 /// The MCAP message encoding of every channel.
 pub const MESSAGE_ENCODING: &str = "json";
+/// Channel metadata key that says where a channel's messages came from.
+pub const FROM_KEY: &str = "orsa.from";
+/// [`FROM_KEY`]'s value on a channel of messages from another process (through the transport).
+pub const FROM_REMOTE: &str = "another process";
 /// The MCAP schema encoding of every schema.
 pub const SCHEMA_ENCODING: &str = "jsonschema";
 /// The MCAP profile written in the header (none of the well-known profiles applies).
@@ -103,7 +108,9 @@ pub struct Recorder {
     path: PathBuf,
     /// `None` only after `finish` took it.
     writer: Option<mcap::Writer<BufWriter<File>>>,
-    channels: HashMap<String, Channel>,
+    /// Per topic, and whether its messages came from another process (they get a channel of
+    /// their own on the same topic, with [`FROM_KEY`] in its metadata).
+    channels: HashMap<(String, bool), Channel>,
     /// The reused serialisation buffer.
     buf: Vec<u8>,
     metadata: u64,
@@ -184,15 +191,31 @@ impl Recorder {
         publish_time: Timestamp,
         json: &[u8],
     ) -> Result<(), RecordError> {
+        self.write_json_from(topic, schema_name, log_time, publish_time, json, false)
+    }
+
+    /// As [`write_json`](Self::write_json), for a message that came from another process if
+    /// `remote`: it goes to the topic's channel for such messages, whose metadata says
+    /// [`FROM_KEY`] = [`FROM_REMOTE`] (viewers show both channels as one topic).
+    pub fn write_json_from(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        log_time: Timestamp,
+        publish_time: Timestamp,
+        json: &[u8],
+        remote: bool,
+    ) -> Result<(), RecordError> {
         let Some(writer) = self.writer.as_mut() else {
             // Unreachable: `finish` consumes the recorder.
             return Ok(());
         };
-        let channel = match self.channels.get_mut(topic) {
+        let key = (topic.to_owned(), remote);
+        let channel = match self.channels.get_mut(&key) {
             Some(channel) => channel,
             None => {
-                let id = add_channel(writer, &self.path, topic, schema_name, json)?;
-                self.channels.entry(topic.to_owned()).or_insert(Channel { id, sequence: 0, count: 0 })
+                let id = add_channel(writer, &self.path, topic, schema_name, json, remote)?;
+                self.channels.entry(key).or_insert(Channel { id, sequence: 0, count: 0 })
             }
         };
         let header = mcap::records::MessageHeader {
@@ -234,7 +257,10 @@ impl Recorder {
     /// Writes the last chunk, the summary and the footer, and flushes the file.
     pub fn finish(mut self) -> Result<RecordSummary, RecordError> {
         self.finish_file()?;
-        let messages = self.channels.iter().map(|(topic, c)| (topic.clone(), c.count)).collect();
+        let mut messages = BTreeMap::new();
+        for ((topic, _), c) in &self.channels {
+            *messages.entry(topic.clone()).or_insert(0) += c.count;
+        }
         Ok(RecordSummary { path: self.path.clone(), messages, metadata: self.metadata })
     }
 
@@ -266,6 +292,7 @@ fn add_channel(
     topic: &str,
     schema_name: &str,
     first: &[u8],
+    remote: bool,
 ) -> Result<u16, RecordError> {
     let serde_error =
         |source| RecordError::Serialize { path: path.to_path_buf(), topic: topic.to_owned(), source };
@@ -275,7 +302,11 @@ fn add_channel(
     let schema_id = writer
         .add_schema(schema_name, SCHEMA_ENCODING, &schema)
         .map_err(|source| write_error(format!("the schema {schema_name} of topic {topic}"), source))?;
+    let mut metadata = BTreeMap::new();
+    if remote {
+        metadata.insert(FROM_KEY.to_string(), FROM_REMOTE.to_string());
+    }
     writer
-        .add_channel(schema_id, topic, MESSAGE_ENCODING, &BTreeMap::new())
+        .add_channel(schema_id, topic, MESSAGE_ENCODING, &metadata)
         .map_err(|source| write_error(format!("the channel of topic {topic}"), source))
 }

@@ -2,6 +2,7 @@
 
 use super::{NetArgs, load_config, open, runtime, secs, until_stopped};
 use crate::config::Config;
+use crate::record::events::{LINK_EVENT, LINK_EVENTS, LinkEvent, LinkEventKind};
 use crate::system::{Place, RobotBoards, System};
 use anyhow::{Context as _, bail};
 use orsa_actors::component::ComponentHandle;
@@ -47,6 +48,10 @@ pub struct RobotArgs {
     /// --faults, what was injected, detected and restarted.
     #[arg(long, value_name = "PATH.json")]
     pub report: Option<PathBuf>,
+    /// Record every pattern message and control event of this process here, as MCAP, with
+    /// what `orsa replay` needs to run its behaviours again (see the README).
+    #[arg(long, value_name = "PATH.mcap")]
+    pub record: Option<PathBuf>,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
@@ -109,25 +114,57 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_robot(&config))?),
         None => None,
     };
-    if let Some(p) = &args.report {
+    for p in [args.report.as_ref(), args.record.as_ref()].into_iter().flatten() {
         crate::cli::ensure_parent(p)?;
     }
+    let world_label = match &args.world {
+        Some(p) => p.display().to_string(),
+        None => "palazzina (built in)".to_string(),
+    };
     let lease = config.link.lease(config.robot.cmd_timeout_s);
     runtime()?.block_on(async move {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
-        let sim =
-            SimNomad200::new(world, config.sim.clone(), args.seed).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let sim = SimNomad200::new(world.clone(), config.sim.clone(), args.seed)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
         let sim = SimRobot::spawn(sim, clock);
         let robot = config.robot.name.clone();
         let boards = BoardFaults::new(args.seed);
         let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
         let sink = Arc::clone(&supervisor_events);
-        let system = System::builder(&config)
-            .only(Place::Robot)
+        let builder = System::builder(&config).only(Place::Robot);
+        let recording = match &args.record {
+            Some(path) => {
+                let hosted = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
+                let meta = crate::record::RunMeta::describe(
+                    "robot",
+                    &world_label,
+                    &world,
+                    args.seed,
+                    args.duration.unwrap_or(1e7),
+                    &config,
+                    hosted,
+                    true,
+                    clock.origin().as_nanos(),
+                    plan.as_ref(),
+                )
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+                let tap = Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata())?);
+                registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
+                Some(tap)
+            }
+            None => None,
+        };
+        let events_tap = recording.clone();
+        let system = builder
             .robot(RobotBoards::simulated(&sim, &config, &boards))
             .supervisor("robot")
-            .on_event(move |e| sink.lock().push(e))
+            .on_event(move |e| {
+                if let Some(r) = &events_tap {
+                    r.supervisor_event(&e);
+                }
+                sink.lock().push(e)
+            })
             .start(&registry)
             .await
             .context("starting the robot")?;
@@ -164,6 +201,10 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         base.subscribe(1)?;
 
         let plan_started_at = plan.as_ref().map(|_| registry.now());
+        if let (Some(r), Some(plan), Some(at)) = (&recording, &plan, plan_started_at) {
+            use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, FaultsStarted};
+            r.note(FAULTS_STARTED, FAULTS_STARTED_TYPE, at, &FaultsStarted { faults: plan.faults.len() });
+        }
         let plan_task = plan.clone().map(|plan| {
             let t = transport.clone();
             let tx = ev_tx.clone();
@@ -201,7 +242,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                         .collect();
                     for zid in expired {
                         let why = format!("no heartbeat for {} ms", lease.as_millis());
-                        let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why).await;
+                        let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why, &recording).await;
                         if let Some(e) = executives.get_mut(&zid) {
                             e.lost = true;
                             e.restore = restore;
@@ -228,14 +269,14 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                             e.lost = false;
                             e.deadline = tokio::time::Instant::now() + lease;
                             let restore = e.restore.take();
-                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links).await;
+                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
                         }
                     }
                     RobotEvent::ExecutiveGone(zid) => {
                         let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
                         if !was_lost {
                             let why = "its process token disappeared";
-                            lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why).await;
+                            lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why, &recording).await;
                             note_loss(&registry, &mut links, &mut link_log, &zid, why);
                         }
                         start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
@@ -263,7 +304,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                                 eprintln!("robot: executive {zid} is heard again: stopping the fallback");
                                 f.stop().await;
                             }
-                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links).await;
+                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
                         }
                     }
                     RobotEvent::Link(role, cut) => {
@@ -317,6 +358,8 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
         let faults_switch = registry.faults();
         supervisor.shutdown().await;
         let _ = sim.shutdown().await;
+        registry.set_tap(None);
+        let recorded = recording.map(|r| r.finish());
         let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
         let faults = plan.as_ref().map(|plan| {
             let plan_end = end_s - plan_started_at.map_or(0.0, |t| registry.clock().since_start(t).as_secs_f64());
@@ -346,6 +389,14 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("{}: cannot write the report", p.display()))?;
             eprintln!("robot: report: {}", p.display());
         }
+        match recorded {
+            Some(Ok(Some(r))) => {
+                let total: u64 = r.messages.values().sum();
+                eprintln!("robot: record: {} ({total} messages on {} topics)", r.path.display(), r.messages.len());
+            }
+            Some(Err(e)) => bail!("the robot stopped, but its recording failed: {e}"),
+            _ => {}
+        }
         Ok(())
     })
 }
@@ -359,6 +410,7 @@ async fn lose_executive(
     motors_addr: &ServiceAddr,
     zid: &str,
     why: &str,
+    recording: &Option<Arc<crate::mission::recording::McapTap>>,
 ) -> Option<String> {
     let t = registry.clock().since_start(registry.now()).as_secs_f64();
     eprintln!("robot: [{t:.3} s] executive {zid} lost ({why}): unwiring the behaviours and stopping");
@@ -375,10 +427,26 @@ async fn lose_executive(
         }
     }
     let zero = NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
+    note_link(registry, recording, zid, LinkEventKind::Lost, why, Some(zero));
     if let Err(e) = motors.send(zero) {
         tracing::warn!("robot: cannot stop the motors: {e}");
     }
     driving
+}
+
+/// Notes what the link watchdog did in the recording, if there is one (a replay feeds it back).
+fn note_link(
+    registry: &Registry,
+    recording: &Option<Arc<crate::mission::recording::McapTap>>,
+    zid: &str,
+    event: LinkEventKind,
+    why: &str,
+    command: Option<NavigationVelocity>,
+) {
+    if let Some(r) = recording {
+        let e = LinkEvent { executive: zid.to_string(), event, why: why.to_string(), command };
+        r.note(LINK_EVENTS, LINK_EVENT, registry.now(), &e);
+    }
 }
 
 /// Records the loss of an executive against the link cut it happened under, if any.
@@ -413,8 +481,10 @@ async fn executive_back(
     zid: &str,
     restore: Option<String>,
     links: &mut [crate::faults::LinkCutReport],
+    recording: &Option<Arc<crate::mission::recording::McapTap>>,
 ) {
     let t = registry.clock().since_start(registry.now()).as_secs_f64();
+    note_link(registry, recording, zid, LinkEventKind::Back, "heard again", None);
     let wiring = WiringMaster::new(registry);
     if let Some(b) = &restore {
         // Whatever a fallback wired goes first: never two behaviours on the motors.

@@ -26,6 +26,10 @@ pub struct ReplayArgs {
     /// Write the result (divergence or what-if figures) as JSON here.
     #[arg(long, value_name = "PATH.json")]
     pub report: Option<PathBuf>,
+    /// For a recording made live (`orsa robot --record`, `orsa run --realtime --record`): how
+    /// far, in ms, a replayed message may be from its recorded log time (default 250).
+    #[arg(long, value_name = "MS")]
+    pub tolerance_ms: Option<f64>,
     /// Do not show the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -53,6 +57,19 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     } else {
         None
     };
+    let tolerance = match args.tolerance_ms {
+        None => None,
+        Some(ms) if ms.is_finite() && (0.0..=60_000.0).contains(&ms) => {
+            Some(std::time::Duration::from_secs_f64(ms / 1000.0))
+        }
+        Some(ms) => anyhow::bail!("--tolerance-ms {ms}: must be a number of milliseconds from 0 to 60000"),
+    };
+    if tolerance.is_some() && !rec.meta.live {
+        anyhow::bail!(
+            "--tolerance-ms: {} was recorded on a paused clock, and is replayed to the instant",
+            rec.path.display()
+        );
+    }
     for p in [args.plot.as_ref(), args.report.as_ref()].into_iter().flatten() {
         crate::cli::ensure_parent(p)?;
     }
@@ -74,6 +91,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         config,
         progress: Some(Arc::new(move |t| b.set_position(t.round() as u64))),
         progress_every_s: Some((span_s / 400.0).clamp(1.0, 30.0)),
+        tolerance,
     };
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_time()
@@ -88,14 +106,29 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
 }
 
 fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Result<()> {
-    let summary = format!(
-        "{} robot messages fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
+    let controls = match out.controls {
+        0 => String::new(),
+        n => format!(" and {n} control events"),
+    };
+    let mut summary = format!(
+        "{} robot messages{controls} fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
         out.fed, out.compared, out.topics, out.replayed_s
     );
+    if let super::diff::Timing::Within(tolerance) = out.timing {
+        summary.push_str(&format!(
+            "\n  recorded live: every message in its recorded order and content, the live clock's \
+             stamps aside; log times within {:.1} ms of the recording (largest offset {:.3} ms)",
+            tolerance as f64 / 1e6,
+            out.largest_offset_ns as f64 / 1e6
+        ));
+    }
     if let Some(path) = &args.report {
         let json = serde_json::json!({
             "bit_exact": out.bit_exact(),
+            "timing": out.timing,
+            "largest_offset_ms": out.largest_offset_ns as f64 / 1e6,
             "fed": out.fed,
+            "controls": out.controls,
             "compared": out.compared,
             "topics": out.topics,
             "replayed_s": out.replayed_s,
@@ -213,7 +246,6 @@ fn what_if_plot(
     };
     let (rv, rw) = series(rec.outputs.get(topic.as_str()));
     let (wv, ww) = series(out.replayed.get(topic.as_str()));
-    let origin_s = orsa_actors::Timestamp(origin).as_secs_f64();
     let mut changed: Vec<String> = args.sets.clone();
     if let Some(c) = &args.config {
         changed.insert(0, format!("--config {}", c.display()));
@@ -223,7 +255,7 @@ fn what_if_plot(
         subtitle: format!("recorded vs {}", changed.join(", ")),
         v: [rv, wv],
         omega: [rw, ww],
-        wiring_differs: w.wiring_differs_s.iter().map(|(a, b)| (a - origin_s, b - origin_s)).collect(),
+        wiring_differs: w.wiring_differs_s.clone(),
         span_s: (0.0, out.replayed_s),
     }
 }

@@ -11,6 +11,76 @@ use std::sync::Arc;
 /// Messages per topic, in order.
 pub type Messages = BTreeMap<Arc<str>, Vec<Recorded>>;
 
+/// How a replay's instants are held to the recording's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Timing {
+    /// A recording made on a paused clock: every message at its recorded instant, every byte
+    /// the same.
+    Exact,
+    /// A recording made live: every message in its recorded order, with the same content but
+    /// for its envelope's readings of the live clock (`stamp`, an event's `event.stamp`, a
+    /// supervisor event's `at`), which no replay can reproduce, and logged at most this many ns
+    /// from its recorded log time. The last `tolerance` of the recording is left out: what the
+    /// live process made in it may lie past the recording's end.
+    Within(u64),
+}
+
+impl Timing {
+    fn tolerance(self) -> u64 {
+        match self {
+            Timing::Exact => 0,
+            Timing::Within(t) => t,
+        }
+    }
+
+    /// The end of what is compared, for a recording whose last message is at `end`.
+    pub fn cut(self, end: u64) -> u64 {
+        end.saturating_sub(self.tolerance())
+    }
+
+    /// Whether two messages are the same, sequence numbers aside if `ignore_seq`.
+    fn same(self, x: &Recorded, y: &Recorded, ignore_seq: bool) -> bool {
+        if x.data == y.data {
+            return true;
+        }
+        if self == Timing::Exact && !ignore_seq {
+            return false;
+        }
+        let parse = |r: &Recorded| serde_json::from_slice::<serde_json::Value>(&r.data).ok();
+        match (parse(x), parse(y)) {
+            (Some(mut p), Some(mut q)) => {
+                for v in [&mut p, &mut q] {
+                    if let serde_json::Value::Object(o) = v {
+                        if ignore_seq {
+                            o.remove("seq");
+                        }
+                        if self != Timing::Exact {
+                            strip_clock_readings(o);
+                        }
+                    }
+                }
+                p == q
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Removes a message envelope's readings of the live clock (see [`Timing::Within`]).
+fn strip_clock_readings(o: &mut serde_json::Map<String, serde_json::Value>) {
+    o.remove("stamp");
+    o.remove("at");
+    if let Some(serde_json::Value::Object(e)) = o.get_mut("event") {
+        e.remove("stamp");
+    }
+}
+
+/// Whether `path` (in a message, dotted) is a reading of the live clock.
+fn is_clock_reading(path: &str) -> bool {
+    matches!(path, "stamp" | "at" | "event.stamp")
+}
+
 /// Where a replay first parted from its recording.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Divergence {
@@ -41,13 +111,37 @@ fn text(r: &Recorded) -> String {
     String::from_utf8_lossy(&r.data).into_owned()
 }
 
-/// The first message, by log time, where `replayed` differs from `recorded` before `end` (ns):
-/// a different log time or different bytes, or a message one side has and the other has not.
-pub fn first_divergence(recorded: &Messages, replayed: &Messages, end: u64) -> Option<Divergence> {
+/// The first message, by log time, where `replayed` differs from `recorded` before
+/// `timing.cut(end)` (ns): a different log time or different bytes (as `timing` says), or a
+/// message one side has and the other has not. With it, the largest offset between a
+/// replayed message's log time and its recorded one (ns). Times in seconds are since `origin`
+/// (the recording clock's first stamp, ns).
+pub fn first_divergence(
+    recorded: &Messages,
+    replayed: &Messages,
+    origin: u64,
+    end: u64,
+    timing: Timing,
+) -> (Option<Divergence>, u64) {
+    let (cut, tolerance) = (timing.cut(end), timing.tolerance());
     let mut first: Option<(u64, Divergence)> = None;
+    let mut largest = 0u64;
     for topic in topics(recorded, replayed) {
-        let (a, b) = (window(recorded, topic, end), window(replayed, topic, end));
-        let Some(i) = (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i)) else { continue };
+        let (a, b) = (window(recorded, topic, cut), window(replayed, topic, cut));
+        let differs = |i: usize| match (a.get(i), b.get(i)) {
+            (Some(x), Some(y)) => x.log_time.abs_diff(y.log_time) > tolerance || !timing.same(x, y, false),
+            (Some(_), None) => true,
+            // A replayed message the recording has not: unless its recorded counterpart may
+            // lie past the cut (a live process logs a little after the replay does).
+            (None, Some(y)) => timing == Timing::Exact || y.log_time.saturating_add(tolerance) < cut,
+            (None, None) => false,
+        };
+        let found = (0..a.len().max(b.len())).find(|&i| differs(i));
+        let paired = found.unwrap_or(a.len().min(b.len())).min(a.len().min(b.len()));
+        for (x, y) in a[..paired].iter().zip(&b[..paired]) {
+            largest = largest.max(x.log_time.abs_diff(y.log_time));
+        }
+        let Some(i) = found else { continue };
         let at = match (a.get(i), b.get(i)) {
             (Some(x), Some(y)) => x.log_time.min(y.log_time),
             (Some(x), None) | (None, Some(x)) => x.log_time,
@@ -55,7 +149,7 @@ pub fn first_divergence(recorded: &Messages, replayed: &Messages, end: u64) -> O
         };
         if first.as_ref().is_none_or(|(t, _)| at < *t) {
             let d = Divergence {
-                at_s: Timestamp(at).as_secs_f64(),
+                at_s: Timestamp(at.saturating_sub(origin)).as_secs_f64(),
                 topic: topic.to_string(),
                 index: i,
                 recorded: a.get(i).map(text),
@@ -64,7 +158,7 @@ pub fn first_divergence(recorded: &Messages, replayed: &Messages, end: u64) -> O
             first = Some((at, d));
         }
     }
-    first.map(|(_, d)| d)
+    (first.map(|(_, d)| d), largest)
 }
 
 /// How one topic's messages differ in a what-if.
@@ -99,27 +193,39 @@ pub struct WhatIf {
     pub wiring_differs_s: Vec<(f64, f64)>,
 }
 
-/// Compares a what-if replay with its recording before `end` (ns); `driving` is the topic of
-/// the master's `driving` pushes (the behaviour share comes from them).
-pub fn what_if(recorded: &Messages, replayed: &Messages, end: u64, driving: &str) -> WhatIf {
+/// Compares a what-if replay with its recording from `origin` to `timing.cut(end)` (ns; times
+/// in seconds are since `origin`); `driving` is the topic of the master's `driving` pushes (the
+/// behaviour share comes from them).
+pub fn what_if(
+    recorded: &Messages,
+    replayed: &Messages,
+    origin: u64,
+    end: u64,
+    driving: &str,
+    timing: Timing,
+) -> WhatIf {
     let mut out = WhatIf::default();
+    let end = timing.cut(end);
     for topic in topics(recorded, replayed) {
         out.compared_topics += 1;
         let (a, b) = (window(recorded, topic, end), window(replayed, topic, end));
         let mut d = TopicDiff { recorded: a.len(), replayed: b.len(), ..TopicDiff::default() };
-        for (x, y) in paired(a, b) {
+        for (x, y) in paired(a, b, timing.tolerance()) {
             if let (Some(x), Some(y)) = (x, y)
-                && same_but_sequence(x, y)
+                && timing.same(x, y, true)
             {
                 continue;
             }
             d.differing += 1;
             if d.first_part_s.is_none() {
                 let at = x.into_iter().chain(y).map(|r| r.log_time).min().unwrap_or(0);
-                d.first_part_s = Some(Timestamp(at).as_secs_f64());
+                d.first_part_s = Some(Timestamp(at.saturating_sub(origin)).as_secs_f64());
             }
             if let (Some(x), Some(y)) = (x, y) {
                 numeric_differences(&x.data, &y.data, &mut d.largest);
+                if timing != Timing::Exact {
+                    d.largest.retain(|path, _| !is_clock_reading(path));
+                }
             }
         }
         if d.differing > 0 {
@@ -127,20 +233,24 @@ pub fn what_if(recorded: &Messages, replayed: &Messages, end: u64, driving: &str
         }
     }
     let (ra, rb) = (drives(window(recorded, driving, end), end), drives(window(replayed, driving, end), end));
-    out.share_recorded = share(&ra, end);
-    out.share_replayed = share(&rb, end);
-    out.wiring_differs_s = differing(&ra, &rb, end);
+    out.share_recorded = share(&ra, origin, end);
+    out.share_replayed = share(&rb, origin, end);
+    out.wiring_differs_s = differing(&ra, &rb, origin, end);
     out
 }
 
-/// The messages of both sides paired by log time: those of one instant in order, and a
-/// message the other side has no counterpart for at that instant alone. (Pairing by index
-/// would let one extra message make every later one look different.)
-fn paired<'a>(a: &'a [Recorded], b: &'a [Recorded]) -> Vec<(Option<&'a Recorded>, Option<&'a Recorded>)> {
+/// The messages of both sides paired by log time (within `tolerance` ns): those of one
+/// instant in order, and a message the other side has no counterpart for at that instant
+/// alone. (Pairing by index would let one extra message make every later one look different.)
+fn paired<'a>(
+    a: &'a [Recorded],
+    b: &'a [Recorded],
+    tolerance: u64,
+) -> Vec<(Option<&'a Recorded>, Option<&'a Recorded>)> {
     let (mut i, mut j, mut out) = (0, 0, Vec::with_capacity(a.len().max(b.len())));
     while i < a.len() || j < b.len() {
         match (a.get(i), b.get(j)) {
-            (Some(x), Some(y)) if x.log_time == y.log_time => {
+            (Some(x), Some(y)) if x.log_time.abs_diff(y.log_time) <= tolerance => {
                 out.push((Some(x), Some(y)));
                 (i, j) = (i + 1, j + 1);
             }
@@ -160,23 +270,6 @@ fn paired<'a>(a: &'a [Recorded], b: &'a [Recorded]) -> Vec<(Option<&'a Recorded>
         }
     }
     out
-}
-
-/// Whether two messages are the same but for their sequence number (which a what-if shifts
-/// once one message more or less was sent).
-fn same_but_sequence(x: &Recorded, y: &Recorded) -> bool {
-    if x.data == y.data {
-        return true;
-    }
-    let parse = |r: &Recorded| serde_json::from_slice::<serde_json::Value>(&r.data).ok();
-    match (parse(x), parse(y)) {
-        (Some(serde_json::Value::Object(mut p)), Some(serde_json::Value::Object(mut q))) => {
-            p.remove("seq");
-            q.remove("seq");
-            p == q
-        }
-        _ => false,
-    }
 }
 
 /// The largest difference of every numeric field of two JSON messages, merged into `largest`.
@@ -241,16 +334,17 @@ fn drives(pushes: &[Recorded], end: u64) -> Vec<(u64, Option<String>)> {
     out
 }
 
-/// The share of `[0, end)` each behaviour drove.
-fn share(drives: &[(u64, Option<String>)], end: u64) -> BTreeMap<String, f64> {
+/// The share of `[origin, end)` each behaviour drove.
+fn share(drives: &[(u64, Option<String>)], origin: u64, end: u64) -> BTreeMap<String, f64> {
     let mut out = BTreeMap::new();
-    if end == 0 {
+    let span = end.saturating_sub(origin);
+    if span == 0 {
         return out;
     }
     for (i, (from, who)) in drives.iter().enumerate() {
         let to = drives.get(i + 1).map(|(t, _)| *t).unwrap_or(end).min(end);
         let name = who.clone().unwrap_or_else(|| "(none)".into());
-        *out.entry(name).or_insert(0.0) += to.saturating_sub(*from) as f64 / end as f64;
+        *out.entry(name).or_insert(0.0) += to.saturating_sub(*from) as f64 / span as f64;
     }
     out
 }
@@ -262,7 +356,13 @@ fn driver_at(drives: &[(u64, Option<String>)], t: u64) -> Option<&str> {
 }
 
 /// The stretches in which the two sides disagree on who drives.
-fn differing(a: &[(u64, Option<String>)], b: &[(u64, Option<String>)], end: u64) -> Vec<(f64, f64)> {
+fn differing(
+    a: &[(u64, Option<String>)],
+    b: &[(u64, Option<String>)],
+    origin: u64,
+    end: u64,
+) -> Vec<(f64, f64)> {
+    let secs = |t: u64| Timestamp(t.saturating_sub(origin)).as_secs_f64();
     let mut moments: Vec<u64> = a.iter().chain(b).map(|(t, _)| *t).filter(|t| *t < end).collect();
     moments.sort_unstable();
     moments.dedup();
@@ -273,14 +373,14 @@ fn differing(a: &[(u64, Option<String>)], b: &[(u64, Option<String>)], end: u64)
         match (since, agree) {
             (None, false) => since = Some(t),
             (Some(from), true) => {
-                out.push((Timestamp(from).as_secs_f64(), Timestamp(t).as_secs_f64()));
+                out.push((secs(from), secs(t)));
                 since = None;
             }
             _ => {}
         }
     }
     if let Some(from) = since {
-        out.push((Timestamp(from).as_secs_f64(), Timestamp(end).as_secs_f64()));
+        out.push((secs(from), secs(end)));
     }
     out
 }
@@ -304,17 +404,17 @@ mod tests {
     #[test]
     fn the_first_divergence_is_the_earliest_over_all_topics() {
         let rec = messages(&[("a", 1, "1"), ("a", 5, "2"), ("b", 2, "x"), ("b", 3, "y")]);
-        assert_eq!(first_divergence(&rec, &rec.clone(), 10), None);
+        assert_eq!(first_divergence(&rec, &rec.clone(), 0, 10, Timing::Exact), (None, 0));
         let rep = messages(&[("a", 1, "1"), ("a", 5, "3"), ("b", 2, "x"), ("b", 3, "z")]);
-        let d = first_divergence(&rec, &rep, 10).expect("it differs");
+        let d = first_divergence(&rec, &rep, 0, 10, Timing::Exact).0.expect("it differs");
         assert_eq!((d.topic.as_str(), d.index), ("b", 1));
         assert_eq!((d.recorded.as_deref(), d.replayed.as_deref()), (Some("y"), Some("z")));
         // A message the replay did not make is a divergence too, and so is one at the end.
         let short = messages(&[("a", 1, "1"), ("b", 2, "x"), ("b", 3, "y")]);
-        let d = first_divergence(&rec, &short, 10).expect("it differs");
+        let d = first_divergence(&rec, &short, 0, 10, Timing::Exact).0.expect("it differs");
         assert_eq!((d.topic.as_str(), d.index, d.replayed), ("a", 1, None));
         // Nothing at or after the end counts.
-        assert_eq!(first_divergence(&rec, &short, 5), None);
+        assert_eq!(first_divergence(&rec, &short, 0, 5, Timing::Exact), (None, 0));
     }
 
     #[test]
@@ -331,7 +431,7 @@ mod tests {
             ("d", 0, r#"{"seq":1,"value":{"driving":"centerfollow","mode":"patrol","stamp":0}}"#),
             ("d", 4, r#"{"seq":2,"value":{"driving":"wallfollow","mode":"patrol","stamp":4}}"#),
         ]);
-        let w = what_if(&rec, &rep, 10, "d");
+        let w = what_if(&rec, &rep, 0, 10, "d", Timing::Exact);
         let v = &w.topics["v"];
         assert_eq!((v.recorded, v.differing, v.first_part_s), (2, 1, Some(2e-9)));
         assert!((v.largest["value.v_m_s"] - 0.05).abs() < 1e-12);
@@ -339,7 +439,7 @@ mod tests {
         assert!((w.share_recorded["wallfollow"] - 0.4).abs() < 1e-12);
         assert!((w.share_replayed["wallfollow"] - 0.6).abs() < 1e-12);
         assert_eq!(w.wiring_differs_s, vec![(Timestamp(4).as_secs_f64(), Timestamp(6).as_secs_f64())]);
-        assert!(what_if(&rec, &rec.clone(), 10, "d").topics.is_empty());
+        assert!(what_if(&rec, &rec.clone(), 0, 10, "d", Timing::Exact).topics.is_empty());
         // One extra message shifts every later sequence number, and is the only difference.
         let rec = messages(&[
             ("v", 1, r#"{"seq":1,"x":1}"#),
@@ -352,7 +452,45 @@ mod tests {
             ("v", 3, r#"{"seq":3,"x":2}"#),
             ("v", 5, r#"{"seq":4,"x":3}"#),
         ]);
-        let w = what_if(&rec, &rep, 10, "d");
+        let w = what_if(&rec, &rep, 0, 10, "d", Timing::Exact);
         assert_eq!((w.topics["v"].differing, w.topics["v"].first_part_s), (1, Some(2e-9)));
+    }
+
+    #[test]
+    fn a_live_recording_is_matched_in_order_and_content_with_its_times_within_the_tolerance() {
+        let rec = messages(&[
+            ("v", 100, r#"{"seq":1,"stamp":100,"value":{"stamp":90,"v":1}}"#),
+            ("v", 205, r#"{"seq":2,"stamp":205,"value":{"stamp":190,"v":2}}"#),
+            ("e", 150, r#"{"activation":1,"event":{"seq":1,"stamp":150,"value":{"x":1}}}"#),
+            ("v", 995, r#"{"seq":3,"stamp":995,"value":{"stamp":990,"v":3}}"#),
+        ]);
+        // The replay logs each a little earlier, as it acts at the instant of the input.
+        let rep = messages(&[
+            ("v", 90, r#"{"seq":1,"stamp":90,"value":{"stamp":90,"v":1}}"#),
+            ("v", 190, r#"{"seq":2,"stamp":190,"value":{"stamp":190,"v":2}}"#),
+            ("e", 140, r#"{"activation":1,"event":{"seq":1,"stamp":140,"value":{"x":1}}}"#),
+            ("v", 990, r#"{"seq":3,"stamp":990,"value":{"stamp":990,"v":3}}"#),
+        ]);
+        assert!(first_divergence(&rec, &rep, 0, 1000, Timing::Exact).0.is_some(), "not bit for bit");
+        assert_eq!(first_divergence(&rec, &rep, 0, 1000, Timing::Within(20)), (None, 15));
+        // Too late is a divergence, and so is a value that differs (the stamp inside the value
+        // is the scan's, not the live clock's).
+        let d = first_divergence(&rec, &rep, 0, 1000, Timing::Within(10)).0.expect("15 ns off");
+        assert_eq!((d.topic.as_str(), d.index), ("v", 1));
+        let other = messages(&[
+            ("v", 90, r#"{"seq":1,"stamp":90,"value":{"stamp":91,"v":1}}"#),
+            ("v", 190, r#"{"seq":2,"stamp":190,"value":{"stamp":190,"v":2}}"#),
+            ("e", 140, r#"{"activation":1,"event":{"seq":1,"stamp":140,"value":{"x":1}}}"#),
+        ]);
+        let d = first_divergence(&rec, &other, 0, 1000, Timing::Within(20)).0.expect("another value");
+        assert_eq!((d.topic.as_str(), d.index), ("v", 0));
+        // The last `tolerance` is left out; a replayed message just before the cut whose
+        // recorded counterpart lies past it is no divergence, one well before it is.
+        let rec = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 995, r#"{"seq":2}"#)]);
+        let rep = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 975, r#"{"seq":2}"#)]);
+        assert_eq!(first_divergence(&rec, &rep, 0, 1000, Timing::Within(20)), (None, 0));
+        let extra = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 500, r#"{"seq":2}"#)]);
+        let rec = messages(&[("v", 100, r#"{"seq":1}"#)]);
+        assert!(first_divergence(&rec, &extra, 0, 1000, Timing::Within(20)).0.is_some());
     }
 }

@@ -8,7 +8,10 @@
 
 use super::ReplayError;
 use crate::record::RunMeta;
+use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, LINK_EVENT, LINK_EVENTS, LinkEvent};
 use crate::record::meta::RUN_METADATA;
+use orsa_actors::state::StateStatus;
+use orsa_actors::wiring::PortStatus;
 use orsa_actors::{CommObject, Stamped, Timestamp};
 use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, RobotParams, SafetyCounters};
 use std::collections::{BTreeMap, HashMap};
@@ -50,6 +53,30 @@ pub struct Answers {
     pub safety: std::collections::VecDeque<SafetyCounters>,
 }
 
+/// A control event that came from outside the replayed components, fed back at its recorded
+/// time (recordings of `orsa robot`: the remote executive's wiring and state changes, and what
+/// the robot's link watchdog did).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Control {
+    /// A behaviour's port was wired as this says.
+    Port {
+        /// The behaviour.
+        component: String,
+        /// The port as it then stood.
+        status: PortStatus,
+    },
+    /// A behaviour's state was set (or asked for) as this says.
+    State {
+        /// The behaviour.
+        component: String,
+        /// The state as it then stood.
+        status: StateStatus,
+    },
+    /// The link watchdog lost an executive (it unwired the behaviours and commanded zero) or
+    /// heard it again.
+    Link(LinkEvent),
+}
+
 /// A recording, read and checked.
 #[derive(Debug)]
 pub struct Recording {
@@ -63,6 +90,13 @@ pub struct Recording {
     pub answers: Answers,
     /// Every other message, per topic, in file order: what the replay compares.
     pub outputs: BTreeMap<Arc<str>, Vec<Recorded>>,
+    /// Control events from outside the replayed components, at their log times (ns).
+    pub controls: Vec<(u64, Control)>,
+    /// When the process's fault plan started, if not at the start (ns).
+    pub plan_started: Option<u64>,
+    /// Messages that came from outside the recording process and that nothing replayed
+    /// makes (a teleop's commands, a tool's queries): neither fed nor compared.
+    pub outside: u64,
     /// The schema name of each topic.
     pub schemas: BTreeMap<Arc<str>, String>,
     /// Every message's log time ends at or before this (ns).
@@ -83,6 +117,16 @@ enum Feed {
     /// Made again by the replayed robot side (its events and its own control topics): neither
     /// fed nor compared.
     Remade,
+    /// A behaviour's wiring, fed (process recordings).
+    Port,
+    /// A behaviour's state, fed (process recordings).
+    State,
+    /// The link watchdog's events (process recordings).
+    Link,
+    /// The fault plan's start.
+    PlanStart,
+    /// From another process, and made by nothing replayed.
+    Outside,
 }
 
 impl Feed {
@@ -108,16 +152,58 @@ impl Feed {
             Feed::Base => BaseState::ID,
             Feed::ParamsAnswer => RobotParams::ID,
             Feed::SafetyAnswer => SafetyCounters::ID,
-            Feed::Remade => return None,
+            Feed::Port => PortStatus::ID,
+            Feed::State => StateStatus::ID,
+            Feed::Link => LINK_EVENT,
+            Feed::PlanStart => FAULTS_STARTED_TYPE,
+            Feed::Remade | Feed::Outside => return None,
         })
+    }
+
+    /// What `topic` is to a replay of the recording `meta` describes, or `None` if it is
+    /// compared (and nothing else).
+    ///
+    /// In a recording of the whole stack (`orsa run`) every component ran in the recording
+    /// process, so only the robot server's side is fed. In a recording of `orsa robot`, the
+    /// executive ran elsewhere: the wiring and state changes of the behaviours are fed, all of
+    /// them, as they were recorded (a change that changed nothing included; one that a restart
+    /// made is made twice, which changes nothing again), and not compared; what they made the
+    /// behaviours do is. What the link watchdog did is fed,
+    /// and what reached the process from components it did not host (teleop, tools, a fallback
+    /// master's own services) is neither fed nor compared. Requests to the robot server are
+    /// then compared only for its velocity commands: its queries come from outside as well.
+    fn classify(meta: &RunMeta, topic: &str) -> Option<Feed> {
+        if topic == LINK_EVENTS {
+            return Some(Feed::Link);
+        }
+        if topic == FAULTS_STARTED {
+            return Some(Feed::PlanStart);
+        }
+        let (component, service) = topic.split_once('/')?;
+        let process = meta.process != "run";
+        if component == meta.robot {
+            return Feed::of(service)
+                .or_else(|| (process && service != "navigationvelocity").then_some(Feed::Outside));
+        }
+        if !process || component == "supervision" {
+            return None;
+        }
+        if !meta.hosted.iter().any(|h| h == component) {
+            return Some(Feed::Outside);
+        }
+        match service {
+            "wiring" => Some(Feed::Port),
+            "state" => Some(Feed::State),
+            _ => None,
+        }
     }
 }
 
-/// Whether the robot server's topic `service` (without the server's name) is the robot's
-/// side of the conversation: fed from the recording, or made again by the stand-in. Messages
-/// *to* the robot (commands, query requests) are not: the replayed components make them.
-pub fn is_robot_side(service: &str) -> bool {
-    Feed::of(service).is_some()
+/// Whether a replay of the recording `meta` describes compares what it makes on `topic` with
+/// the recording (the robot's side, what came from other processes and the recording's own
+/// notes are fed or left alone, not compared).
+pub fn is_compared(meta: &RunMeta, topic: &str) -> bool {
+    Feed::classify(meta, topic).is_none()
 }
 
 /// A channel as the file declares it.
@@ -163,13 +249,15 @@ impl Recording {
             .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
         meta.check_versions()
             .map_err(|problem| ReplayError::Version { path: path.to_path_buf(), problem })?;
-        let prefix = format!("{}/", meta.robot);
         let mut rec = Recording {
             path: path.to_path_buf(),
             meta,
             published: Vec::new(),
             answers: Answers::default(),
             outputs: BTreeMap::new(),
+            controls: Vec::new(),
+            plan_started: None,
+            outside: 0,
             schemas: BTreeMap::new(),
             last_log_time: 0,
             messages: 0,
@@ -226,7 +314,10 @@ impl Recording {
                             crate::record::MESSAGE_ENCODING
                         )));
                     }
-                    let feed = c.topic.strip_prefix(prefix.as_str()).and_then(Feed::of);
+                    // What came from another process is not made again by anything replayed.
+                    let remote = c.metadata.get(crate::record::FROM_KEY).map(String::as_str)
+                        == Some(crate::record::FROM_REMOTE);
+                    let feed = if remote { Some(Feed::Outside) } else { Feed::classify(&rec.meta, &c.topic) };
                     if let Some(expected) = feed.and_then(Feed::schema)
                         && schema != expected
                     {
@@ -279,6 +370,31 @@ impl Recording {
                 return Ok(());
             }
             Some(Feed::Remade) => return Ok(()),
+            Some(Feed::Outside) => {
+                self.outside += 1;
+                return Ok(());
+            }
+            Some(Feed::PlanStart) => {
+                self.plan_started = Some(log_time);
+                return Ok(());
+            }
+            Some(Feed::Link) => {
+                let e = bare::<LinkEvent>(&data, LINK_EVENT).map_err(decode)?;
+                self.controls.push((log_time, Control::Link(e)));
+                return Ok(());
+            }
+            Some(Feed::Port) => {
+                let status = bare::<PortStatus>(&data, PortStatus::ID).map_err(decode)?;
+                let component = component_of(&c.topic);
+                self.controls.push((log_time, Control::Port { component, status }));
+                return Ok(());
+            }
+            Some(Feed::State) => {
+                let status = bare::<StateStatus>(&data, StateStatus::ID).map_err(decode)?;
+                let component = component_of(&c.topic);
+                self.controls.push((log_time, Control::State { component, status }));
+                return Ok(());
+            }
             None => {
                 self.outputs.entry(c.topic.clone()).or_default().push(Recorded { log_time, data });
                 return Ok(());
@@ -292,6 +408,16 @@ impl Recording {
     pub fn compared(&self) -> usize {
         self.outputs.values().map(Vec::len).sum()
     }
+}
+
+/// The component a topic belongs to (its first segment).
+fn component_of(topic: &str) -> String {
+    topic.split_once('/').map_or(topic, |(c, _)| c).to_string()
+}
+
+/// A control event recorded as it is (no envelope).
+fn bare<T: serde::de::DeserializeOwned>(data: &[u8], id: &str) -> Result<T, String> {
+    serde_json::from_slice::<T>(data).map_err(|e| format!("it does not decode as a {id}: {e}"))
 }
 
 /// The communication object inside a recorded message (`{"seq", "stamp", "value"}`).

@@ -25,8 +25,8 @@ pub mod standin;
 
 use crate::config::Config;
 use crate::system::{Catalog, System};
-use diff::{Divergence, Messages, WhatIf};
-use file::{Recorded, Recording};
+use diff::{Divergence, Messages, Timing, WhatIf};
+use file::{Control, Recorded, Recording};
 use orsa_actors::supervision::SupervisorEvent;
 use orsa_actors::tap::Tap;
 use orsa_actors::{Clock, Registry, Timestamp};
@@ -119,7 +119,16 @@ pub struct ReplayOptions {
     pub progress: Option<Arc<dyn Fn(f64) + Send + Sync>>,
     /// How often to call `progress`, replayed seconds (default: every 10 s).
     pub progress_every_s: Option<f64>,
+    /// For a recording made live: how far from its recorded log time a replayed message may
+    /// be (default [`LIVE_TOLERANCE`]). A paused-clock recording is replayed to the instant.
+    pub tolerance: Option<Duration>,
 }
+
+/// How far a replayed message of a live recording may be from its recorded log time, unless
+/// told otherwise: a live process logs each message when its handler gets to it, some
+/// microseconds to milliseconds after the input that caused it (and, at start, after the
+/// components came up); the replay logs it at the instant of the input.
+pub const LIVE_TOLERANCE: Duration = Duration::from_millis(250);
 
 /// What a replay produced.
 #[derive(Debug)]
@@ -130,8 +139,15 @@ pub struct Replayed {
     pub compared: usize,
     /// Topics compared.
     pub topics: usize,
-    /// The end of the comparison: the recording's last instant, ns.
+    /// The recording's last instant, ns (the comparison ends there, or a tolerance before it).
     pub end: u64,
+    /// How instants are compared: to the nanosecond, or within a tolerance (live recordings).
+    pub timing: Timing,
+    /// The largest offset between a replayed message's log time and its recorded one, ns.
+    pub largest_offset_ns: u64,
+    /// Control events fed from the recording (a remote executive's wiring and state changes,
+    /// the link watchdog's).
+    pub controls: usize,
     /// What the replayed components produced, per topic.
     pub replayed: Messages,
     /// The first divergence, if any.
@@ -150,7 +166,14 @@ impl Replayed {
     pub fn what_if(&self, recording: &Recording) -> WhatIf {
         let driving =
             format!("{}/{}", orsa_interfaces::executive::NAME, orsa_interfaces::executive::DRIVING.name());
-        diff::what_if(&recording.outputs, &self.replayed, self.end, &driving)
+        diff::what_if(
+            &recording.outputs,
+            &self.replayed,
+            recording.meta.clock_origin_ns,
+            self.end,
+            &driving,
+            self.timing,
+        )
     }
 }
 
@@ -163,17 +186,15 @@ pub fn recorded_config(rec: &Recording) -> Result<Config, ReplayError> {
     Ok(config)
 }
 
-/// A tap that keeps what the replayed components produce, leaving out the robot's side.
+/// A tap that keeps what the replayed components produce, leaving out what is fed.
 struct Capture {
-    robot_prefix: String,
+    meta: crate::record::RunMeta,
     messages: Mutex<Messages>,
 }
 
 impl Capture {
     fn keep(&self, topic: &str, stamp: Timestamp, json: &[u8]) {
-        if let Some(service) = topic.strip_prefix(self.robot_prefix.as_str())
-            && file::is_robot_side(service)
-        {
+        if !file::is_compared(&self.meta, topic) {
             return;
         }
         // The recorder stores the tap's bytes as they are, so equal messages are equal bytes.
@@ -217,8 +238,7 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         origin => Clock::starting_at(tokio::time::Instant::now(), Timestamp(origin)),
     };
     let registry = Registry::with_clock(clock);
-    let capture =
-        Arc::new(Capture { robot_prefix: format!("{}/", rec.meta.robot), messages: Mutex::default() });
+    let capture = Arc::new(Capture { meta: rec.meta.clone(), messages: Mutex::default() });
     registry.set_tap(Some(capture.clone() as Arc<dyn Tap>));
     registry.ledger().enable(true);
 
@@ -234,9 +254,25 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     });
     let hosted: Vec<&str> = rec.meta.hosted.iter().map(String::as_str).collect();
     let events = Arc::clone(&capture);
+    // The supervisor as the recording process named it (its events carry the name).
+    let supervisor = match rec.meta.process.as_str() {
+        "run" => "orsa",
+        "robot" => "robot",
+        other => {
+            return Err(ReplayError::Metadata {
+                path: rec.path.clone(),
+                problem: format!(
+                    "metadata '{}': key 'process' is '{other}': this orsa replays recordings of \
+                     `orsa run` and `orsa robot`",
+                    crate::record::meta::RUN_METADATA
+                ),
+            });
+        }
+    };
     let system = System::builder(&config)
         .catalog(catalog)
         .select(&hosted)
+        .supervisor(supervisor)
         .duration(rec.meta.duration_s)
         .on_event(move |e: SupervisorEvent| {
             // As the recording writes them (`McapTap::supervisor_event`).
@@ -258,21 +294,34 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
                 rec.path.display(),
                 crate::record::meta::RUN_METADATA
             );
-            let plan = crate::faults::FaultPlan::parse(
-                text,
-                &origin,
-                &crate::faults::PlanTargets::for_stack(&config),
-            )
-            .map_err(|e| ReplayError::Config(e.to_string()))?;
+            let targets = match rec.meta.process.as_str() {
+                "robot" => crate::faults::PlanTargets::for_robot(&config),
+                _ => crate::faults::PlanTargets::for_stack(&config),
+            };
+            let plan = crate::faults::FaultPlan::parse(text, &origin, &targets)
+                .map_err(|e| ReplayError::Config(e.to_string()))?;
+            // Link cuts are not replayed: what the robot did about them is in the recording
+            // (the link watchdog's events, the wiring changes) and is fed back.
             let targets = crate::faults::FaultTargets {
                 faults: registry.faults(),
                 boards: orsa_hardware::faulty::BoardFaults::new(rec.meta.seed),
                 link: None,
             };
-            Some(tokio::spawn(crate::faults::run_plan(plan, targets, rec.meta.duration_s)))
+            let start = rec.plan_started.map(|t| clock.instant_of(Timestamp(t)));
+            let end_s = rec.meta.duration_s;
+            Some(tokio::spawn(async move {
+                if let Some(start) = start {
+                    tokio::time::sleep_until(start).await;
+                }
+                crate::faults::run_plan(plan, targets, end_s).await
+            }))
         }
         None => None,
     };
+
+    // What came from outside the replayed components, at its recorded time.
+    let controls =
+        tokio::spawn(feed_controls(registry.clone(), rec.controls.clone(), rec.meta.robot.clone()));
 
     let end = rec.last_log_time;
     let end_at = clock.instant_of(Timestamp(end));
@@ -290,20 +339,76 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     if let Some(p) = plan {
         p.abort();
     }
+    controls.abort();
     let replayed_s = clock.since_start(clock.now()).as_secs_f64();
     system.shutdown().await;
 
     let replayed = std::mem::take(&mut *capture.messages.lock());
-    let divergence = diff::first_divergence(&rec.outputs, &replayed, end);
-    let compared = rec.outputs.values().map(|v| v.partition_point(|r| r.log_time < end)).sum();
+    let timing = if rec.meta.live {
+        Timing::Within(opts.tolerance.unwrap_or(LIVE_TOLERANCE).as_nanos().try_into().unwrap_or(u64::MAX))
+    } else {
+        Timing::Exact
+    };
+    let (divergence, largest_offset_ns) =
+        diff::first_divergence(&rec.outputs, &replayed, rec.meta.clock_origin_ns, end, timing);
+    let cut = timing.cut(end);
+    let compared = rec.outputs.values().map(|v| v.partition_point(|r| r.log_time < cut)).sum();
     let topics = rec.outputs.len();
     Ok(Replayed {
         fed: rec.published.len() + rec.answers.robotparams.len() + rec.answers.safety.len(),
         compared,
         topics,
         end,
+        timing,
+        largest_offset_ns,
+        controls: rec.controls.len(),
         replayed,
         divergence,
         replayed_s,
     })
+}
+
+/// Feeds `controls` to the replayed components at their recorded times: a behaviour's port
+/// wired or its state set as the recording says, and, where the link watchdog lost an
+/// executive, the command it sent `robot` (zero), as it was.
+async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot: String) {
+    use orsa_actors::send::SendClient;
+    use orsa_actors::state::StateMaster;
+    use orsa_actors::wiring::WiringMaster;
+    use orsa_interfaces::nomad200::NavigationVelocity;
+    let clock = registry.clock();
+    let wiring = WiringMaster::new(&registry);
+    let motors = orsa_interfaces::nomad200::NAVIGATIONVELOCITY.on(robot.as_str()).untyped();
+    let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors);
+    for (at, control) in controls {
+        tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
+        match control {
+            Control::Port { component, status } => {
+                let done = match &status.target {
+                    Some(target) => wiring.connect_named(&component, &status.port, target).await,
+                    None => wiring.disconnect_named(&component, &status.port).await,
+                };
+                if let Err(e) = done {
+                    tracing::warn!("replay: cannot wire {component}.{} as recorded: {e}", status.port);
+                }
+            }
+            Control::State { component, status } => {
+                let Ok(master) = StateMaster::connect(&registry, &component) else { continue };
+                let wanted = status.pending.unwrap_or(status.current);
+                // Set on its own task: a state change waits for its substates to be released.
+                tokio::spawn(async move {
+                    if let Err(e) = master.set_state(&wanted).await {
+                        tracing::warn!("replay: cannot set {component} to '{wanted}' as recorded: {e}");
+                    }
+                });
+            }
+            Control::Link(e) => {
+                if let (Some(command), Ok(m)) = (e.command, &motors)
+                    && let Err(e) = m.send(command)
+                {
+                    tracing::warn!("replay: cannot command zero as the link watchdog did: {e}");
+                }
+            }
+        }
+    }
 }
