@@ -8,6 +8,7 @@
 mod examples;
 mod links;
 mod processes;
+mod replay;
 mod security;
 
 #[allow(dead_code, unreachable_pub)]
