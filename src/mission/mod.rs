@@ -122,7 +122,7 @@ fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
     crate::record::RunMeta::describe(
         "run",
         &opts.world_label,
-        &opts.world,
+        Some(&opts.world),
         opts.seed,
         opts.duration_s,
         &opts.config,

@@ -45,3 +45,144 @@ pub struct FaultsStarted {
     /// Faults in the plan.
     pub faults: usize,
 }
+
+/// Topic noted just before a process starts its system (a replay starts it then).
+pub const SYSTEM_STARTING: &str = "system/starting";
+/// Communication object of [`SYSTEM_STARTING`].
+pub const SYSTEM_STARTING_TYPE: &str = "orsa.SystemStarting/1";
+
+/// The message on [`SYSTEM_STARTING`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystemStarting {
+    /// The components the process starts.
+    pub hosted: Vec<String>,
+}
+
+/// First segment of the topics of a process's exchange with services in other processes:
+/// `exchange/KIND/COMPONENT/SERVICE`, KIND one of [`ExchangeKind`]'s names.
+pub const EXCHANGE: &str = "exchange";
+/// Communication object of every exchange topic.
+pub const EXCHANGED_TYPE: &str = "orsa.Exchanged/1";
+
+/// What crossed between this process and a service in another one, as the transport saw it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ExchangeKind {
+    /// A Send to it (made here: compared by a replay).
+    Send,
+    /// A request to it (made here: compared).
+    Request,
+    /// Its reply to a request (came in: fed).
+    Reply,
+    /// A subscription to it (made here: compared).
+    Subscribe,
+    /// One update of a subscription (came in: fed).
+    Update,
+    /// An activation of its event (made here: compared).
+    Activate,
+    /// One firing of an activation (came in: fed).
+    Firing,
+    /// What the transport said the service is (came in: fed).
+    Lookup,
+}
+
+impl ExchangeKind {
+    /// Every kind.
+    pub const ALL: [ExchangeKind; 8] = [
+        ExchangeKind::Send,
+        ExchangeKind::Request,
+        ExchangeKind::Reply,
+        ExchangeKind::Subscribe,
+        ExchangeKind::Update,
+        ExchangeKind::Activate,
+        ExchangeKind::Firing,
+        ExchangeKind::Lookup,
+    ];
+
+    /// Its name in topics.
+    pub fn name(self) -> &'static str {
+        match self {
+            ExchangeKind::Send => "send",
+            ExchangeKind::Request => "request",
+            ExchangeKind::Reply => "reply",
+            ExchangeKind::Subscribe => "subscribe",
+            ExchangeKind::Update => "update",
+            ExchangeKind::Activate => "activate",
+            ExchangeKind::Firing => "firing",
+            ExchangeKind::Lookup => "lookup",
+        }
+    }
+
+    /// Whether it came in from the other process (a replay feeds it) rather than was made
+    /// here (a replay compares it).
+    pub fn came_in(self) -> bool {
+        matches!(
+            self,
+            ExchangeKind::Reply | ExchangeKind::Update | ExchangeKind::Firing | ExchangeKind::Lookup
+        )
+    }
+
+    /// The topic of this kind of exchange with `service`.
+    pub fn topic(self, service: &orsa_actors::ServiceAddr) -> String {
+        format!("{EXCHANGE}/{}/{service}", self.name())
+    }
+
+    /// The kind and service of an exchange topic.
+    pub fn of_topic(topic: &str) -> Option<(ExchangeKind, &str)> {
+        let rest = topic.strip_prefix(EXCHANGE)?.strip_prefix('/')?;
+        let (kind, service) = rest.split_once('/')?;
+        ExchangeKind::ALL.into_iter().find(|k| k.name() == kind).map(|k| (k, service))
+    }
+}
+
+/// One message of a process's exchange with another process's service (see [`ExchangeKind`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Exchanged {
+    /// Which request (`Request`, `Reply`) or subscription or activation (`Subscribe`,
+    /// `Update`, `Activate`, `Firing`) of this process to the service it belongs to, from 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n: Option<u64>,
+    /// A subscription's every-n-th.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub every: Option<u32>,
+    /// An activation's mode.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<orsa_actors::transport::EventMode>,
+    /// The payload, decoded from CBOR (for people, and what a replay compares).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decoded: Option<serde_json::Value>,
+    /// The payload as it crossed, CBOR in base64 (what a replay feeds back).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cbor: Option<String>,
+    /// A request that got no reply: why.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// What the service is (`Lookup`; none: no peer offers it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub info: Option<orsa_actors::ServiceInfo>,
+}
+
+impl Exchanged {
+    /// A payload, decoded for people (`None` if it is not CBOR that JSON can hold).
+    pub fn decode(payload: &[u8]) -> Option<serde_json::Value> {
+        orsa_actors::wire::decode::<serde_json::Value>(payload, "a payload").ok()
+    }
+
+    /// A payload that came in: decoded, and its bytes.
+    pub fn came_in(payload: &[u8]) -> Exchanged {
+        use base64::Engine as _;
+        Exchanged {
+            decoded: Exchanged::decode(payload),
+            cbor: Some(base64::engine::general_purpose::STANDARD.encode(payload)),
+            ..Exchanged::default()
+        }
+    }
+
+    /// The bytes of a payload that came in.
+    pub fn bytes(&self) -> Result<Vec<u8>, String> {
+        use base64::Engine as _;
+        let text = self.cbor.as_deref().ok_or("it has no 'cbor' payload")?;
+        base64::engine::general_purpose::STANDARD
+            .decode(text)
+            .map_err(|e| format!("its 'cbor' is not base64: {e}"))
+    }
+}

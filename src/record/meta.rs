@@ -9,7 +9,7 @@
 //! |---|---|
 //! | `orsa`, `wire` | the orsa version and wire version that recorded it |
 //! | `process` | which process recorded it: `run` (the whole stack), `robot` or `executive` |
-//! | `world`, `world_toml` | the world's label and the world itself, as TOML |
+//! | `world`, `world_toml` | the world's label and the world itself, as TOML (empty for a process that simulates none: `orsa executive`) |
 //! | `seed`, `duration_s` | the run's seed and length |
 //! | `config_toml` | the effective configuration, every key, as TOML |
 //! | `hosted` | the components the recording process hosted, comma-separated, in start order |
@@ -67,7 +67,7 @@ impl RunMeta {
     pub fn describe(
         process: &str,
         world_label: &str,
-        world: &orsa_hardware::world::World,
+        world: Option<&orsa_hardware::world::World>,
         seed: u64,
         duration_s: f64,
         config: &crate::config::Config,
@@ -84,7 +84,10 @@ impl RunMeta {
             wire: WIRE_VERSION,
             process: process.into(),
             world: world_label.into(),
-            world_toml: toml("world", toml::to_string(world))?,
+            world_toml: match world {
+                Some(w) => toml("world", toml::to_string(w))?,
+                None => String::new(),
+            },
             seed,
             duration_s,
             config_toml: toml("configuration", toml::to_string(config))?,

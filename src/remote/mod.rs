@@ -16,6 +16,7 @@
 //! lost heartbeat (a link that was cut while its session stayed up) gets back the behaviour it
 //! had wired.
 
+pub mod exchange;
 mod robot;
 mod tools;
 
@@ -30,6 +31,7 @@ use orsa_actors::{Clock, Registry, ServiceAddr};
 use orsa_interfaces::nomad200::{self, NavigationVelocity};
 use orsa_net::{NetOptions, ZenohTransport};
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// How a process joins the network (shared by every networked subcommand).
@@ -73,6 +75,10 @@ pub struct ExecutiveArgs {
     /// How long to wait for the robot's services to appear.
     #[arg(long, value_name = "SECS", default_value_t = 30.0)]
     pub wait: f64,
+    /// Record this process here, as MCAP: its components' messages, and everything it
+    /// exchanged with the robot's services, when it crossed (what `orsa replay` feeds back).
+    #[arg(long, value_name = "PATH.mcap")]
+    pub record: Option<PathBuf>,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
@@ -177,12 +183,43 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
     let config = load_config(&args.config)?;
     let duration = secs(args.duration, "--duration")?;
     let wait = secs(args.wait, "--wait")?;
+    if let Some(p) = &args.record {
+        crate::cli::ensure_parent(p)?;
+    }
     runtime()?.block_on(async move {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
+        let builder = System::builder(&config).only(Place::Executive).supervisor("executive");
+        let hosted: Vec<String> = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
+        let recording = match &args.record {
+            Some(path) => {
+                // The executive simulates no world: the recording names none.
+                let meta = crate::record::RunMeta::describe(
+                    "executive",
+                    "(none: the robot's process simulates it)",
+                    None,
+                    0,
+                    args.duration,
+                    &config,
+                    hosted.clone(),
+                    true,
+                    clock.origin().as_nanos(),
+                    None,
+                )
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+                let tap = Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata())?);
+                registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
+                Some(tap)
+            }
+            None => None,
+        };
         // The heartbeat tells the robot this process still drives it (see [link] in the config).
         let beat = Duration::from_secs_f64(config.link.heartbeat_period_s);
         let transport = open(&registry, &args.net, "executive", Some(beat)).await?;
+        if let (Some(tap), Some(zenoh)) = (&recording, registry.transport()) {
+            let noting = exchange::RecordingTransport::new(zenoh, Arc::clone(tap), clock);
+            registry.set_transport(Arc::new(noting));
+        }
         let robot = config.robot.name.as_str();
         let mut needed =
             vec![nomad200::DISTANCEIR.on(robot).untyped(), nomad200::NAVIGATIONVELOCITY.on(robot).untyped()];
@@ -197,10 +234,18 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
         if !transport.wait_gone(&fallback, wait).await {
             bail!("the robot's fallback master is still running after {:.1} s", wait.as_secs_f64());
         }
-        let system = System::builder(&config)
-            .only(Place::Executive)
-            .supervisor("executive")
+        if let Some(tap) = &recording {
+            use crate::record::events::{SYSTEM_STARTING, SYSTEM_STARTING_TYPE, SystemStarting};
+            tap.note(SYSTEM_STARTING, SYSTEM_STARTING_TYPE, registry.now(), &SystemStarting { hosted });
+        }
+        let events_tap = recording.clone();
+        let system = builder
             .duration(args.duration)
+            .on_event(move |e| {
+                if let Some(r) = &events_tap {
+                    r.supervisor_event(&e);
+                }
+            })
             .start(&registry)
             .await
             .context("starting the executive")?;
@@ -208,7 +253,19 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<()> {
         eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
         until_stopped(Some(duration)).await;
         supervisor.shutdown().await;
+        registry.set_tap(None);
         transport.close().await;
+        if let Some(tap) = recording {
+            let r = tap.finish()?;
+            if let Some(r) = r {
+                let total: u64 = r.messages.values().sum();
+                eprintln!(
+                    "executive: record: {} ({total} messages on {} topics)",
+                    r.path.display(),
+                    r.messages.len()
+                );
+            }
+        }
         Ok(())
     })
 }

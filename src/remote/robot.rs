@@ -139,7 +139,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
                 let meta = crate::record::RunMeta::describe(
                     "robot",
                     &world_label,
-                    &world,
+                    Some(&world),
                     args.seed,
                     args.duration.unwrap_or(1e7),
                     &config,
@@ -155,6 +155,11 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             }
             None => None,
         };
+        if let Some(tap) = &recording {
+            use crate::record::events::{SYSTEM_STARTING, SYSTEM_STARTING_TYPE, SystemStarting};
+            let hosted = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
+            tap.note(SYSTEM_STARTING, SYSTEM_STARTING_TYPE, registry.now(), &SystemStarting { hosted });
+        }
         let events_tap = recording.clone();
         let system = builder
             .robot(RobotBoards::simulated(&sim, &config, &boards))

@@ -111,7 +111,7 @@ fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Resul
         n => format!(" and {n} control events"),
     };
     let mut summary = format!(
-        "{} robot messages{controls} fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
+        "{} recorded inputs{controls} fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
         out.fed, out.compared, out.topics, out.replayed_s
     );
     if let super::diff::Timing::Within(tolerance) = out.timing {

@@ -18,11 +18,12 @@ pub enum Timing {
     /// A recording made on a paused clock: every message at its recorded instant, every byte
     /// the same.
     Exact,
-    /// A recording made live: every message in its recorded order, with the same content but
-    /// for its envelope's readings of the live clock (`stamp`, an event's `event.stamp`, a
-    /// supervisor event's `at`), which no replay can reproduce, and logged at most this many ns
-    /// from its recorded log time. The last `tolerance` of the recording is left out: what the
-    /// live process made in it may lie past the recording's end.
+    /// A recording made live: every message in its recorded order, logged at most this many
+    /// ns from its recorded log time, with the same content but for its readings of the live
+    /// clock (every field named `stamp`, `stamp_ns` or `at`), which no replay reproduces to
+    /// the nanosecond and which are held to the same tolerance. The last `tolerance` of the
+    /// recording is left out: what the live process made in it may lie past the recording's
+    /// end.
     Within(u64),
 }
 
@@ -50,35 +51,44 @@ impl Timing {
         let parse = |r: &Recorded| serde_json::from_slice::<serde_json::Value>(&r.data).ok();
         match (parse(x), parse(y)) {
             (Some(mut p), Some(mut q)) => {
-                for v in [&mut p, &mut q] {
-                    if let serde_json::Value::Object(o) = v {
-                        if ignore_seq {
+                if ignore_seq {
+                    for v in [&mut p, &mut q] {
+                        if let serde_json::Value::Object(o) = v {
                             o.remove("seq");
-                        }
-                        if self != Timing::Exact {
-                            strip_clock_readings(o);
                         }
                     }
                 }
-                p == q
+                equal_within(&p, &q, false, self.tolerance())
             }
             _ => false,
         }
     }
 }
 
-/// Removes a message envelope's readings of the live clock (see [`Timing::Within`]).
-fn strip_clock_readings(o: &mut serde_json::Map<String, serde_json::Value>) {
-    o.remove("stamp");
-    o.remove("at");
-    if let Some(serde_json::Value::Object(e)) = o.get_mut("event") {
-        e.remove("stamp");
-    }
+/// Whether a field of this name holds a reading of the clock.
+fn is_clock_reading(key: &str) -> bool {
+    matches!(key, "stamp" | "stamp_ns" | "at")
 }
 
-/// Whether `path` (in a message, dotted) is a reading of the live clock.
-fn is_clock_reading(path: &str) -> bool {
-    matches!(path, "stamp" | "at" | "event.stamp")
+/// Whether two JSON values are equal, clock readings (when `clock`) within `tolerance` ns.
+fn equal_within(a: &serde_json::Value, b: &serde_json::Value, clock: bool, tolerance: u64) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) if clock && tolerance > 0 => match (x.as_u64(), y.as_u64()) {
+            (Some(x), Some(y)) => x.abs_diff(y) <= tolerance,
+            _ => x == y,
+        },
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len()
+                && x.iter().all(|(k, v)| {
+                    y.get(k).is_some_and(|w| equal_within(v, w, is_clock_reading(k), tolerance))
+                })
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(v, w)| equal_within(v, w, false, tolerance))
+        }
+        _ => a == b,
+    }
 }
 
 /// Where a replay first parted from its recording.
@@ -224,7 +234,7 @@ pub fn what_if(
             if let (Some(x), Some(y)) = (x, y) {
                 numeric_differences(&x.data, &y.data, &mut d.largest);
                 if timing != Timing::Exact {
-                    d.largest.retain(|path, _| !is_clock_reading(path));
+                    d.largest.retain(|path, _| !path.rsplit('.').next().is_some_and(is_clock_reading));
                 }
             }
         }
@@ -473,17 +483,24 @@ mod tests {
         ]);
         assert!(first_divergence(&rec, &rep, 0, 1000, Timing::Exact).0.is_some(), "not bit for bit");
         assert_eq!(first_divergence(&rec, &rep, 0, 1000, Timing::Within(20)), (None, 15));
-        // Too late is a divergence, and so is a value that differs (the stamp inside the value
-        // is the scan's, not the live clock's).
+        // Too late is a divergence, and so is a value that differs; a clock reading more than
+        // the tolerance away is one too.
         let d = first_divergence(&rec, &rep, 0, 1000, Timing::Within(10)).0.expect("15 ns off");
         assert_eq!((d.topic.as_str(), d.index), ("v", 1));
         let other = messages(&[
-            ("v", 90, r#"{"seq":1,"stamp":90,"value":{"stamp":91,"v":1}}"#),
+            ("v", 90, r#"{"seq":1,"stamp":90,"value":{"stamp":91,"v":5}}"#),
             ("v", 190, r#"{"seq":2,"stamp":190,"value":{"stamp":190,"v":2}}"#),
             ("e", 140, r#"{"activation":1,"event":{"seq":1,"stamp":140,"value":{"x":1}}}"#),
         ]);
         let d = first_divergence(&rec, &other, 0, 1000, Timing::Within(20)).0.expect("another value");
         assert_eq!((d.topic.as_str(), d.index), ("v", 0));
+        let late_reading = messages(&[
+            ("v", 90, r#"{"seq":1,"stamp":90,"value":{"stamp":90,"v":1}}"#),
+            ("v", 190, r#"{"seq":2,"stamp":190,"value":{"stamp":290,"v":2}}"#),
+            ("e", 140, r#"{"activation":1,"event":{"seq":1,"stamp":140,"value":{"x":1}}}"#),
+        ]);
+        let d = first_divergence(&rec, &late_reading, 0, 1000, Timing::Within(20)).0.expect("100 ns off");
+        assert_eq!((d.topic.as_str(), d.index), ("v", 1));
         // The last `tolerance` is left out; a replayed message just before the cut whose
         // recorded counterpart lies past it is no divergence, one well before it is.
         let rec = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 995, r#"{"seq":2}"#)]);

@@ -8,11 +8,15 @@
 
 use super::ReplayError;
 use crate::record::RunMeta;
-use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, LINK_EVENT, LINK_EVENTS, LinkEvent};
+use crate::record::events::{
+    EXCHANGED_TYPE, ExchangeKind, Exchanged, FAULTS_STARTED, FAULTS_STARTED_TYPE, LINK_EVENT, LINK_EVENTS,
+    LinkEvent, SYSTEM_STARTING, SYSTEM_STARTING_TYPE,
+};
 use crate::record::meta::RUN_METADATA;
 use orsa_actors::state::StateStatus;
 use orsa_actors::wiring::PortStatus;
 use orsa_actors::{CommObject, Stamped, Timestamp};
+use orsa_actors::{ServiceAddr, ServiceInfo};
 use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, RobotParams, SafetyCounters};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -77,6 +81,42 @@ pub enum Control {
     Link(LinkEvent),
 }
 
+/// A call of this process to a service in another process: the service, and the call's number
+/// among this process's calls of its kind to it (from 0).
+pub type Call = (ServiceAddr, u64);
+
+/// Messages that came in, each with its arrival time (ns) and its bytes.
+pub type Arrivals = Vec<(u64, Vec<u8>)>;
+
+/// What came back to a process from services in other processes, as its transport saw it
+/// (recordings of `orsa executive`): a replay's transport plays it back.
+#[derive(Debug, Clone, Default)]
+pub struct ExchangeLog {
+    /// Per service: what each lookup said, from when (ns).
+    pub lookups: HashMap<ServiceAddr, Vec<(u64, Option<ServiceInfo>)>>,
+    /// Per service and request number: when the reply came, and its bytes or why none came.
+    pub replies: HashMap<Call, (u64, Result<Vec<u8>, String>)>,
+    /// Per service and subscription number: each update, when it came, and its bytes.
+    pub updates: HashMap<Call, Arrivals>,
+    /// Per service and activation number: each firing, when it came, and its bytes.
+    pub firings: HashMap<Call, Arrivals>,
+}
+
+impl ExchangeLog {
+    /// Messages in it.
+    pub fn len(&self) -> usize {
+        self.lookups.values().map(Vec::len).sum::<usize>()
+            + self.replies.len()
+            + self.updates.values().map(Vec::len).sum::<usize>()
+            + self.firings.values().map(Vec::len).sum::<usize>()
+    }
+
+    /// Whether it holds nothing.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// A recording, read and checked.
 #[derive(Debug)]
 pub struct Recording {
@@ -94,6 +134,10 @@ pub struct Recording {
     pub controls: Vec<(u64, Control)>,
     /// When the process's fault plan started, if not at the start (ns).
     pub plan_started: Option<u64>,
+    /// When the process started its system, if not at the start (ns).
+    pub system_starting: Option<u64>,
+    /// What came back from services in other processes (recordings of `orsa executive`).
+    pub exchange: ExchangeLog,
     /// Messages that came from outside the recording process and that nothing replayed
     /// makes (a teleop's commands, a tool's queries): neither fed nor compared.
     pub outside: u64,
@@ -125,6 +169,10 @@ enum Feed {
     Link,
     /// The fault plan's start.
     PlanStart,
+    /// The system's start.
+    SystemStarting,
+    /// What came back to the process from another one's service.
+    Exchange(ExchangeKind),
     /// From another process, and made by nothing replayed.
     Outside,
 }
@@ -156,6 +204,8 @@ impl Feed {
             Feed::State => StateStatus::ID,
             Feed::Link => LINK_EVENT,
             Feed::PlanStart => FAULTS_STARTED_TYPE,
+            Feed::SystemStarting => SYSTEM_STARTING_TYPE,
+            Feed::Exchange(_) => EXCHANGED_TYPE,
             Feed::Remade | Feed::Outside => return None,
         })
     }
@@ -178,6 +228,12 @@ impl Feed {
         }
         if topic == FAULTS_STARTED {
             return Some(Feed::PlanStart);
+        }
+        if topic == SYSTEM_STARTING {
+            return Some(Feed::SystemStarting);
+        }
+        if let Some((kind, _)) = ExchangeKind::of_topic(topic) {
+            return kind.came_in().then_some(Feed::Exchange(kind));
         }
         let (component, service) = topic.split_once('/')?;
         let process = meta.process != "run";
@@ -257,6 +313,8 @@ impl Recording {
             outputs: BTreeMap::new(),
             controls: Vec::new(),
             plan_started: None,
+            system_starting: None,
+            exchange: ExchangeLog::default(),
             outside: 0,
             schemas: BTreeMap::new(),
             last_log_time: 0,
@@ -376,6 +434,38 @@ impl Recording {
             }
             Some(Feed::PlanStart) => {
                 self.plan_started = Some(log_time);
+                return Ok(());
+            }
+            Some(Feed::SystemStarting) => {
+                self.system_starting = Some(log_time);
+                return Ok(());
+            }
+            Some(Feed::Exchange(kind)) => {
+                let e = bare::<Exchanged>(&data, EXCHANGED_TYPE).map_err(decode)?;
+                let service = ExchangeKind::of_topic(&c.topic)
+                    .and_then(|(_, s)| s.parse::<ServiceAddr>().ok())
+                    .ok_or_else(|| decode(format!("'{}' does not name a service", c.topic)))?;
+                let numbered = |e: &Exchanged| e.n.ok_or_else(|| decode("it has no number 'n'".into()));
+                let log = &mut self.exchange;
+                match kind {
+                    ExchangeKind::Lookup => log.lookups.entry(service).or_default().push((log_time, e.info)),
+                    ExchangeKind::Reply => {
+                        let n = numbered(&e)?;
+                        let reply = match &e.error {
+                            Some(error) => Err(error.clone()),
+                            None => Ok(e.bytes().map_err(decode)?),
+                        };
+                        log.replies.insert((service, n), (log_time, reply));
+                    }
+                    ExchangeKind::Update | ExchangeKind::Firing => {
+                        let n = numbered(&e)?;
+                        let bytes = e.bytes().map_err(decode)?;
+                        let list =
+                            if kind == ExchangeKind::Update { &mut log.updates } else { &mut log.firings };
+                        list.entry((service, n)).or_default().push((log_time, bytes));
+                    }
+                    _ => {}
+                }
                 return Ok(());
             }
             Some(Feed::Link) => {

@@ -20,6 +20,7 @@
 
 pub mod command;
 pub mod diff;
+pub mod exchange;
 pub mod file;
 pub mod standin;
 
@@ -258,17 +259,28 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     let supervisor = match rec.meta.process.as_str() {
         "run" => "orsa",
         "robot" => "robot",
+        "executive" => "executive",
         other => {
             return Err(ReplayError::Metadata {
                 path: rec.path.clone(),
                 problem: format!(
                     "metadata '{}': key 'process' is '{other}': this orsa replays recordings of \
-                     `orsa run` and `orsa robot`",
+                     `orsa run`, `orsa robot` and `orsa executive`",
                     crate::record::meta::RUN_METADATA
                 ),
             });
         }
     };
+    // What came back from other processes' services comes back again, at its times.
+    if !rec.exchange.is_empty() {
+        let sink = Arc::clone(&capture);
+        let note: exchange::Note = Arc::new(move |topic, stamp, json| sink.keep(topic, stamp, json));
+        let playback = exchange::PlaybackTransport::new(Arc::new(rec.exchange.clone()), clock, note);
+        registry.set_transport(Arc::new(playback));
+    }
+    if let Some(at) = rec.system_starting {
+        tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
+    }
     let system = System::builder(&config)
         .catalog(catalog)
         .select(&hosted)
@@ -355,7 +367,10 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     let compared = rec.outputs.values().map(|v| v.partition_point(|r| r.log_time < cut)).sum();
     let topics = rec.outputs.len();
     Ok(Replayed {
-        fed: rec.published.len() + rec.answers.robotparams.len() + rec.answers.safety.len(),
+        fed: rec.published.len()
+            + rec.answers.robotparams.len()
+            + rec.answers.safety.len()
+            + rec.exchange.len(),
         compared,
         topics,
         end,

@@ -1,14 +1,46 @@
-//! Replaying a recording made by the robot process of the distributed system (`orsa robot
-//! --record`) with a remote executive, a teleop and a link cut: its behaviours run again on
-//! the recorded scans, fed the executive's wiring and state changes and the link watchdog's
-//! actions at their recorded times, and make what they made, in content and order.
+//! Replaying the recordings of the processes of the distributed system (`orsa robot --record`,
+//! `orsa executive --record`) with a teleop and a link cut: the robot's behaviours run again
+//! on the recorded scans, fed the executive's wiring and state changes and the link watchdog's
+//! actions at their recorded times; the executive's master and planner run again on what
+//! reached them from the robot, when it reached them; both make what they made, in content
+//! and order.
 
 use super::*;
 use orsa::replay::file::{Control, Recording};
 use orsa::replay::{ReplayOptions, replay};
+use std::path::Path;
 
 fn temp(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("orsa-test-{}-{name}", std::process::id()))
+}
+
+/// Waits for a process to end; it must end well.
+async fn ends_well(mut p: Proc, what: &'static str) {
+    let (status, p) =
+        tokio::task::spawn_blocking(move || (p.child.wait().expect("it ends"), p)).await.expect("join");
+    assert!(status.success(), "{what} failed: {}", p.log_text());
+}
+
+/// `orsa replay PATH --quiet --report REPORT`, as a user runs it: it must say bit-exact and
+/// exit 0. Its report.
+async fn orsa_replay(path: &Path, report: &Path) -> serde_json::Value {
+    let (recording, report_path) = (path.to_path_buf(), report.to_path_buf());
+    let out = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_orsa"))
+            .args(["replay", recording.to_str().expect("utf-8"), "--quiet", "--report"])
+            .arg(&report_path)
+            .output()
+            .expect("orsa replay runs")
+    })
+    .await
+    .expect("join");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && text.contains("bit-exact"), "{}: {text}", path.display());
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).expect("the report")).expect("json");
+    assert_eq!(r["bit_exact"], true);
+    assert!(r["timing"]["within"].as_u64().is_some(), "a live recording is held to a tolerance: {r}");
+    r
 }
 
 /// Replays `rec` on a paused clock, as `orsa replay` does.
@@ -23,16 +55,24 @@ fn replay_paused(rec: &Recording) -> orsa::replay::Replayed {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_robot_process_recording_replays_its_behaviours_with_the_executive_teleop_and_a_link_cut_fed() {
+async fn the_robot_and_executive_processes_replay_from_their_recordings_with_teleop_and_a_link_cut() {
     let sys = System::new("replay");
     let path = temp("robot.mcap");
+    let exec_path = temp("executive.mcap");
+    // The planner switches modes, so the executive hands the motors to wall following and back.
+    let mission = temp("replay-mission.toml");
+    std::fs::write(
+        &mission,
+        "[planner]\nmission = [{mode=\"patrol\",for_s=3},{mode=\"follow_left_wall\",for_s=3},{mode=\"patrol\",for_s=30}]\n",
+    )
+    .expect("write the mission");
     let plan = temp("replay-plan.toml");
     std::fs::write(
         &plan,
         "[[fault]]\nat = 5.0\nkind = \"link_cut\"\ntarget = \"executive\"\nduration = 1.5\n",
     )
     .expect("write the plan");
-    let mut robot = sys.robot(&[
+    let robot = sys.robot(&[
         "--record",
         path.to_str().expect("utf-8"),
         "--faults",
@@ -42,25 +82,28 @@ async fn a_robot_process_recording_replays_its_behaviours_with_the_executive_tel
     ]);
     let (registry, t) = sys.observe().await;
     let (_c, mut base) = base_stream(&registry, &t).await;
-    let exec = sys.run("exec", "executive", &["--duration", "120"]);
+    let exec = sys.run(
+        "exec",
+        "executive",
+        &[
+            "--duration",
+            "9",
+            "--config",
+            mission.to_str().expect("utf-8"),
+            "--record",
+            exec_path.to_str().expect("utf-8"),
+        ],
+    );
     until_base(&mut base, STARTUP, "the executive drives", |b| b.v_m_s > 0.15).await;
-    let mut teleop = sys.run("teleop", "teleop", &["--send", "-0.1,0", "--for", "1"]);
+    let teleop = sys.run("teleop", "teleop", &["--send", "-0.1,0", "--for", "1"]);
     until_base(&mut base, STARTUP, "teleop drives backwards", |b| b.v_m_s < -0.05).await;
     drop(base);
-    let (status, teleop) =
-        tokio::task::spawn_blocking(move || (teleop.child.wait().expect("teleop ends"), teleop))
-            .await
-            .expect("join");
-    assert!(status.success(), "teleop failed: {}", teleop.log_text());
-    let (status, robot) =
-        tokio::task::spawn_blocking(move || (robot.child.wait().expect("the robot ends"), robot))
-            .await
-            .expect("join");
-    assert!(status.success(), "the robot failed: {}", robot.log_text());
-    drop(exec);
+    ends_well(teleop, "teleop").await;
+    ends_well(exec, "the executive").await;
+    ends_well(robot, "the robot").await;
 
-    // What the recording says: a live run of the robot process, what came from the other
-    // processes kept apart, and what the link watchdog did.
+    // What the robot's recording says: a live run of the robot process, what came from the
+    // other processes kept apart, and what the link watchdog did.
     let rec = Recording::open(&path).expect("a readable recording");
     assert_eq!((rec.meta.process.as_str(), rec.meta.live), ("robot", true));
     assert!(rec.meta.faults_toml.as_deref().is_some_and(|f| f.contains("link_cut")));
@@ -68,33 +111,31 @@ async fn a_robot_process_recording_replays_its_behaviours_with_the_executive_tel
     let lost = rec.controls.iter().filter(|(_, c)| {
         matches!(c, Control::Link(e) if e.command.is_some_and(|c| c.v_m_s == 0.0 && c.omega_rad_s == 0.0))
     });
-    assert_eq!(lost.count(), 1, "the watchdog lost the executive once, and commanded zero");
-    let wirings = rec.controls.iter().filter(|(_, c)| matches!(c, Control::Port { .. })).count();
-    assert!(wirings >= 4, "wired at the start, unwired under the cut, wired again: {wirings}");
-
-    // `orsa replay`, as a user runs it.
+    assert!(lost.count() >= 1, "the watchdog lost the executive, and commanded zero");
+    let to_wall = rec.controls.iter().filter(|(_, c)| {
+        matches!(c, Control::Port { component, status } if component == "wallfollow" && status.target.is_some())
+    });
+    assert!(to_wall.count() >= 1, "the mission handed the motors to wall following");
     let report = temp("replay-report.json");
-    let recording = path.clone();
-    let report_path = report.clone();
-    let out = tokio::task::spawn_blocking(move || {
-        std::process::Command::new(env!("CARGO_BIN_EXE_orsa"))
-            .args(["replay", recording.to_str().expect("utf-8"), "--quiet", "--report"])
-            .arg(&report_path)
-            .output()
-            .expect("orsa replay runs")
-    })
-    .await
-    .expect("join");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success() && text.contains("bit-exact"), "{text}");
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).expect("the report")).expect("json");
-    assert_eq!(r["bit_exact"], true);
+    let r = orsa_replay(&path, &report).await;
     assert!(r["compared"].as_u64().expect("compared") > 300, "{r}");
     assert_eq!(r["controls"].as_u64(), Some(rec.controls.len() as u64));
-    assert!(r["timing"]["within"].as_u64().is_some(), "a live recording is held to a tolerance: {r}");
 
-    // One altered behaviour output is reported at exactly that message.
+    // What the executive's recording says: what reached it from the robot, when.
+    let exec_rec = Recording::open(&exec_path).expect("the executive's recording");
+    assert_eq!(exec_rec.meta.process, "executive");
+    assert_eq!(exec_rec.meta.hosted, ["master", "planner"]);
+    let ir = exec_rec.exchange.updates.values().map(Vec::len).sum::<usize>();
+    assert!(ir > 10, "the master's infrared updates came over the network: {ir}");
+    let requests = exec_rec.outputs.get("exchange/request/wallfollow/wiring").map_or(0, Vec::len);
+    assert!(requests >= 2, "the master wired wall following and unwired it: {requests}");
+    let exec_report = temp("replay-exec-report.json");
+    let r = orsa_replay(&exec_path, &exec_report).await;
+    assert!(r["fed"].as_u64().expect("fed") as usize >= ir, "{r}");
+    assert!(r["compared"].as_u64().expect("compared") as usize >= requests + 3, "{r}");
+
+    // One altered behaviour output, and one altered wiring request, are reported at exactly
+    // that message.
     let mut altered = rec;
     let statuses = altered.outputs.get_mut("centerfollow/status").expect("centre following's statuses");
     let k = statuses.len() / 2;
@@ -105,7 +146,22 @@ async fn a_robot_process_recording_replays_its_behaviours_with_the_executive_tel
     let out = tokio::task::spawn_blocking(move || replay_paused(&altered)).await.expect("join");
     let d = out.divergence.expect("the altered message is found");
     assert_eq!((d.topic.as_str(), d.index), ("centerfollow/status", k));
-    for p in [path, plan, report] {
+    let mut altered = exec_rec;
+    let topic = "exchange/request/wallfollow/wiring";
+    let sent = altered.outputs.get_mut(topic).expect("wiring requests");
+    let k = sent.iter().rposition(|m| m.data.windows(7).any(|w| w == b"connect")).expect("a wiring change");
+    let text = String::from_utf8(sent[k].data.clone()).expect("utf-8");
+    let other = if text.contains("\"disconnect\"") {
+        text.replace("\"disconnect\"", "\"connect\"")
+    } else {
+        text.replace("\"connect\"", "\"disconnect\"")
+    };
+    assert_ne!(other, text);
+    sent[k].data = other.into_bytes();
+    let out = tokio::task::spawn_blocking(move || replay_paused(&altered)).await.expect("join");
+    let d = out.divergence.expect("the altered request is found");
+    assert_eq!((d.topic.as_str(), d.index), (topic, k));
+    for p in [path, exec_path, mission, plan, report, exec_report] {
         let _ = std::fs::remove_file(p);
     }
 }
