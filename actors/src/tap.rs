@@ -81,13 +81,25 @@ impl TapSlot {
             return;
         }
         let tap = self.0.tap.read().clone();
-        if let Some(tap) = tap {
-            let mut json = Vec::with_capacity(256);
-            match serde_json::to_writer(&mut json, message) {
-                Ok(()) if remote => tap.record_remote(topic, type_id, stamp, &json),
-                Ok(()) => tap.record(topic, type_id, stamp, &json),
+        let Some(tap) = tap else { return };
+        let hand = |json: &mut Vec<u8>| {
+            json.clear();
+            match serde_json::to_writer(&mut *json, message) {
+                Ok(()) if remote => tap.record_remote(topic, type_id, stamp, json),
+                Ok(()) => tap.record(topic, type_id, stamp, json),
                 Err(e) => tracing::warn!("tap: cannot encode a message on {topic}: {e}"),
             }
-        }
+        };
+        // One buffer per thread, reused: no allocation per message. (A tap that records from
+        // inside `record` gets a buffer of its own.)
+        BUFFER.with(|b| match b.try_borrow_mut() {
+            Ok(mut json) => hand(&mut json),
+            Err(_) => hand(&mut Vec::with_capacity(256)),
+        });
     }
+}
+
+thread_local! {
+    /// The JSON of the message being handed to the tap on this thread.
+    static BUFFER: std::cell::RefCell<Vec<u8>> = std::cell::RefCell::new(Vec::with_capacity(4096));
 }

@@ -245,7 +245,10 @@ pub fn what_if(
     let (ra, rb) = (drives(window(recorded, driving, end), end), drives(window(replayed, driving, end), end));
     out.share_recorded = share(&ra, origin, end);
     out.share_replayed = share(&rb, origin, end);
+    // On a live recording, the moments of a rewiring are as far apart as the tolerance allows.
+    let shortest = timing.tolerance() as f64 / 1e9;
     out.wiring_differs_s = differing(&ra, &rb, origin, end);
+    out.wiring_differs_s.retain(|(from, to)| to - from > shortest);
     out
 }
 
