@@ -43,6 +43,22 @@ async fn orsa_replay(path: &Path, report: &Path) -> serde_json::Value {
     r
 }
 
+/// What the Python `mcap` package, which orsa did not write, reads in a recording.
+async fn read_in_python(path: &Path) -> serde_json::Value {
+    let path = path.to_path_buf();
+    let out = tokio::task::spawn_blocking(move || {
+        std::process::Command::new("python3")
+            .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/read_recording.py"))
+            .arg(&path)
+            .output()
+            .expect("python3 runs (see tests/python/requirements.txt)")
+    })
+    .await
+    .expect("join");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("the reader's JSON")
+}
+
 /// Replays `rec` on a paused clock, as `orsa replay` does.
 fn replay_paused(rec: &Recording) -> orsa::replay::Replayed {
     tokio::runtime::Builder::new_current_thread()
@@ -116,6 +132,9 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
         matches!(c, Control::Port { component, status } if component == "wallfollow" && status.target.is_some())
     });
     assert!(to_wall.count() >= 1, "the mission handed the motors to wall following");
+    let py = read_in_python(&path).await;
+    assert_eq!((py["process"].as_str(), py["clock"].as_str()), (Some("robot"), Some("live")));
+    assert!(py["from_other_processes"]["nomad200/teleop"].as_u64() > Some(0), "{py}");
     let report = temp("replay-report.json");
     let r = orsa_replay(&path, &report).await;
     assert!(r["compared"].as_u64().expect("compared") > 300, "{r}");
@@ -129,6 +148,9 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
     assert!(ir > 10, "the master's infrared updates came over the network: {ir}");
     let requests = exec_rec.outputs.get("exchange/request/wallfollow/wiring").map_or(0, Vec::len);
     assert!(requests >= 2, "the master wired wall following and unwired it: {requests}");
+    let py = read_in_python(&exec_path).await;
+    assert_eq!(py["process"].as_str(), Some("executive"));
+    assert_eq!(py["counts"]["exchange/update/nomad200/distanceir"].as_u64(), Some(ir as u64), "{py}");
     let exec_report = temp("replay-exec-report.json");
     let r = orsa_replay(&exec_path, &exec_report).await;
     assert!(r["fed"].as_u64().expect("fed") as usize >= ir, "{r}");

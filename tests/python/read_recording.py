@@ -1,7 +1,9 @@
 """Reads an orsa recording with the `mcap` Python package alone, as a user's tool would.
 
 Prints, as JSON: the `run` metadata's keys, the world and config it holds (parsed with the
-standard library's TOML reader), the message count per topic, and the log time span. Exits
+standard library's TOML reader; a process that simulates no world records none), the message
+count per topic, the count per topic of messages that came from another process (channels
+whose metadata says `orsa.from`), and the log time span. Exits
 non-zero, naming what is wrong, if the file is not a finished MCAP file, a message is not JSON,
 or the metadata is missing what a replay needs.
 """
@@ -13,7 +15,7 @@ import tomllib
 from mcap.reader import make_reader
 
 REQUIRED = ["orsa", "wire", "process", "world", "world_toml", "seed", "duration_s",
-            "config_toml", "hosted", "robot", "clock_origin_ns"]
+            "config_toml", "hosted", "robot", "clock", "clock_origin_ns"]
 
 
 def main(path):
@@ -32,6 +34,7 @@ def main(path):
         config = tomllib.loads(meta["config_toml"])
         world = tomllib.loads(meta["world_toml"])
         counts = {}
+        remote = {}
         first, last = None, None
         for schema, channel, message in reader.iter_messages():
             if channel.message_encoding != "json" or schema.encoding != "jsonschema":
@@ -41,16 +44,21 @@ def main(path):
             except ValueError as e:
                 sys.exit(f"{path}: channel {channel.topic}, log time {message.log_time}: not JSON: {e}")
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.metadata.get("orsa.from") == "another process":
+                remote[channel.topic] = remote.get(channel.topic, 0) + 1
             first = message.log_time if first is None else min(first, message.log_time)
             last = message.log_time if last is None else max(last, message.log_time)
     print(json.dumps({
         "metadata_keys": sorted(meta),
         "seed": int(meta["seed"]),
+        "process": meta["process"],
+        "clock": meta["clock"],
         "robot_name": config["robot"]["name"],
         "config_sections": sorted(config),
         "world_name": world.get("name"),
         "hosted": meta["hosted"].split(","),
         "counts": counts,
+        "from_other_processes": remote,
         "first_log_time": first,
         "last_log_time": last,
     }))
