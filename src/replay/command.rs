@@ -116,8 +116,9 @@ fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Resul
     );
     if let super::diff::Timing::Within(tolerance) = out.timing {
         summary.push_str(&format!(
-            "\n  recorded live: every message in its recorded order and content, the live clock's \
-             stamps aside; log times within {:.1} ms of the recording (largest offset {:.3} ms)",
+            "\n  recorded live: every message in its recorded order with the same content; its log \
+             time and the clock readings in it within {:.1} ms of the recording's (largest log time \
+             offset {:.3} ms)",
             tolerance as f64 / 1e6,
             out.largest_offset_ns as f64 / 1e6
         ));
