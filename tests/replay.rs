@@ -348,6 +348,43 @@ async fn a_recording_that_cannot_be_replayed_says_why_and_where() {
         },
     );
     assert!(err(&partial).contains("config_toml"));
+    // An executive's recording whose infrared update lost its bytes.
+    let exchange = d.join("exchange.mcap");
+    let mut r = orsa::record::Recorder::create(&exchange).expect("recorder");
+    let meta = orsa::record::RunMeta::describe(
+        "executive",
+        "none",
+        None,
+        0,
+        10.0,
+        &Config::default(),
+        vec!["master".into(), "planner".into()],
+        true,
+        1_000_000,
+        None,
+    )
+    .expect("a description");
+    r.write_metadata(orsa::record::meta::RUN_METADATA, meta.to_metadata()).expect("metadata");
+    let at = orsa::actors::Timestamp(1_500_000);
+    let topic = "exchange/update/nomad200/distanceir";
+    r.write(topic, orsa::record::events::EXCHANGED_TYPE, at, at, &serde_json::json!({"n": 0}))
+        .expect("write");
+    r.finish().expect("finish");
+    let e = err(&exchange);
+    assert!(e.contains("exchange.mcap") && e.contains(topic) && e.contains("'cbor'"), "{e}");
+    assert!(e.contains(&at.to_string()), "{e}");
+
+    let stranger = d.join("stranger.mcap");
+    rewrite(
+        &good,
+        &stranger,
+        |_, _, _| {},
+        |m| {
+            m.insert("process".into(), "teleop".into());
+        },
+    );
+    let e = err(&stranger);
+    assert!(e.contains("stranger.mcap") && e.contains("'process' is 'teleop'"), "{e}");
 
     let undecodable = d.join("undecodable.mcap");
     let mut log_time = None;

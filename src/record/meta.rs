@@ -24,6 +24,10 @@ use std::collections::BTreeMap;
 /// The name of the metadata record that describes the run.
 pub const RUN_METADATA: &str = "run";
 
+/// The processes that record: the whole stack (`orsa run`), and the robot and executive of a
+/// distributed system.
+pub const PROCESSES: [&str; 3] = ["run", "robot", "executive"];
+
 /// The orsa version that writes recordings.
 pub const ORSA_VERSION: &str = env!("CARGO_PKG_VERSION");
 
@@ -148,6 +152,13 @@ impl RunMeta {
                 format!("metadata '{RUN_METADATA}': key 'duration_s' is '{duration}', not a positive number")
             })?;
         let wire = num("wire")?;
+        let process = parse("process", "a process role")?;
+        if !PROCESSES.contains(&process.as_str()) {
+            return Err(format!(
+                "metadata '{RUN_METADATA}': key 'process' is '{process}', not one of {}",
+                PROCESSES.join(", ")
+            ));
+        }
         let live = match parse("clock", "'paused' or 'live'")?.as_str() {
             "paused" => false,
             "live" => true,
@@ -161,7 +172,7 @@ impl RunMeta {
             orsa: parse("orsa", "a version")?,
             wire: u32::try_from(wire)
                 .map_err(|_| format!("metadata '{RUN_METADATA}': key 'wire' is {wire}, too large"))?,
-            process: parse("process", "a process role")?,
+            process,
             world: get("world")?,
             world_toml: get("world_toml")?,
             seed: num("seed")?,
@@ -238,6 +249,9 @@ mod tests {
         let mut m = meta().to_metadata();
         m.insert("duration_s".into(), "-3".into());
         assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'duration_s'"));
+        let mut m = meta().to_metadata();
+        m.insert("process".into(), "tool".into());
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'process' is 'tool'"));
         let mut m = meta().to_metadata();
         m.insert("clock".into(), "fast".into());
         assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'clock' is 'fast'"));
