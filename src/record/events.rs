@@ -167,6 +167,29 @@ impl Exchanged {
         orsa_actors::wire::decode::<serde_json::Value>(payload, "a payload").ok()
     }
 
+    // What a process makes: one definition, so that a replay notes exactly what the recording
+    // noted.
+
+    /// A Send of `payload`.
+    pub fn sent(payload: &[u8]) -> Exchanged {
+        Exchanged { decoded: Exchanged::decode(payload), ..Exchanged::default() }
+    }
+
+    /// Request number `n`, of `payload`.
+    pub fn request(n: u64, payload: &[u8]) -> Exchanged {
+        Exchanged { n: Some(n), decoded: Exchanged::decode(payload), ..Exchanged::default() }
+    }
+
+    /// Subscription number `n`, to every `every`-th update.
+    pub fn subscription(n: u64, every: u32) -> Exchanged {
+        Exchanged { n: Some(n), every: Some(every), ..Exchanged::default() }
+    }
+
+    /// Activation number `n`, in `mode`, with `params`.
+    pub fn activation(n: u64, mode: orsa_actors::transport::EventMode, params: &[u8]) -> Exchanged {
+        Exchanged { n: Some(n), mode: Some(mode), decoded: Exchanged::decode(params), ..Exchanged::default() }
+    }
+
     /// A payload that came in: decoded, and its bytes.
     pub fn came_in(payload: &[u8]) -> Exchanged {
         use base64::Engine as _;

@@ -90,7 +90,7 @@ impl Transport for RecordingTransport {
     }
 
     fn send(&self, addr: &ServiceAddr, payload: Vec<u8>) -> PatternResult<()> {
-        let e = Exchanged { decoded: Exchanged::decode(&payload), ..Exchanged::default() };
+        let e = Exchanged::sent(&payload);
         self.notes.note(ExchangeKind::Send, addr, &e);
         self.inner.send(addr, payload)
     }
@@ -102,7 +102,7 @@ impl Transport for RecordingTransport {
         timeout: Duration,
     ) -> futures::future::BoxFuture<'static, PatternResult<Vec<u8>>> {
         let n = self.notes.number(ExchangeKind::Request, addr);
-        let e = Exchanged { n: Some(n), decoded: Exchanged::decode(&payload), ..Exchanged::default() };
+        let e = Exchanged::request(n, &payload);
         self.notes.note(ExchangeKind::Request, addr, &e);
         let (notes, addr) = (Arc::clone(&self.notes), addr.clone());
         self.inner
@@ -127,7 +127,7 @@ impl Transport for RecordingTransport {
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
         let n = self.notes.number(ExchangeKind::Subscribe, addr);
-        let e = Exchanged { n: Some(n), every: Some(every.get()), ..Exchanged::default() };
+        let e = Exchanged::subscription(n, every.get());
         self.notes.note(ExchangeKind::Subscribe, addr, &e);
         let sink = noting_sink(&self.notes, ExchangeKind::Update, addr, n, sink);
         self.inner.subscribe(addr, every, sink)
@@ -141,12 +141,7 @@ impl Transport for RecordingTransport {
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
         let n = self.notes.number(ExchangeKind::Activate, addr);
-        let e = Exchanged {
-            n: Some(n),
-            mode: Some(mode),
-            decoded: Exchanged::decode(&params),
-            ..Exchanged::default()
-        };
+        let e = Exchanged::activation(n, mode, &params);
         self.notes.note(ExchangeKind::Activate, addr, &e);
         let sink = noting_sink(&self.notes, ExchangeKind::Firing, addr, n, sink);
         self.inner.activate(addr, mode, params, sink)

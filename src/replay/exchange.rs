@@ -87,11 +87,7 @@ impl Transport for PlaybackTransport {
     }
 
     fn send(&self, addr: &ServiceAddr, payload: Vec<u8>) -> PatternResult<()> {
-        self.made(
-            ExchangeKind::Send,
-            addr,
-            &Exchanged { decoded: Exchanged::decode(&payload), ..Exchanged::default() },
-        );
+        self.made(ExchangeKind::Send, addr, &Exchanged::sent(&payload));
         Ok(())
     }
 
@@ -102,7 +98,7 @@ impl Transport for PlaybackTransport {
         timeout: Duration,
     ) -> futures::future::BoxFuture<'static, PatternResult<Vec<u8>>> {
         let n = self.number(ExchangeKind::Request, addr);
-        let e = Exchanged { n: Some(n), decoded: Exchanged::decode(&payload), ..Exchanged::default() };
+        let e = Exchanged::request(n, &payload);
         self.made(ExchangeKind::Request, addr, &e);
         let reply = self.log.replies.get(&(addr.clone(), n)).cloned();
         let (clock, addr) = (self.clock, addr.clone());
@@ -127,11 +123,7 @@ impl Transport for PlaybackTransport {
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
         let n = self.number(ExchangeKind::Subscribe, addr);
-        self.made(
-            ExchangeKind::Subscribe,
-            addr,
-            &Exchanged { n: Some(n), every: Some(every.get()), ..Exchanged::default() },
-        );
+        self.made(ExchangeKind::Subscribe, addr, &Exchanged::subscription(n, every.get()));
         let updates = self.log.updates.get(&(addr.clone(), n)).cloned().unwrap_or_default();
         Ok(self.play(updates, sink))
     }
@@ -144,12 +136,7 @@ impl Transport for PlaybackTransport {
         sink: ByteSink,
     ) -> PatternResult<Subscription> {
         let n = self.number(ExchangeKind::Activate, addr);
-        let e = Exchanged {
-            n: Some(n),
-            mode: Some(mode),
-            decoded: Exchanged::decode(&params),
-            ..Exchanged::default()
-        };
+        let e = Exchanged::activation(n, mode, &params);
         self.made(ExchangeKind::Activate, addr, &e);
         let firings = self.log.firings.get(&(addr.clone(), n)).cloned().unwrap_or_default();
         Ok(self.play(firings, sink))
