@@ -11,9 +11,10 @@ use std::sync::Arc;
 /// Arguments of `orsa replay`.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
-    /// The recording (made with `--record`).
-    #[arg(value_name = "PATH.mcap")]
-    pub recording: PathBuf,
+    /// The recording (made with `--record`); several, one per process of a distributed system
+    /// (`orsa robot --record`, `orsa executive --record`), are replayed one after the other.
+    #[arg(value_name = "PATH.mcap", required = true, num_args = 1..)]
+    pub recordings: Vec<PathBuf>,
     /// What if: replay with this configuration instead of the recorded one.
     #[arg(long, value_name = "PATH")]
     pub config: Option<PathBuf>,
@@ -37,7 +38,52 @@ pub struct ReplayArgs {
 
 /// Runs `orsa replay`.
 pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
-    let rec = Recording::open(&args.recording)?;
+    if let [one] = args.recordings.as_slice() {
+        return run_one(&args, one);
+    }
+    for (flag, given) in [
+        ("--config", args.config.is_some()),
+        ("--plot", args.plot.is_some()),
+        ("--report", args.report.is_some()),
+    ] {
+        if given {
+            anyhow::bail!(
+                "{flag} belongs to one recording: give one (each process's recording has a configuration \
+                 of its own; --set applies to each)"
+            );
+        }
+    }
+    let mut parted = Vec::new();
+    for path in &args.recordings {
+        if let Err(e) = run_one(&args, path) {
+            let e = e.to_string();
+            let named = path.display().to_string();
+            say(&if e.contains(&named) { e } else { format!("{named}: {e}") });
+            parted.push(path.display().to_string());
+        }
+    }
+    match parted.as_slice() {
+        [] => {
+            let n = args.recordings.len();
+            if args.sets.is_empty() {
+                say(&format!("replay: all {n} recordings bit-exact"));
+            } else {
+                say(&format!("what if: {n} recordings replayed with {}", args.sets.join(", ")));
+            }
+            Ok(())
+        }
+        _ => anyhow::bail!(
+            "{} of {} recordings did not replay as recorded: {}",
+            parted.len(),
+            args.recordings.len(),
+            parted.join(", ")
+        ),
+    }
+}
+
+/// Replays one recording (see [`run`]).
+fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
+    let rec = Recording::open(path)?;
     let what_if = args.config.is_some() || !args.sets.is_empty();
     if args.plot.is_some() && !what_if {
         anyhow::bail!("--plot draws a what-if: give another configuration with --config or --set");
@@ -102,7 +148,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     let out = rt.block_on(replay(&rec, opts))?;
     let wall_s = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    if what_if { report_what_if(&args, &rec, &out, wall_s) } else { report_exact(&args, &out, wall_s) }
+    if what_if { report_what_if(args, &rec, &out, wall_s) } else { report_exact(args, &out, wall_s) }
 }
 
 fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Result<()> {

@@ -156,6 +156,21 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
     assert!(r["fed"].as_u64().expect("fed") as usize >= ir, "{r}");
     assert!(r["compared"].as_u64().expect("compared") as usize >= requests + 3, "{r}");
 
+    // The deployment's two recordings in one command, as the README shows it.
+    let (robot_path, executive_path) = (path.clone(), exec_path.clone());
+    let both = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_orsa"))
+            .arg("replay")
+            .args([&robot_path, &executive_path])
+            .arg("--quiet")
+            .output()
+            .expect("orsa replay runs")
+    })
+    .await
+    .expect("join");
+    let text = String::from_utf8_lossy(&both.stdout).into_owned() + &String::from_utf8_lossy(&both.stderr);
+    assert!(both.status.success() && text.contains("all 2 recordings bit-exact"), "{text}");
+
     // One altered behaviour output, and one altered wiring request, are reported at exactly
     // that message.
     let mut altered = rec;
