@@ -10,7 +10,7 @@
 //! everything it produces (every Send, query, push, event, wiring and state change, restart)
 //! is compared with the recording, message by message, byte for byte.
 //!
-//! - [`file`]: reads and checks a recording;
+//! - [`mod@file`]: reads and checks a recording;
 //! - [`standin`]: the robot server's stand-in;
 //! - [`diff`]: the first divergence, and what a what-if changed.
 //!
