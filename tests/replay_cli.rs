@@ -6,6 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[path = "support/rewrite.rs"]
+mod rewrite;
+use rewrite::rewrite;
+
 fn orsa(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_orsa")).args(args).output().expect("orsa runs")
 }
@@ -53,42 +57,17 @@ fn orsa_replay_says_bit_exact_and_exits_zero_only_when_it_is() {
     assert!(stdout.contains("bit-exact:") && stdout.contains("messages on"), "{stdout}");
 
     // A recording whose command differs from what the behaviour computes: exit 1, and where.
-    let bytes = std::fs::read(&rec).expect("read");
-    let mut altered = Vec::new();
-    let mut out_w = mcap::WriteOptions::new().create(std::io::Cursor::new(&mut altered)).expect("writer");
-    for r in mcap::read::ChunkFlattener::new(&bytes).expect("mcap") {
-        if let mcap::records::Record::Metadata(m) = r.expect("record") {
-            out_w.write_metadata(&m).expect("meta");
-        }
-    }
-    let mut ids = std::collections::BTreeMap::new();
-    let mut n = 0;
-    for m in mcap::MessageStream::new(&bytes).expect("mcap") {
-        let m = m.expect("message");
-        let s = m.channel.schema.as_ref().expect("schema");
-        let id = *ids.entry(m.channel.topic.clone()).or_insert_with(|| {
-            let sid = out_w.add_schema(&s.name, &s.encoding, &s.data).expect("schema");
-            out_w.add_channel(sid, &m.channel.topic, "json", &Default::default()).expect("channel")
-        });
-        let mut data = m.data.into_owned();
-        if m.channel.topic == "wallfollow/status" {
-            n += 1;
-            if n == 50 {
-                data = text(&data).replacen("\"v_m_s\":", "\"v_m_s\":-", 1).into_bytes();
-            }
-        }
-        let h = mcap::records::MessageHeader {
-            channel_id: id,
-            sequence: m.sequence,
-            log_time: m.log_time,
-            publish_time: m.publish_time,
-        };
-        out_w.write_to_known_channel(&h, &data).expect("write");
-    }
-    out_w.finish().expect("finish");
-    drop(out_w);
     let bad = d.join("altered.mcap");
-    std::fs::write(&bad, &altered).expect("write");
+    rewrite(
+        &rec,
+        &bad,
+        |topic, i, data| {
+            if topic == "wallfollow/status" && i == 49 {
+                *data = text(data).replacen("\"v_m_s\":", "\"v_m_s\":-", 1).into_bytes();
+            }
+        },
+        |_| {},
+    );
     let out = orsa(&["replay", "--quiet", &bad.display().to_string()]);
     assert_eq!(out.status.code(), Some(1));
     let stdout = text(&out.stdout);

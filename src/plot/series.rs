@@ -109,6 +109,44 @@ pub(crate) fn strip(
     c.text(left - 10.0, top + 13.0, TICK.anchor(Anchor::End), "behaviour");
 }
 
+/// A panel's caption, its clip path (`clip-{id}`) and its frame, `PANEL_HEIGHT` high from `top`.
+pub(crate) fn panel_frame(c: &mut Canvas, time: &TimeAxis, top: f64, caption: &str, id: &str) {
+    let (left, right) = (time.scale.r0, time.scale.r1);
+    c.text(left, top - 14.0, Font::new(18.0).bold(), caption);
+    let _ = writeln!(
+        c.out(),
+        r##"<clipPath id="clip-{id}"><rect x="{left:.1}" y="{top:.1}" width="{:.1}" height="{PANEL_HEIGHT}"/></clipPath>
+<rect x="{left:.1}" y="{top:.1}" width="{:.1}" height="{PANEL_HEIGHT}" fill="#fbfbfb" stroke="#bbb"/>"##,
+        right - left,
+        right - left
+    );
+}
+
+/// A panel's value axis over `range` (grid, tick labels, `y_label`) and the time ticks under
+/// it; the scale of its values.
+pub(crate) fn value_axis(
+    c: &mut Canvas,
+    time: &TimeAxis,
+    top: f64,
+    range: (f64, f64),
+    y_label: &str,
+) -> Scale {
+    let (left, right) = (time.scale.r0, time.scale.r1);
+    let ((lo, hi), bottom) = (range, top + PANEL_HEIGHT);
+    let ys = Scale::new(lo, hi, bottom, top);
+    let step = axis::nice_step(hi - lo, 6);
+    let mut grid = String::new();
+    for v in axis::ticks(lo, hi, step) {
+        let py = ys.map(v);
+        let _ = write!(grid, "M{left:.1} {py:.1}H{right:.1}");
+        c.text(left - 10.0, py + 5.5, TICK.anchor(Anchor::End), &axis::label(v, step));
+    }
+    let _ = writeln!(c.out(), r##"<path d="{grid}" stroke="#e3e3e3" stroke-width="1"/>"##);
+    c.text(left - 78.0, (top + bottom) / 2.0, LABEL.anchor(Anchor::Middle).vertical(), y_label);
+    time.ticks(c, bottom);
+    ys
+}
+
 /// A time series panel with its target line.
 pub(crate) struct Panel<'p> {
     pub(crate) top: f64,
@@ -126,26 +164,9 @@ impl Panel<'_> {
     pub(crate) fn draw(&self, c: &mut Canvas, data: &PlotData<'_>, time: &TimeAxis, id: &str) {
         let (left, right) = (time.scale.r0, time.scale.r1);
         let (top, bottom) = (self.top, self.top + PANEL_HEIGHT);
-        c.text(left, top - 14.0, Font::new(18.0).bold(), self.caption);
-        let _ = writeln!(
-            c.out(),
-            r##"<clipPath id="clip-{id}"><rect x="{left:.1}" y="{top:.1}" width="{:.1}" height="{PANEL_HEIGHT}"/></clipPath>
-<rect x="{left:.1}" y="{top:.1}" width="{:.1}" height="{PANEL_HEIGHT}" fill="#fbfbfb" stroke="#bbb"/>"##,
-            right - left,
-            right - left
-        );
+        panel_frame(c, time, top, self.caption, id);
         let (lo, hi) = self.value_range();
-        let ys = Scale::new(lo, hi, bottom, top);
-        let step = axis::nice_step(hi - lo, 6);
-        let mut grid = String::new();
-        for v in axis::ticks(lo, hi, step) {
-            let py = ys.map(v);
-            let _ = write!(grid, "M{left:.1} {py:.1}H{right:.1}");
-            c.text(left - 10.0, py + 5.5, TICK.anchor(Anchor::End), &axis::label(v, step));
-        }
-        let _ = writeln!(c.out(), r##"<path d="{grid}" stroke="#e3e3e3" stroke-width="1"/>"##);
-        c.text(left - 78.0, (top + bottom) / 2.0, LABEL.anchor(Anchor::Middle).vertical(), self.y_label);
-        time.ticks(c, bottom);
+        let ys = value_axis(c, time, top, (lo, hi), self.y_label);
 
         let mut d = String::new();
         for b in data.bumps.iter().filter(|b| b.t_s.is_finite()) {

@@ -2,10 +2,10 @@
 //! recorded and replayed with the other parameters, over time, with the stretches where another
 //! behaviour would have been driving shaded.
 
-use super::axis::{self, Scale};
+use super::axis::Scale;
 use super::canvas::{Anchor, Canvas, Font, TextMode, polyline_data};
-use super::figure::{LABEL, TICK};
-use super::series::{PANEL_HEIGHT, TimeAxis, max_gap};
+use super::figure::LABEL;
+use super::series::{PANEL_HEIGHT, TimeAxis, max_gap, panel_frame, value_axis};
 use super::{PlotError, WIDTH_PX, decimate};
 use std::fmt::Write;
 use std::path::Path;
@@ -98,14 +98,7 @@ fn panel(
     id: &str,
 ) {
     let (left, right) = (time.scale.r0, time.scale.r1);
-    let bottom = top + PANEL_HEIGHT;
-    c.text(left, top - 14.0, Font::new(18.0).bold(), caption);
-    let _ = writeln!(
-        c.out(),
-        r##"<clipPath id="clip-{id}"><rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{PANEL_HEIGHT}"/></clipPath>
-<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{PANEL_HEIGHT}" fill="#fbfbfb" stroke="#bbb"/>"##,
-        w = right - left
-    );
+    panel_frame(c, time, top, caption, id);
     for (a, b) in &data.wiring_differs {
         let (x0, x1) = (time.scale.map(a.max(time.scale.d0)), time.scale.map(b.min(time.scale.d1)));
         let _ = writeln!(
@@ -117,18 +110,7 @@ fn panel(
     let values = series.iter().flatten().map(|p| p.1).filter(|v| v.is_finite());
     let (lo, hi) = values.fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let pad = ((hi - lo) * 0.08).max(0.01);
-    let (lo, hi) = (lo - pad, hi + pad);
-    let ys = Scale::new(lo, hi, bottom, top);
-    let step = axis::nice_step(hi - lo, 6);
-    let mut grid = String::new();
-    for v in axis::ticks(lo, hi, step) {
-        let py = ys.map(v);
-        let _ = write!(grid, "M{left:.1} {py:.1}H{right:.1}");
-        c.text(left - 10.0, py + 5.5, TICK.anchor(Anchor::End), &axis::label(v, step));
-    }
-    let _ = writeln!(c.out(), r##"<path d="{grid}" stroke="#e3e3e3" stroke-width="1"/>"##);
-    c.text(left - 78.0, (top + bottom) / 2.0, LABEL.anchor(Anchor::Middle).vertical(), y_label);
-    time.ticks(c, bottom);
+    let ys = value_axis(c, time, top, (lo - pad, hi + pad), y_label);
     let columns = (right - left).round().max(1.0) as usize;
     for (points, colour, width) in [(&series[0], RECORDED, 2.2), (&series[1], WHAT_IF, 1.3)] {
         let lines = decimate::series(points, time.scale.d0, time.scale.d1, columns, max_gap(points));
