@@ -16,7 +16,7 @@
 //! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
 //! every change of driver goes out on the Push newest service `driving` ([`WiringChange`]).
 
-use crate::rules::{Mode, Readings, validate_modes};
+use crate::rules::{Arbiter, Mode, Readings, validate_modes};
 use orsa_actors::event::EventServer;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
@@ -53,7 +53,10 @@ impl Default for ExecutiveParams {
             [modes.patrol]
             behaviours = ["wallfollow", "centerfollow"]
             rules = [
-              { drive = "wallfollow", when = [{ ring = "infrared", sensors = [0], below_m = 0.50 }] },
+              { drive = "wallfollow", when = [{ ring = "infrared", sensors = [0], below_m = 0.5 }],
+                hold_while = [{ ring = "infrared", sensors = [3, 4, 5], below_m = 0.37 }],
+                release_when = [{ ring = "sonar", sensors = [15, 0], above_m = 1.0 }],
+                release_after_s = 30.0 },
               { drive = "centerfollow" },
             ]
             [modes.follow_left_wall]
@@ -128,6 +131,9 @@ struct Kept {
 /// The master's running state.
 pub struct MasterState {
     readings: Readings,
+    /// The newest scan's time, s: the rules' clock.
+    readings_s: f64,
+    arbiter: Arbiter,
     goal: Option<Current>,
     next_id: u64,
     driving: Option<String>,
@@ -167,6 +173,8 @@ impl Component for Master {
         let kept = ctx.keep("goal", || Arc::new(parking_lot::Mutex::new(Kept { goal: None, next_id: 1 })))?;
         let mut st = MasterState {
             readings: Readings::default(),
+            readings_s: ctx.now().as_secs_f64(),
+            arbiter: Arbiter::new(),
             goal: None,
             next_id: 1,
             driving: None,
@@ -210,10 +218,12 @@ impl Component for Master {
         match msg {
             MasterMsg::Ir(scan) => {
                 fill(&mut st.readings.infrared, &scan);
+                st.readings_s = st.readings_s.max(scan.stamp.as_secs_f64());
                 self.arbitrate(ctx, st).await;
             }
             MasterMsg::Sonar(scan) => {
                 fill(&mut st.readings.sonar, &scan);
+                st.readings_s = st.readings_s.max(scan.stamp.as_secs_f64());
                 self.arbitrate(ctx, st).await;
             }
             MasterMsg::Goal(q) => {
@@ -224,6 +234,7 @@ impl Component for Master {
             MasterMsg::Deadline(id) => {
                 if st.goal.as_ref().is_some_and(|g| g.id == id) {
                     let done = st.goal.take();
+                    st.arbiter = Arbiter::new();
                     if let Some(g) = done {
                         fire(ctx, st, g.id, &g.mode, GoalStatus::Reached, String::new());
                     }
@@ -265,7 +276,10 @@ impl Master {
     }
 
     async fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
-        let want = self.mode(st).and_then(|m| m.select(&st.readings)).map(str::to_string);
+        let want = self.mode(st).and_then(|m| {
+            let rule = st.arbiter.decide(m, &st.readings, st.readings_s)?;
+            m.rules.get(rule).map(|r| r.drive.clone())
+        });
         if want == st.driving {
             return;
         }
@@ -310,6 +324,7 @@ impl Master {
         }
         let id = st.next_id;
         st.next_id += 1;
+        st.arbiter = Arbiter::new();
         // Whoever drives and is not part of the new mode stops driving before it is deactivated.
         if st.driving.as_ref().is_some_and(|d| !mode.behaviours.contains(d)) {
             self.arbitrate(ctx, st).await;

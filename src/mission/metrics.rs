@@ -97,6 +97,8 @@ pub struct Metrics {
     pub clearance_series: Vec<(f64, f64)>,
     /// (t, x, y) of each bump.
     pub bump_points: Vec<(f64, f64, f64)>,
+    /// The behaviour driving at each bump (parallel to `bump_points`).
+    pub bump_drivers: Vec<Option<String>>,
 }
 
 /// The label of "no behaviour wired".
@@ -136,6 +138,7 @@ impl Metrics {
         }
         if s.bumps > self.bumps {
             self.bump_points.push((s.t_s, s.x_m, s.y_m));
+            self.bump_drivers.push(s.driving.clone());
         }
         self.bumps = s.bumps;
         self.distance_m = s.travelled_m;

@@ -37,6 +37,19 @@ pub struct SafetyFigures {
     pub stale_commands_applied: u64,
 }
 
+/// One contact onset: when, where (ground truth), and who drove.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BumpAt {
+    /// Simulated time, s.
+    pub t_s: f64,
+    /// Position, m.
+    pub x_m: f64,
+    /// Position, m.
+    pub y_m: f64,
+    /// The behaviour wired to the motors, if any.
+    pub driving: Option<String>,
+}
+
 /// Everything `report.json` says about a run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -52,6 +65,9 @@ pub struct Report {
     pub distance_m: f64,
     /// Contact onsets.
     pub bumps: u64,
+    /// Where and when each contact began, and which behaviour drove then.
+    #[serde(default)]
+    pub bumps_at: Vec<BumpAt>,
     /// 60 s windows with less than 0.10 m travelled.
     pub stalls: u64,
     /// Fraction of the time each behaviour was wired to the motors (`none`: nothing was).
@@ -93,6 +109,12 @@ impl Report {
             wall_seconds: 0.0,
             distance_m: m.distance_m,
             bumps: m.bumps,
+            bumps_at: m
+                .bump_points
+                .iter()
+                .zip(&m.bump_drivers)
+                .map(|(&(t_s, x_m, y_m), driving)| BumpAt { t_s, x_m, y_m, driving: driving.clone() })
+                .collect(),
             stalls: m.stalls,
             behaviour_share: m.shares(),
             wallfollow: WallFollowFigures {
