@@ -42,6 +42,8 @@ pub enum Command {
     Wire(crate::remote::WireArgs),
     /// Show or set a component's main state (a master command).
     State(crate::remote::StateArgs),
+    /// Several wiring and state changes at once, all or nothing (a master command).
+    Switch(crate::remote::SwitchArgs),
     /// Run a recording's deciding components again on its recorded inputs: bit for bit, or
     /// with another configuration (--config, --set) to see what would have changed.
     Replay(crate::replay::command::ReplayArgs),
@@ -102,6 +104,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Echo(args) => crate::remote::echo(args),
         Command::Wire(args) => crate::remote::wire(args),
         Command::State(args) => crate::remote::state(args),
+        Command::Switch(args) => crate::remote::switch(args),
         Command::Replay(args) => crate::replay::command::run(args),
     }
 }

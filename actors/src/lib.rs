@@ -14,6 +14,9 @@
 //! | State | [`state`] | a master sets a slave's main state; activities hold substates |
 //! | Wiring | [`wiring`] | a master reconnects a component's client ports at run time |
 //!
+//! [`switch`] makes several Wiring and State changes, across processes, as one all-or-nothing
+//! operation (prepare everywhere, then commit in a safe order, undoing on any failure).
+//!
 //! Around them:
 //! - [`CommObject`]: communication objects and their stable identifiers; [`Stamped`]: the
 //!   envelope (sequence number, time sent) every object travels in.
@@ -65,6 +68,7 @@ mod sink;
 mod stamped;
 pub mod state;
 pub mod supervision;
+pub mod switch;
 pub mod tap;
 pub mod transport;
 pub mod wire;

@@ -323,6 +323,14 @@ impl Registry {
         Err(self.not_found(addr))
     }
 
+    /// What the service at `addr` is, hosted here or by a peer the transport knows.
+    pub fn service_info(&self, addr: &ServiceAddr) -> PatternResult<ServiceInfo> {
+        if let Some(local) = self.local(addr) {
+            return Ok(local.info);
+        }
+        self.transport().and_then(|t| t.lookup(addr)).ok_or_else(|| self.not_found(addr))
+    }
+
     /// The error for an address that resolves nowhere.
     pub(crate) fn not_found(&self, addr: &ServiceAddr) -> PatternError {
         let hosts_something = self.has_component(&addr.component)

@@ -3,16 +3,20 @@
 //! The master subscribes to the robot's infrared ring (every `subscribe_every`-th scan: 10 x 40
 //! ms, one decision per 400 ms, as in the thesis) and, if any rule needs it, to the sonar ring.
 //! On every scan it runs the current mode's priority list ([`crate::rules`]) and, if the answer
-//! changed, rewires: it disconnects the old behaviour's `vel` port and connects the new one to
-//! the robot's `navigationvelocity`, in that order and with nothing in between, so two
-//! behaviours are never wired at once and a switch between behaviours leaves the motors
-//! unwired only for the two calls. Whenever the master leaves nothing wired (a mode without a
-//! rule that holds, between goals, while a goal's behaviours are being activated) it sends the
-//! motors a zero command, and the robot server's timeout stops them in any case.
+//! changed, hands the motors over in one [`Switch`]: the old behaviour's `vel` port is
+//! disconnected, then the new one is connected to the robot's `navigationvelocity`, all or
+//! nothing (`orsa_actors::switch`). Two behaviours are never wired at once, and a switch that
+//! fails half-way is undone, so the behaviour that drove goes on driving. Whenever the master
+//! leaves nothing wired (a mode without a rule that applies, between goals, after a switch it
+//! could not undo) it sends the motors a zero command, and the robot server's timeout stops them
+//! in any case.
 //!
 //! Goals arrive by Query on `goal` ([`Goal`] -> [`GoalReply`]): a goal names a mode and how
-//! long to run it. Starting a goal activates its mode's behaviours (State `active`) and
-//! deactivates every other behaviour (State `neutral`), preempting the previous goal. Progress
+//! long to run it. Starting a goal is one switch too: it activates the mode's behaviours (State
+//! `active`), deactivates every other behaviour (State `neutral`) and wires the one the new
+//! mode's rules pick, preempting the previous goal; if any step fails or takes longer than
+//! `switch_step_s`, everything is undone, the goal is rejected with the reason, and the
+//! previous goal goes on. Progress
 //! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
 //! every change of driver goes out on the Push newest service `driving` ([`WiringChange`]).
 
@@ -23,6 +27,7 @@ use orsa_actors::query::QueryRequest;
 use orsa_actors::send::SendClient;
 use orsa_actors::service::{Addr, SendService};
 use orsa_actors::state::{NEUTRAL, StateMaster};
+use orsa_actors::switch::{Switch, SwitchError, SwitchMaster};
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{Component, ComponentError, Ctx, Update};
 use orsa_interfaces::behaviour::{ACTIVE, VEL};
@@ -43,6 +48,8 @@ pub struct ExecutiveParams {
     pub robot: String,
     /// The master looks at every n-th scan.
     pub subscribe_every: u32,
+    /// How long each step of a mode switch may take before the switch is undone, s.
+    pub switch_step_s: f64,
     /// The modes goals can name.
     pub modes: BTreeMap<String, Mode>,
 }
@@ -70,7 +77,7 @@ impl Default for ExecutiveParams {
         }
         // The text above is part of the program, and a test parses it.
         let modes = toml::from_str::<Modes>(text).map(|m| m.modes).unwrap_or_default();
-        ExecutiveParams { robot: "nomad200".into(), subscribe_every: 10, modes }
+        ExecutiveParams { robot: "nomad200".into(), subscribe_every: 10, switch_step_s: 0.2, modes }
     }
 }
 
@@ -79,6 +86,10 @@ impl ExecutiveParams {
     pub fn validate(&self) -> Result<(), String> {
         if self.subscribe_every == 0 {
             return Err("executive.subscribe_every: must be at least 1".into());
+        }
+        let step = self.switch_step_s;
+        if !(step.is_finite() && (0.001..=10.0).contains(&step)) {
+            return Err(format!("executive.switch_step_s: must be from 0.001 to 10 seconds, not {step}"));
         }
         if self.modes.is_empty() {
             return Err("executive.modes: define at least one mode".into());
@@ -138,6 +149,7 @@ pub struct MasterState {
     next_id: u64,
     driving: Option<String>,
     wiring: WiringMaster,
+    switch: SwitchMaster,
     motors: SendClient<NavigationVelocity>,
     motors_addr: Addr<SendService<NavigationVelocity>>,
     states: BTreeMap<String, StateMaster>,
@@ -179,6 +191,7 @@ impl Component for Master {
             next_id: 1,
             driving: None,
             wiring: WiringMaster::new(ctx.registry()),
+            switch: SwitchMaster::new(ctx.registry(), ctx.name()),
             motors: ctx.send_client(&motors_addr)?,
             motors_addr,
             states,
@@ -234,7 +247,6 @@ impl Component for Master {
             MasterMsg::Deadline(id) => {
                 if st.goal.as_ref().is_some_and(|g| g.id == id) {
                     let done = st.goal.take();
-                    st.arbiter = Arbiter::new();
                     if let Some(g) = done {
                         fire(ctx, st, g.id, &g.mode, GoalStatus::Reached, String::new());
                     }
@@ -275,6 +287,38 @@ impl Master {
         st.goal.as_ref().and_then(|g| self.params.modes.get(&g.mode))
     }
 
+    /// A switch that hands the motors from whoever drives to `want`, with `more` changes.
+    fn handover(&self, st: &MasterState, want: Option<&str>, more: Switch) -> Switch {
+        let mut switch = more.step_timeout(Duration::from_secs_f64(self.params.switch_step_s));
+        if let Some(old) = st.driving.as_deref()
+            && want != Some(old)
+        {
+            switch = switch.disconnect(old, VEL);
+        }
+        if let Some(new) = want
+            && st.driving.as_deref() != Some(new)
+        {
+            switch = switch.connect(new, VEL, &st.motors_addr);
+        }
+        switch
+    }
+
+    /// After a switch failed: if it could not undo everything, nobody is known to drive, so
+    /// unwire every behaviour one by one and stop the motors.
+    async fn after_failed_switch(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState, e: &SwitchError) {
+        tracing::warn!("master: {e}");
+        if e.nothing_changed() {
+            return;
+        }
+        for b in st.states.keys() {
+            if let Err(e) = st.wiring.disconnect(b, VEL).await {
+                tracing::warn!("master: cannot unwire {b}: {e}");
+            }
+        }
+        st.driving = None;
+        stop_motors(ctx, st);
+    }
+
     async fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
         let want = self.mode(st).and_then(|m| {
             let rule = st.arbiter.decide(m, &st.readings, st.readings_s)?;
@@ -283,21 +327,18 @@ impl Master {
         if want == st.driving {
             return;
         }
-        if let Some(old) = st.driving.take()
-            && let Err(e) = st.wiring.disconnect(&old, VEL).await
-        {
-            tracing::warn!("master: cannot unwire {old}: {e}");
+        let switch = self.handover(st, want.as_deref(), Switch::new());
+        match st.switch.apply(&switch).await {
+            Ok(()) => st.driving = want,
+            Err(e) => self.after_failed_switch(ctx, st, &e).await,
         }
-        match &want {
-            Some(new) => match st.wiring.connect(new, VEL, &st.motors_addr).await {
-                Ok(()) => st.driving = want.clone(),
-                Err(e) => {
-                    tracing::warn!("master: cannot wire {new} to {}: {e}", st.motors_addr);
-                    stop_motors(ctx, st);
-                }
-            },
-            None => stop_motors(ctx, st),
+        if st.driving.is_none() {
+            stop_motors(ctx, st);
         }
+        self.push_driving(ctx, st);
+    }
+
+    fn push_driving(&self, ctx: &Ctx<MasterMsg>, st: &MasterState) {
         st.wiring_push.put(WiringChange {
             stamp: ctx.now(),
             driving: st.driving.clone(),
@@ -319,24 +360,38 @@ impl Master {
                 reason: format!("for_s must be a number of seconds from 0 to {MAX_GOAL_S}, not {s}"),
             };
         }
+        // The whole mode change is one switch: unwire whoever drives (if the new mode's rules
+        // pick someone else), set every behaviour's state, wire the new driver. If any of it
+        // fails, all of it is undone and the previous goal goes on.
+        let mut arbiter = Arbiter::new();
+        let want = arbiter
+            .decide(mode, &st.readings, st.readings_s)
+            .and_then(|i| mode.rules.get(i))
+            .map(|r| r.drive.clone());
+        let states = st.states.keys().fold(Switch::new(), |sw, name| {
+            sw.state(name, if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL })
+        });
+        let switch = self.handover(st, want.as_deref(), states);
+        if let Err(e) = st.switch.apply(&switch).await {
+            self.after_failed_switch(ctx, st, &e).await;
+            if st.driving.is_none() {
+                stop_motors(ctx, st);
+            }
+            let id = st.next_id;
+            st.next_id += 1;
+            let reason = e.to_string();
+            fire(ctx, st, id, &goal.mode, GoalStatus::Failed, reason.clone());
+            return GoalReply::Rejected { reason };
+        }
         if let Some(old) = st.goal.take() {
             fire(ctx, st, old.id, &old.mode, GoalStatus::Preempted, format!("by a '{}' goal", goal.mode));
         }
         let id = st.next_id;
         st.next_id += 1;
-        st.arbiter = Arbiter::new();
-        // Whoever drives and is not part of the new mode stops driving before it is deactivated.
-        if st.driving.as_ref().is_some_and(|d| !mode.behaviours.contains(d)) {
-            self.arbitrate(ctx, st).await;
-        }
-        for (name, sm) in &st.states {
-            let target = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
-            if let Err(e) = sm.set_state(target).await {
-                let detail = format!("cannot set {name} to {target}: {e}");
-                fire(ctx, st, id, &goal.mode, GoalStatus::Failed, detail.clone());
-                self.arbitrate(ctx, st).await;
-                return GoalReply::Rejected { reason: detail };
-            }
+        st.arbiter = arbiter;
+        st.driving = want;
+        if st.driving.is_none() {
+            stop_motors(ctx, st);
         }
         st.goal = Some(Current { id, mode: goal.mode.clone() });
         if let Some(secs) = goal.for_s {
@@ -348,7 +403,7 @@ impl Master {
             });
         }
         fire(ctx, st, id, &goal.mode, GoalStatus::Started, String::new());
-        self.arbitrate(ctx, st).await;
+        self.push_driving(ctx, st);
         GoalReply::Accepted { id }
     }
 }

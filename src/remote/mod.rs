@@ -21,7 +21,9 @@ mod robot;
 mod tools;
 
 pub use robot::{FALLBACK, RobotArgs, RobotReport, robot};
-pub use tools::{EchoArgs, ListArgs, StateArgs, WireArgs, echo, list, state, wire};
+pub use tools::{
+    EchoArgs, ListArgs, StateArgs, SwitchArgs, WireArgs, echo, list, parse_change, state, switch, wire,
+};
 
 use crate::config::Config;
 use crate::system::{Place, System};

@@ -1,7 +1,8 @@
-//! The inspection tools: `orsa list`, `orsa echo`, `orsa wire`, `orsa state`.
+//! The inspection tools: `orsa list`, `orsa echo`, `orsa wire`, `orsa state`, `orsa switch`.
 
 use super::{NetArgs, open, runtime, secs, until_stopped, wait_for};
 use anyhow::{Context as _, bail};
+use orsa_actors::switch::{Change, Switch, SwitchMaster};
 use orsa_actors::transport::Transport as _;
 use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{PatternKind, Registry, ServiceAddr};
@@ -62,6 +63,52 @@ pub struct WireArgs {
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
+}
+
+/// Arguments of `orsa switch`.
+#[derive(Debug, clap::Args)]
+pub struct SwitchArgs {
+    /// The changes, made all or nothing: `COMPONENT.PORT=SERVICE` connects a port (SERVICE is
+    /// `component/service`), `COMPONENT.PORT=` disconnects it, `COMPONENT:STATE` sets a main
+    /// state. For example: `wallfollow.vel= wallfollow:neutral centerfollow:active
+    /// centerfollow.vel=nomad200/navigationvelocity`.
+    #[arg(required = true, value_name = "CHANGE", value_parser = parse_change)]
+    pub changes: Vec<Change>,
+    /// How long each step may take before the whole switch is undone.
+    #[arg(long, value_name = "SECS", default_value_t = 1.0)]
+    pub step_timeout: f64,
+    /// How long to wait for the components.
+    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+    pub wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// One change as typed on the command line (see [`SwitchArgs::changes`]).
+pub fn parse_change(text: &str) -> Result<Change, String> {
+    let bad =
+        |why: &str| format!("'{text}': {why} (COMPONENT.PORT=SERVICE, COMPONENT.PORT= or COMPONENT:STATE)");
+    let name = |s: &str, what: &str| -> Result<String, String> {
+        if orsa_actors::addr::valid_name(s) {
+            Ok(s.to_string())
+        } else {
+            Err(bad(&format!("'{s}' is not a valid {what} name")))
+        }
+    };
+    if let Some((left, target)) = text.split_once('=') {
+        let (component, port) = left.split_once('.').ok_or_else(|| bad("a port is COMPONENT.PORT"))?;
+        let (component, port) = (name(component, "component")?, name(port, "port")?);
+        if target.is_empty() {
+            return Ok(Change::Disconnect { component, port });
+        }
+        let target = target.parse::<ServiceAddr>().map_err(|e| bad(&e.to_string()))?;
+        return Ok(Change::Connect { component, port, target });
+    }
+    if let Some((component, main)) = text.split_once(':') {
+        return Ok(Change::State { component: name(component, "component")?, main: name(main, "state")? });
+    }
+    Err(bad("neither a port nor a state"))
 }
 
 /// Arguments of `orsa state`.
@@ -324,6 +371,38 @@ pub fn state(args: StateArgs) -> anyhow::Result<()> {
             s.pending.map(|p| format!(" (changing to {p})")).unwrap_or_default()
         ));
         transport.close().await;
+        Ok(())
+    })
+}
+
+/// `orsa switch`: several wiring and state changes, on components anywhere on the network, all
+/// or nothing.
+pub fn switch(args: SwitchArgs) -> anyhow::Result<()> {
+    let wait = secs(args.wait, "--wait")?;
+    let step = secs(args.step_timeout, "--step-timeout")?;
+    runtime()?.block_on(async move {
+        let registry = Registry::new();
+        let transport = open(&registry, &args.net, "tool", None).await?;
+        let mut needed: Vec<ServiceAddr> = args
+            .changes
+            .iter()
+            .map(|c| match c {
+                Change::State { component, .. } => ServiceAddr::new(component, "state"),
+                Change::Connect { component, .. } | Change::Disconnect { component, .. } => {
+                    ServiceAddr::new(component, "wiring")
+                }
+            })
+            .collect();
+        needed.sort();
+        needed.dedup();
+        wait_for(&transport, &needed, wait).await?;
+        let master = SwitchMaster::new(&registry, "tool");
+        let result = master.apply(&Switch::of(args.changes.clone()).step_timeout(step)).await;
+        transport.close().await;
+        result?;
+        for c in &args.changes {
+            crate::cli::say(&format!("done: {c}"));
+        }
         Ok(())
     })
 }

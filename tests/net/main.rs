@@ -10,6 +10,7 @@ mod links;
 mod processes;
 mod replay;
 mod security;
+mod switch;
 
 #[allow(dead_code, unreachable_pub)]
 #[path = "../../examples/remote_client.rs"]
