@@ -75,12 +75,18 @@ async fn observe(s: &System) -> Config {
     c
 }
 
-#[tokio::test(start_paused = true)]
-async fn switch_a_mode_change_is_made_in_the_safe_order() {
+/// The system with b0 active and wired to the motors, and a switch master for it.
+async fn driven_by_b0() -> (System, SwitchMaster) {
     let s = system();
     let master = SwitchMaster::new(&s.registry, "exec");
     let first = Switch::new().state("b0", "active").connect("b0", VEL, MOTORS.on("robot"));
-    master.apply(&first).await.expect("first");
+    master.apply(&first).await.expect("b0 drives");
+    (s, master)
+}
+
+#[tokio::test(start_paused = true)]
+async fn switch_a_mode_change_is_made_in_the_safe_order() {
+    let (s, master) = driven_by_b0().await;
     // The connect comes first in the list: the commit still disconnects b0 before it wires b1.
     let to_b1 = Switch::new()
         .connect("b1", VEL, MOTORS.on("robot"))
@@ -116,12 +122,7 @@ async fn switch_a_mode_change_is_made_in_the_safe_order() {
 
 #[tokio::test(start_paused = true)]
 async fn switch_prepare_refuses_what_cannot_be_made_and_changes_nothing() {
-    let s = system();
-    let master = SwitchMaster::new(&s.registry, "exec");
-    master
-        .apply(&Switch::new().state("b0", "active").connect("b0", VEL, MOTORS.on("robot")))
-        .await
-        .expect("set up");
+    let (s, master) = driven_by_b0().await;
     let before = observe(&s).await;
     let text: ServiceAddr = "robot/text".parse().expect("addr");
     let cases: Vec<(Switch, &str)> = vec![
@@ -163,12 +164,7 @@ async fn switch_prepare_refuses_what_cannot_be_made_and_changes_nothing() {
 
 #[tokio::test(start_paused = true)]
 async fn switch_a_step_that_hangs_is_undone_with_everything_before_it() {
-    let s = system();
-    let master = SwitchMaster::new(&s.registry, "exec");
-    master
-        .apply(&Switch::new().state("b0", "active").connect("b0", VEL, MOTORS.on("robot")))
-        .await
-        .expect("set up");
+    let (s, master) = driven_by_b0().await;
     master.apply(&Switch::new().state("b2", "active")).await.expect("b2 active");
     // b2's activity is stuck in its critical section: it cannot be set to neutral.
     let _stuck: SubstateGuard = s.slaves["b2"].handle().try_acquire("drive").expect("drive");
