@@ -149,6 +149,8 @@ impl<M: ractor::Message> Ctx<M> {
         let made = (|| {
             let state = StateSlave::register(registry, name, StateSpec::new())?;
             let wiring = WiringSlave::register_with_cancel(registry, name, Some(state.cancel_token()))?;
+            // Its wiring service also carries the switches other processes make here.
+            wiring.serve_also(crate::switch::participant(registry));
             Ok::<_, PatternError>((state, wiring))
         })();
         let (state, wiring) = match made {

@@ -74,6 +74,9 @@ struct Inner {
     decode_errors: std::sync::atomic::AtomicU64,
     faults: crate::fault::Faults,
     ledger: crate::ledger::Ledger,
+    /// The switches other processes prepared or committed here (`crate::switch` keeps its
+    /// own type in it; the registry only holds it).
+    switches: parking_lot::Mutex<std::collections::HashMap<String, Box<dyn Any + Send>>>,
 }
 
 /// The directory of one orsa system; cheap to clone, shared by all its components.
@@ -119,6 +122,7 @@ impl Registry {
                 decode_errors: std::sync::atomic::AtomicU64::new(0),
                 faults: crate::fault::Faults::new(clock),
                 ledger: crate::ledger::Ledger::default(),
+                switches: parking_lot::Mutex::new(std::collections::HashMap::new()),
             }),
         }
     }
@@ -283,11 +287,16 @@ impl Registry {
         addr: &ServiceAddr,
         expected: &ServiceInfo,
     ) -> PatternResult<Option<Arc<E>>> {
-        let Some(service) = self.local(addr) else {
-            return Ok(None);
+        // Under the read lock, checked in place: only the endpoint's Arc is cloned.
+        let endpoint = {
+            let services = self.inner.services.read();
+            let Some(service) = services.get(addr) else {
+                return Ok(None);
+            };
+            check(&service.info, addr, expected)?;
+            Arc::clone(&service.endpoint)
         };
-        check(&service.info, addr, expected)?;
-        match service.endpoint.downcast::<E>() {
+        match endpoint.downcast::<E>() {
             Ok(e) => Ok(Some(e)),
             // Same identifiers but another Rust type: two types claim one identifier.
             Err(_) => Err(PatternError::IncompatibleService {
@@ -297,8 +306,8 @@ impl Registry {
                     "{} (another Rust type with the same identifier)",
                     expected.types.join(" -> ")
                 ),
-                found_pattern: service.info.pattern,
-                found: service.info.types.join(" -> "),
+                found_pattern: expected.pattern,
+                found: expected.types.join(" -> "),
             }),
         }
     }
@@ -323,12 +332,30 @@ impl Registry {
         Err(self.not_found(addr))
     }
 
+    /// This process's side of the switches other processes make on its components.
+    pub(crate) fn switches(
+        &self,
+    ) -> &parking_lot::Mutex<std::collections::HashMap<String, Box<dyn Any + Send>>> {
+        &self.inner.switches
+    }
+
     /// What the service at `addr` is, hosted here or by a peer the transport knows.
     pub fn service_info(&self, addr: &ServiceAddr) -> PatternResult<ServiceInfo> {
         if let Some(local) = self.local(addr) {
             return Ok(local.info);
         }
         self.transport().and_then(|t| t.lookup(addr)).ok_or_else(|| self.not_found(addr))
+    }
+
+    /// Checks that the service at `addr` (hosted here or by a peer) is what `expected` says.
+    pub(crate) fn check_service(&self, addr: &ServiceAddr, expected: &ServiceInfo) -> PatternResult<()> {
+        if let Some(service) = self.inner.services.read().get(addr) {
+            return check(&service.info, addr, expected);
+        }
+        match self.transport().and_then(|t| t.lookup(addr)) {
+            Some(found) => check(&found, addr, expected),
+            None => Err(self.not_found(addr)),
+        }
     }
 
     /// The error for an address that resolves nowhere.

@@ -234,6 +234,11 @@ impl StateSlave {
         self.tap.record(&self.topic, StateStatus::ID, self.clock.now(), &status);
     }
 
+    /// The current main state.
+    pub(crate) fn current(&self) -> String {
+        self.inner.lock().current().to_string()
+    }
+
     fn bump(&self) {
         self.version.send_modify(|v| *v += 1);
     }
@@ -248,7 +253,7 @@ impl StateSlave {
         }
     }
 
-    fn check_main(&self, name: &str) -> PatternResult<()> {
+    pub(crate) fn check_main(&self, name: &str) -> PatternResult<()> {
         if self.inner.lock().spec().main.contains_key(name) {
             Ok(())
         } else {
@@ -259,7 +264,7 @@ impl StateSlave {
         }
     }
 
-    async fn set(&self, main: &str) -> PatternResult<()> {
+    pub(crate) async fn set(&self, main: &str) -> PatternResult<()> {
         self.check_main(main)?;
         let _one_change_at_a_time = self.change.lock().await;
         {
@@ -289,7 +294,7 @@ impl StateSlave {
         }
     }
 
-    fn try_set(&self, main: &str) -> PatternResult<()> {
+    pub(crate) fn try_set(&self, main: &str) -> PatternResult<()> {
         self.check_main(main)?;
         let Ok(_one_change_at_a_time) = self.change.try_lock() else {
             return Err(PatternError::Busy(vec!["(another state change is in progress)".into()]));

@@ -19,11 +19,28 @@
 //!    the caller gets one [`SwitchError`] naming the change that failed, why, and whether the
 //!    undo was complete.
 //!
+//! **Across processes** the changes on components another process hosts are that process's
+//! part, and it makes its part on one message (a two-phase commit whose participants are
+//! processes, carried by the components' wiring services; `docs/wire-format.md`, section 6.6):
+//!
+//! - *prepare*: the process checks its part as above and holds it for a **lease** (1 s by
+//!   default, [`SwitchMaster::lease`]); it answers which components it covers, so one message
+//!   per process suffices;
+//! - *commit*: the process makes its whole part, or undoes what it made of it; a commit that
+//!   arrives after the lease is refused, so a coordinator that gave up can never see its switch
+//!   made behind its back;
+//! - *undo*: puts a committed part back (the coordinator failed elsewhere).
+//!
+//! So each process is always in its configuration before the switch or after it. A link cut
+//! before the commit leaves the old one (the lease runs out); a commit whose answer is lost is
+//! undone; if the undo cannot reach the process either, the coordinator cannot know which of the
+//! two it is in, and the error says so for every change of that part
+//! ([`SwitchError::not_undone`]). In a deployment the robot's link watchdog then unwires its
+//! ports and stops the motors on its own when it loses the executive. The other processes'
+//! parts are committed first, then this process's.
+//!
 //! What a switch does not give: isolation from another master changing the same components
-//! between the two phases (orsa has one executive per system), and an undo of a step whose
-//! component cannot be reached any more. A participant that becomes unreachable during the
-//! commit is reported in [`SwitchError::not_undone`]; across processes, the robot's link
-//! watchdog then unwires its ports and stops the motors on its own when the executive is lost.
+//! between the two phases (orsa has one executive per system).
 //!
 //! Every applied or failed switch is shown to the tap as one control event, a
 //! [`SwitchRecord`] on the topic `OWNER/switch`, so a recording shows the whole switch.
@@ -60,13 +77,14 @@
 
 use crate::addr::{IntoAddr, ServiceAddr};
 use crate::error::{PatternError, PatternResult};
-use crate::registry::Registry;
+use crate::registry::{Registry, Resolved};
 use crate::service::PortDescriptor;
-use crate::state::{StateMaster, StateStatus};
-use crate::wiring::{PortStatus, WiringMaster};
+use crate::state::StateSlave;
+use crate::wiring::WiringSlave;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// How long one step of a switch may take by default: well inside a robot's velocity timeout
@@ -295,8 +313,87 @@ pub struct SwitchFailure {
 /// What a switch needs to know of a component before it changes it.
 #[derive(Default)]
 struct Before {
-    ports: BTreeMap<String, PortStatus>,
-    state: Option<StateStatus>,
+    /// Its wiring slave, if the switch changes its ports.
+    wiring: Option<Arc<WiringSlave>>,
+    /// Its state slave, if the switch sets its state.
+    slave: Option<Arc<StateSlave>>,
+    /// Per port named: where it was connected.
+    ports: Vec<(String, Option<ServiceAddr>)>,
+    /// The main state it was in, if the switch sets it.
+    state: Option<String>,
+}
+
+/// A switch's identity: when its coordinator began it (a reading of the system's clock, ns)
+/// and its number among that coordinator's switches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct TxnId {
+    /// When the coordinator began the switch, ns on the system's time base.
+    pub at: u64,
+    /// The coordinator's count of its switches.
+    pub n: u64,
+}
+
+impl fmt::Display for TxnId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}-{}", self.at, self.n)
+    }
+}
+
+/// A switch request to another process, sent to the wiring service of one of its components
+/// (`docs/wire-format.md`, section 6.6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+pub enum SwitchRequest {
+    /// Check the changes on the components the process hosts and hold them, for `lease_ms`,
+    /// until a commit.
+    SwitchPrepare {
+        /// The transaction.
+        txn: TxnId,
+        /// All the changes of the switch; the process takes those on components it hosts.
+        changes: Vec<Change>,
+        /// How long each step may take, in milliseconds.
+        step_timeout_ms: u64,
+        /// How long the prepared changes wait for the commit, in milliseconds.
+        lease_ms: u64,
+    },
+    /// Make the prepared changes of `txn`, all or nothing.
+    SwitchCommit {
+        /// The transaction.
+        txn: TxnId,
+    },
+    /// Undo the committed changes of `txn` (the coordinator failed elsewhere).
+    SwitchUndo {
+        /// The transaction.
+        txn: TxnId,
+    },
+}
+
+/// A switch's answer from another process (to a prepare, a commit or an undo).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SwitchReply {
+    /// The components of the switch that process hosts (the ones its answer is for).
+    pub covers: Vec<String>,
+    /// `None` if it did what was asked.
+    pub failed: Option<RemoteFailure>,
+}
+
+/// How a switch failed in another process.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RemoteFailure {
+    /// The change that failed.
+    pub change: Change,
+    /// Why.
+    pub error: crate::wire::WireFailure,
+    /// Changes of that process undone there.
+    pub undone: Vec<Change>,
+    /// Changes of that process that could not be undone, with why.
+    pub not_undone: Vec<(Change, crate::wire::WireFailure)>,
+}
+
+/// The changes hosted by another process, and which component to address them through.
+struct Group {
+    via: String,
+    changes: Vec<Change>,
 }
 
 /// The master side: applies [`Switch`]es to the components of a system, in this process or
@@ -304,8 +401,9 @@ struct Before {
 #[derive(Clone, Debug)]
 pub struct SwitchMaster {
     registry: Registry,
-    wiring: WiringMaster,
     topic: String,
+    lease: Duration,
+    next: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 impl SwitchMaster {
@@ -314,14 +412,26 @@ impl SwitchMaster {
     pub fn new(registry: &Registry, owner: &str) -> Self {
         SwitchMaster {
             registry: registry.clone(),
-            wiring: WiringMaster::new(registry),
             topic: format!("{owner}/switch"),
+            lease: Duration::from_secs(1),
+            next: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1)),
         }
+    }
+
+    /// Sets how long another process holds a prepared switch for its commit (default 1 s):
+    /// a commit that arrives later is refused, so a coordinator that lost the link can never
+    /// see its switch made after it gave up.
+    pub fn lease(mut self, lease: Duration) -> Self {
+        self.lease = lease;
+        self
     }
 
     /// Prepares and commits `switch`, or leaves every component as it was and says why.
     pub async fn apply(&self, switch: &Switch) -> Result<(), SwitchError> {
         let result = self.run(switch).await;
+        if !self.registry.tap_slot().installed() {
+            return result;
+        }
         let mut changes = switch.changes.clone();
         changes.sort_by_key(Change::rank);
         let failed = result.as_ref().err().map(|e| SwitchFailure {
@@ -332,130 +442,341 @@ impl SwitchMaster {
             not_undone: e.not_undone.iter().map(|(c, e)| (c.clone(), e.to_string())).collect(),
         });
         let record = SwitchRecord { changes, failed };
-        self.registry.tap_slot().record(
-            &self.topic,
-            <SwitchRecord as crate::CommObject>::ID,
-            self.registry.now(),
-            &record,
-        );
+        let id = <SwitchRecord as crate::CommObject>::ID;
+        self.registry.tap_slot().record(&self.topic, id, self.registry.now(), &record);
         result
     }
 
     async fn run(&self, switch: &Switch) -> Result<(), SwitchError> {
-        let before = self.prepare(switch).await.map_err(|(change, error)| SwitchError {
+        let prepare_error = |(change, error): (Change, PatternError)| SwitchError {
             phase: Phase::Prepare,
             change,
             error,
             undone: Vec::new(),
             not_undone: Vec::new(),
-        })?;
-        let mut plan: Vec<&Change> = switch.changes.iter().collect();
-        plan.sort_by_key(|c| c.rank());
-        let mut made: Vec<(Change, Change)> = Vec::new();
-        for change in plan {
-            let undo = undo_of(change, &before);
-            if let Err(error) = self.make(change, switch.step_timeout).await {
-                // A step that failed may still have taken effect (a reply lost on the way back):
-                // undo it too, which is harmless if it did not.
-                made.push((change.clone(), undo));
-                let (undone, not_undone) = self.undo(made, switch.step_timeout).await;
-                return Err(SwitchError {
-                    phase: Phase::Commit,
-                    change: change.clone(),
-                    error,
-                    undone,
-                    not_undone,
-                });
+        };
+        check_once(&switch.changes).map_err(prepare_error)?;
+        let step = switch.step_timeout;
+        let mut hosted: Vec<(&str, bool)> = Vec::with_capacity(4);
+        let mut local: Vec<&Change> = Vec::with_capacity(switch.changes.len());
+        let mut remote: Vec<Change> = Vec::new();
+        for c in &switch.changes {
+            let here = match hosted.iter().find(|(name, _)| *name == c.component()) {
+                Some(&(_, here)) => here,
+                None => {
+                    let here = self.hosted_here(c.component());
+                    hosted.push((c.component(), here));
+                    here
+                }
+            };
+            if here {
+                local.push(c);
+            } else {
+                remote.push(c.clone());
             }
-            made.push((change.clone(), undo));
+        }
+        // Phase 1: every process with components in the switch checks its changes and holds
+        // them; then this process checks its own.
+        let txn = TxnId {
+            at: if remote.is_empty() { 0 } else { self.registry.now().as_nanos() },
+            n: self.next.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        };
+        let groups = if remote.is_empty() {
+            Vec::new()
+        } else {
+            self.prepare_remote(txn, &remote, step).await.map_err(prepare_error)?
+        };
+        let before = self.prepare(local.iter().copied()).map_err(prepare_error)?;
+        // Phase 2: the other processes, one commit each, then the changes here.
+        let mut committed: Vec<&Group> = Vec::new();
+        for g in &groups {
+            let wait = self.lease + step * u32::try_from(g.changes.len()).unwrap_or(u32::MAX);
+            let reply = self.ask(&g.via, SwitchRequest::SwitchCommit { txn }, wait).await;
+            let failure = match reply {
+                Ok(SwitchReply { failed: None, .. }) => {
+                    committed.push(g);
+                    continue;
+                }
+                Ok(SwitchReply { failed: Some(f), .. }) => f,
+                // No answer: the commit may or may not have been made there.
+                Err(error) => {
+                    let change = g
+                        .changes
+                        .first()
+                        .cloned()
+                        .unwrap_or_else(|| Change::State { component: g.via.clone(), main: String::new() });
+                    let mut e = SwitchError {
+                        phase: Phase::Commit,
+                        change,
+                        error,
+                        undone: Vec::new(),
+                        not_undone: Vec::new(),
+                    };
+                    self.undo_remote(txn, &[g], step, &mut e).await;
+                    self.undo_remote(txn, &committed, step, &mut e).await;
+                    return Err(e);
+                }
+            };
+            let mut e = SwitchError {
+                phase: Phase::Commit,
+                change: failure.change,
+                error: failure.error.into_error(),
+                undone: failure.undone,
+                not_undone: failure.not_undone.into_iter().map(|(c, w)| (c, w.into_error())).collect(),
+            };
+            self.undo_remote(txn, &committed, step, &mut e).await;
+            return Err(e);
+        }
+        let mut plan = local;
+        plan.sort_by_key(|c| c.rank());
+        if let Err((i, error)) = self.commit(&plan, &before, step).await {
+            // A step that failed may still have taken effect (a reply lost on the way back):
+            // it is undone too, which is harmless if it did not.
+            let (undone, not_undone) = self.undo(&plan[..=i], &before, step).await;
+            let change = plan[i].clone();
+            let mut e = SwitchError { phase: Phase::Commit, change, error, undone, not_undone };
+            self.undo_remote(txn, &committed, step, &mut e).await;
+            return Err(e);
         }
         Ok(())
     }
 
-    /// Checks every change against the components as they are, and notes how they are.
-    async fn prepare(&self, switch: &Switch) -> Result<BTreeMap<String, Before>, (Change, PatternError)> {
-        let mut seen_ports = BTreeSet::new();
-        let mut seen_states = BTreeSet::new();
-        for c in &switch.changes {
-            let fresh = match c {
-                Change::Connect { component, port, .. } | Change::Disconnect { component, port } => {
-                    seen_ports.insert((component.as_str(), port.as_str()))
-                }
-                Change::State { component, .. } => seen_states.insert(component.as_str()),
-            };
-            if !fresh {
-                let what = if matches!(c, Change::State { .. }) { "state" } else { "port" };
-                let e = PatternError::InvalidArgument(format!("the switch changes this {what} twice"));
-                return Err((c.clone(), e));
+    fn hosted_here(&self, component: &str) -> bool {
+        self.registry.local(&ServiceAddr::new(component, "wiring")).is_some()
+            || self.registry.local(&ServiceAddr::new(component, "state")).is_some()
+    }
+
+    /// Asks the process hosting `component` (through its wiring service) to take part.
+    async fn ask(
+        &self,
+        component: &str,
+        request: SwitchRequest,
+        timeout: Duration,
+    ) -> PatternResult<SwitchReply> {
+        let addr = ServiceAddr::new(component, "wiring");
+        let remote = match self.registry.resolve::<crate::wiring::WiringSlave>(&addr, &crate::wiring::info())
+        {
+            Ok(Resolved::Remote(r)) => r,
+            Ok(Resolved::Local(_)) => {
+                return Err(PatternError::InvalidArgument(format!("'{component}' is hosted here")));
+            }
+            Err(PatternError::UnknownService(_)) => {
+                return Err(PatternError::UnknownComponent(component.into()));
+            }
+            Err(e) => return Err(e),
+        };
+        let bytes = remote.transport.request(&remote.addr, crate::wire::encode(&request), timeout).await?;
+        remote.counted(crate::wire::decode_reply::<SwitchReply>(&bytes, &remote.addr, "orsa.SwitchReply/1"))
+    }
+
+    /// Prepares the changes on components of other processes: asks the process of the first
+    /// component not yet covered, which answers for all the components it hosts.
+    async fn prepare_remote(
+        &self,
+        txn: TxnId,
+        remote: &[Change],
+        step: Duration,
+    ) -> Result<Vec<Group>, (Change, PatternError)> {
+        let mut uncovered: Vec<String> = Vec::new();
+        for c in remote {
+            if !uncovered.iter().any(|u| u == c.component()) {
+                uncovered.push(c.component().to_string());
             }
         }
-        let timeout = switch.step_timeout;
-        let mut before: BTreeMap<String, Before> = BTreeMap::new();
-        for c in &switch.changes {
-            let component = c.component().to_string();
-            let b = before.entry(component.clone()).or_default();
-            let fail = |e: PatternError| (c.clone(), e);
-            match c {
-                Change::Connect { port, .. } | Change::Disconnect { port, .. } => {
-                    if b.ports.is_empty() {
-                        let ports = within(timeout, self.wiring.ports(&component)).await.map_err(fail)?;
-                        b.ports = ports.into_iter().map(|p| (p.port.clone(), p)).collect();
-                    }
-                    let Some(status) = b.ports.get(port) else {
-                        return Err(fail(PatternError::UnknownPort { component, port: port.clone() }));
-                    };
-                    if let Change::Connect { target, .. } = c {
-                        let found = self.registry.service_info(target).map_err(fail)?;
-                        crate::registry::check(&found, target, &status.info).map_err(fail)?;
-                    }
+        let mut groups = Vec::new();
+        while let Some(first) = uncovered.first().cloned() {
+            let on_first = || {
+                remote.iter().find(|c| c.component() == first).cloned().unwrap_or_else(|| remote[0].clone())
+            };
+            let request = SwitchRequest::SwitchPrepare {
+                txn,
+                changes: remote.to_vec(),
+                step_timeout_ms: millis(step),
+                lease_ms: millis(self.lease),
+            };
+            let wait = step * u32::try_from(remote.len() + 1).unwrap_or(u32::MAX);
+            let reply = self.ask(&first, request, wait).await.map_err(|e| (on_first(), e))?;
+            if let Some(f) = reply.failed {
+                return Err((f.change, f.error.into_error()));
+            }
+            let covers: BTreeSet<String> = reply.covers.into_iter().collect();
+            if !covers.contains(&first) {
+                let e =
+                    PatternError::Remote(format!("the process serving '{first}/wiring' does not host it"));
+                return Err((on_first(), e));
+            }
+            uncovered.retain(|u| !covers.contains(u));
+            let changes = remote.iter().filter(|c| covers.contains(c.component())).cloned().collect();
+            groups.push(Group { via: first, changes });
+        }
+        Ok(groups)
+    }
+
+    /// Undoes the commits of `groups`, noting the outcome in `e`.
+    async fn undo_remote(&self, txn: TxnId, groups: &[&Group], step: Duration, e: &mut SwitchError) {
+        for g in groups.iter().rev() {
+            let wait = step * u32::try_from(g.changes.len() + 1).unwrap_or(u32::MAX);
+            match self.ask(&g.via, SwitchRequest::SwitchUndo { txn }, wait).await {
+                Ok(SwitchReply { failed: None, .. }) => e.undone.extend(g.changes.iter().rev().cloned()),
+                Ok(SwitchReply { failed: Some(f), .. }) => {
+                    e.undone.extend(f.undone);
+                    e.not_undone.extend(f.not_undone.into_iter().map(|(c, w)| (c, w.into_error())));
                 }
-                Change::State { main, .. } => {
-                    if b.state.is_none() {
-                        let master = StateMaster::connect(&self.registry, &component).map_err(fail)?;
-                        b.state = Some(within(timeout, master.status()).await.map_err(fail)?);
+                Err(error) => {
+                    let unknown = format!(
+                        "its process did not answer the undo ({error}): whether the change is made there is unknown"
+                    );
+                    e.not_undone
+                        .extend(g.changes.iter().map(|c| (c.clone(), PatternError::Link(unknown.clone()))));
+                }
+            }
+        }
+    }
+
+    /// The wiring slave of `component`, hosted here.
+    fn wiring_slave(&self, component: &str) -> PatternResult<Arc<WiringSlave>> {
+        let addr = ServiceAddr::new(component, "wiring");
+        self.registry
+            .resolve_local::<WiringSlave>(&addr, &crate::wiring::info())?
+            .ok_or_else(|| PatternError::UnknownComponent(component.to_string()))
+    }
+
+    /// The state slave of `component`, hosted here.
+    fn state_slave(&self, component: &str) -> PatternResult<Arc<StateSlave>> {
+        let addr = ServiceAddr::new(component, "state");
+        self.registry
+            .resolve_local::<StateSlave>(&addr, &crate::state::info())?
+            .ok_or_else(|| PatternError::UnknownComponent(component.to_string()))
+    }
+
+    /// Checks every change (on components hosted here) against the components as they are, and
+    /// notes how they are.
+    // The refusal is built once per failed switch, on a cold path; boxing it would only move the
+    // allocation.
+    #[allow(clippy::result_large_err)]
+    fn prepare<'c>(
+        &self,
+        changes: impl IntoIterator<Item = &'c Change>,
+    ) -> Result<BTreeMap<String, Before>, (Change, PatternError)> {
+        let mut before: BTreeMap<String, Before> = BTreeMap::new();
+        for c in changes {
+            let fail = |e: PatternError| (c.clone(), e);
+            let b = match before.get_mut(c.component()) {
+                Some(b) => b,
+                None => before.entry(c.component().to_string()).or_default(),
+            };
+            match c {
+                Change::Connect { component, port, .. } | Change::Disconnect { component, port } => {
+                    if b.wiring.is_none() {
+                        b.wiring = Some(self.wiring_slave(component).map_err(fail)?);
                     }
-                    let declared = b.state.as_ref().is_some_and(|s| s.main_states.contains_key(main));
-                    if !declared {
-                        let name = format!("{main}' of '{component}");
-                        return Err(fail(PatternError::Unknown { kind: "main state", name }));
+                    let wiring = b
+                        .wiring
+                        .as_ref()
+                        .ok_or_else(|| fail(PatternError::UnknownComponent(component.clone())))?;
+                    let (info, target) = wiring.port_status(port).map_err(fail)?;
+                    if let Change::Connect { target, .. } = c {
+                        self.registry.check_service(target, &info).map_err(fail)?;
                     }
+                    b.ports.push((port.clone(), target));
+                }
+                Change::State { component, main } => {
+                    let slave = self.state_slave(component).map_err(fail)?;
+                    slave.check_main(main).map_err(fail)?;
+                    b.state = Some(slave.current());
+                    b.slave = Some(slave);
                 }
             }
         }
         Ok(before)
     }
 
+    /// Makes the changes of `plan` (in commit order); on a failure, says at which one.
+    async fn commit(
+        &self,
+        plan: &[&Change],
+        before: &BTreeMap<String, Before>,
+        step: Duration,
+    ) -> Result<(), (usize, PatternError)> {
+        for (i, change) in plan.iter().enumerate() {
+            self.make_prepared(change, before.get(change.component()), step).await.map_err(|e| (i, e))?;
+        }
+        Ok(())
+    }
+
+    /// Makes `change` through the slaves `prepared` found (or finds them).
+    async fn make_prepared(
+        &self,
+        change: &Change,
+        prepared: Option<&Before>,
+        timeout: Duration,
+    ) -> PatternResult<()> {
+        match (change, prepared) {
+            (Change::Connect { port, target, .. }, Some(Before { wiring: Some(w), .. })) => {
+                w.connect(port, target)
+            }
+            (Change::Disconnect { port, .. }, Some(Before { wiring: Some(w), .. })) => w.disconnect(port),
+            (Change::State { main, .. }, Some(Before { slave: Some(slave), .. })) => {
+                set_state(slave, main, timeout).await
+            }
+            _ => self.make(change, timeout).await,
+        }
+    }
+
     async fn make(&self, change: &Change, timeout: Duration) -> PatternResult<()> {
         match change {
             Change::Connect { component, port, target } => {
-                within(timeout, self.wiring.connect_named(component, port, target)).await
+                self.wiring_slave(component)?.connect(port, target)
             }
-            Change::Disconnect { component, port } => {
-                within(timeout, self.wiring.disconnect_named(component, port)).await
-            }
+            Change::Disconnect { component, port } => self.wiring_slave(component)?.disconnect(port),
             Change::State { component, main } => {
-                let master = StateMaster::connect(&self.registry, component)?;
-                master.set_state_timeout(main, timeout).await
+                set_state(&*self.state_slave(component)?, main, timeout).await
             }
         }
     }
 
-    /// Undoes `made` in reverse order; says what was undone and what could not be.
+    /// Undoes `made` (changes made, in the order they were made) in reverse order, back to
+    /// what `before` saw; says what was undone and what could not be.
     async fn undo(
         &self,
-        made: Vec<(Change, Change)>,
+        made: &[&Change],
+        before: &BTreeMap<String, Before>,
         timeout: Duration,
     ) -> (Vec<Change>, Vec<(Change, PatternError)>) {
         let mut undone = Vec::new();
         let mut not_undone = Vec::new();
-        for (change, undo) in made.into_iter().rev() {
-            match self.make(&undo, timeout).await {
-                Ok(()) => undone.push(change),
-                Err(e) => not_undone.push((change, e)),
+        for &change in made.iter().rev() {
+            let undo = undo_of(change, before);
+            match self.make_prepared(&undo, before.get(change.component()), timeout).await {
+                Ok(()) => undone.push(change.clone()),
+                Err(e) => not_undone.push((change.clone(), e)),
             }
         }
         (undone, not_undone)
     }
+}
+
+/// Refuses a switch that names a port, or a component's state, twice.
+#[allow(clippy::result_large_err)] // cold path, once per refused switch
+fn check_once(changes: &[Change]) -> Result<(), (Change, PatternError)> {
+    let mut seen_ports = BTreeSet::new();
+    let mut seen_states = BTreeSet::new();
+    for c in changes {
+        let fresh = match c {
+            Change::Connect { component, port, .. } | Change::Disconnect { component, port } => {
+                seen_ports.insert((component.as_str(), port.as_str()))
+            }
+            Change::State { component, .. } => seen_states.insert(component.as_str()),
+        };
+        if !fresh {
+            let what = if matches!(c, Change::State { .. }) { "state" } else { "port" };
+            return Err((
+                c.clone(),
+                PatternError::InvalidArgument(format!("the switch changes this {what} twice")),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The change that puts back what `change` changes, as `before` saw it.
@@ -463,20 +784,243 @@ fn undo_of(change: &Change, before: &BTreeMap<String, Before>) -> Change {
     let b = before.get(change.component());
     match change {
         Change::Connect { component, port, .. } | Change::Disconnect { component, port } => {
-            let previous = b.and_then(|b| b.ports.get(port)).and_then(|p| p.target.clone());
+            let previous =
+                b.and_then(|b| b.ports.iter().find(|(p, _)| p == port)).and_then(|(_, t)| t.clone());
             match previous {
                 Some(target) => Change::Connect { component: component.clone(), port: port.clone(), target },
                 None => Change::Disconnect { component: component.clone(), port: port.clone() },
             }
         }
         Change::State { component, main } => {
-            let previous =
-                b.and_then(|b| b.state.as_ref()).map_or_else(|| main.clone(), |s| s.current.clone());
+            let previous = b.and_then(|b| b.state.clone()).unwrap_or_else(|| main.clone());
             Change::State { component: component.clone(), main: previous }
         }
     }
 }
 
+/// Sets a main state at once if nothing holds a substate it excludes; else waits, at most
+/// `timeout`.
+async fn set_state(slave: &StateSlave, main: &str, timeout: Duration) -> PatternResult<()> {
+    match slave.try_set(main) {
+        Err(PatternError::Busy(_)) => within(timeout, slave.set(main)).await,
+        done => done,
+    }
+}
+
 async fn within<T>(timeout: Duration, fut: impl Future<Output = PatternResult<T>>) -> PatternResult<T> {
     tokio::time::timeout(timeout, fut).await.unwrap_or(Err(PatternError::Timeout))
+}
+
+fn millis(d: Duration) -> u64 {
+    u64::try_from(d.as_millis()).unwrap_or(u64::MAX)
+}
+
+/// One transaction as a participant holds it.
+enum Txn {
+    /// Checked, waiting for its commit until `deadline`.
+    Prepared {
+        covers: Vec<String>,
+        changes: Vec<Change>,
+        before: BTreeMap<String, Before>,
+        step: Duration,
+        deadline: tokio::time::Instant,
+    },
+    /// Made (its changes in commit order); kept for an undo.
+    Committed { covers: Vec<String>, changes: Vec<Change>, before: BTreeMap<String, Before>, step: Duration },
+    /// Being committed or undone right now, or over.
+    Busy { covers: Vec<String> },
+}
+
+/// How long a participant remembers a committed transaction, for an undo.
+const KEEP_COMMITTED: Duration = Duration::from_secs(30);
+
+/// What a component's wiring service answers besides wiring requests: the switch requests of
+/// other processes, served for all of this process's components.
+pub(crate) fn participant(registry: &Registry) -> crate::wiring::AlsoServed {
+    let registry = registry.clone();
+    std::sync::Arc::new(move |payload: &[u8]| {
+        let request = crate::wire::decode::<SwitchRequest>(payload, "orsa.SwitchRequest/1").ok()?;
+        Some(serve(registry.clone(), request))
+    })
+}
+
+/// The transactions of this process, as the registry keeps them.
+struct Txns<'a>(
+    parking_lot::MutexGuard<'a, std::collections::HashMap<String, Box<dyn std::any::Any + Send>>>,
+);
+
+impl Txns<'_> {
+    fn get(&self, txn: &str) -> Option<&Txn> {
+        self.0.get(txn).and_then(|t| t.downcast_ref::<Txn>())
+    }
+    fn remove(&mut self, txn: &str) -> Option<Txn> {
+        self.0.remove(txn).and_then(|t| t.downcast::<Txn>().ok()).map(|t| *t)
+    }
+    fn insert(&mut self, txn: String, t: Txn) {
+        self.0.insert(txn, Box::new(t));
+    }
+}
+
+fn txns(registry: &Registry) -> Txns<'_> {
+    Txns(registry.switches().lock())
+}
+
+/// Serves a switch request from another process (it came to one of this process's wiring
+/// services).
+fn serve(registry: Registry, request: SwitchRequest) -> futures::future::BoxFuture<'static, Vec<u8>> {
+    Box::pin(async move {
+        let reply = match request {
+            SwitchRequest::SwitchPrepare { txn, changes, step_timeout_ms, lease_ms } => {
+                serve_prepare(
+                    &registry,
+                    txn.to_string(),
+                    changes,
+                    Duration::from_millis(step_timeout_ms),
+                    Duration::from_millis(lease_ms),
+                )
+                .await
+            }
+            SwitchRequest::SwitchCommit { txn } => serve_commit(&registry, &txn.to_string()).await,
+            SwitchRequest::SwitchUndo { txn } => serve_undo(&registry, &txn.to_string()).await,
+        };
+        crate::wire::encode(&crate::wire::Reply::from_result(reply))
+    })
+}
+
+fn failure(
+    change: Change,
+    error: &PatternError,
+    undone: Vec<Change>,
+    not_undone: Vec<(Change, PatternError)>,
+) -> RemoteFailure {
+    RemoteFailure {
+        change,
+        error: crate::wire::WireFailure::from_error(error),
+        undone,
+        not_undone: not_undone
+            .iter()
+            .map(|(c, e)| (c.clone(), crate::wire::WireFailure::from_error(e)))
+            .collect(),
+    }
+}
+
+async fn serve_prepare(
+    registry: &Registry,
+    txn: String,
+    changes: Vec<Change>,
+    step: Duration,
+    lease: Duration,
+) -> PatternResult<SwitchReply> {
+    check_once(&changes).map_err(|(_, e)| e)?;
+    let master = SwitchMaster::new(registry, "switch");
+    let mut mine: Vec<Change> = changes.into_iter().filter(|c| master.hosted_here(c.component())).collect();
+    // Kept in commit order: the commit and an undo walk it as it is.
+    mine.sort_by_key(Change::rank);
+    let mut covers: Vec<String> = mine.iter().map(|c| c.component().to_string()).collect();
+    covers.sort();
+    covers.dedup();
+    if let Some(t) = txns(registry).get(&txn) {
+        // Asked again through another of this process's components: one answer for all.
+        let covers = match t {
+            Txn::Prepared { covers, .. } | Txn::Committed { covers, .. } | Txn::Busy { covers } => {
+                covers.clone()
+            }
+        };
+        return Ok(SwitchReply { covers, failed: None });
+    }
+    if mine.is_empty() {
+        return Ok(SwitchReply { covers, failed: None });
+    }
+    let before = match master.prepare(&mine) {
+        Ok(b) => b,
+        Err((change, e)) => {
+            return Ok(SwitchReply { covers, failed: Some(failure(change, &e, vec![], vec![])) });
+        }
+    };
+    let deadline = tokio::time::Instant::now() + lease;
+    let prepared = Txn::Prepared { covers: covers.clone(), changes: mine, before, step, deadline };
+    txns(registry).insert(txn.clone(), prepared);
+    // A commit that never comes: forget the transaction (nothing was changed for it).
+    let keep = registry.clone();
+    tokio::spawn(async move {
+        tokio::time::sleep(lease).await;
+        let mut txns = txns(&keep);
+        if matches!(txns.get(&txn), Some(Txn::Prepared { .. })) {
+            txns.remove(&txn);
+        }
+    });
+    Ok(SwitchReply { covers, failed: None })
+}
+
+async fn serve_commit(registry: &Registry, txn: &str) -> PatternResult<SwitchReply> {
+    let taken = {
+        let mut txns = txns(registry);
+        match txns.remove(txn) {
+            Some(Txn::Prepared { covers, changes, before, step, deadline }) => {
+                txns.insert(txn.to_string(), Txn::Busy { covers: covers.clone() });
+                Some((covers, changes, before, step, deadline))
+            }
+            Some(other) => {
+                txns.insert(txn.to_string(), other);
+                None
+            }
+            None => None,
+        }
+    };
+    let Some((covers, changes, before, step, deadline)) = taken else {
+        return Err(PatternError::Unknown { kind: "prepared switch", name: txn.to_string() });
+    };
+    if tokio::time::Instant::now() > deadline {
+        txns(registry).remove(txn);
+        return Err(PatternError::Unknown {
+            kind: "prepared switch (its lease ran out)",
+            name: txn.to_string(),
+        });
+    }
+    let master = SwitchMaster::new(registry, "switch");
+    let plan: Vec<&Change> = changes.iter().collect();
+    match master.commit(&plan, &before, step).await {
+        Ok(()) => {
+            drop(plan);
+            let committed = Txn::Committed { covers: covers.clone(), changes, before, step };
+            txns(registry).insert(txn.to_string(), committed);
+            let keep = registry.clone();
+            let txn = txn.to_string();
+            tokio::spawn(async move {
+                tokio::time::sleep(KEEP_COMMITTED).await;
+                txns(&keep).remove(&txn);
+            });
+            Ok(SwitchReply { covers, failed: None })
+        }
+        Err((i, e)) => {
+            let (undone, not_undone) = master.undo(&plan[..=i], &before, step).await;
+            let change = plan[i].clone();
+            txns(registry).remove(txn);
+            Ok(SwitchReply { covers, failed: Some(failure(change, &e, undone, not_undone)) })
+        }
+    }
+}
+
+async fn serve_undo(registry: &Registry, txn: &str) -> PatternResult<SwitchReply> {
+    let taken = {
+        let mut txns = txns(registry);
+        match txns.remove(txn) {
+            Some(Txn::Committed { covers, changes, before, step }) => Some((covers, changes, before, step)),
+            Some(Txn::Prepared { covers, .. }) => return Ok(SwitchReply { covers, failed: None }),
+            Some(busy @ Txn::Busy { .. }) => {
+                txns.insert(txn.to_string(), busy);
+                return Err(PatternError::Busy(vec!["(the switch's commit is in progress)".into()]));
+            }
+            None => None,
+        }
+    };
+    let Some((covers, changes, before, step)) = taken else {
+        // Never committed here (or long forgotten): nothing to undo.
+        return Ok(SwitchReply { covers: Vec::new(), failed: None });
+    };
+    let master = SwitchMaster::new(registry, "switch");
+    let plan: Vec<&Change> = changes.iter().collect();
+    let (_, not_undone) = master.undo(&plan, &before, step).await;
+    let failed = not_undone.first().map(|(c, e)| failure(c.clone(), e, vec![], not_undone.clone()));
+    Ok(SwitchReply { covers, failed })
 }

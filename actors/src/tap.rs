@@ -68,6 +68,11 @@ impl TapSlot {
         self.record_from(topic, type_id, stamp, message, false);
     }
 
+    /// Whether a tap is installed (to skip building what only a tap would see).
+    pub(crate) fn installed(&self) -> bool {
+        self.0.installed.load(Ordering::Acquire)
+    }
+
     /// Hands `message`, from another process if `remote`, to the tap, if one is installed.
     pub(crate) fn record_from<T: Serialize + ?Sized>(
         &self,

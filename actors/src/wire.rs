@@ -97,7 +97,7 @@ pub struct WireFailure {
     /// A stable code: `unknown_service`, `unknown_component`, `incompatible_service`,
     /// `already_registered`, `unknown_port`, `disconnected`, `unavailable`, `no_answer`,
     /// `timeout`, `cancelled`, `no_data`, `not_active`, `busy`, `unknown`, `invalid_argument`,
-    /// `decode`, `remote`.
+    /// `decode`, `link`, `remote`.
     pub code: String,
     /// The error as text.
     pub message: String,
@@ -131,7 +131,8 @@ impl WireFailure {
             PatternError::Unknown { name, .. } => ("unknown", vec![name.clone()]),
             PatternError::InvalidArgument(m) => ("invalid_argument", vec![m.clone()]),
             PatternError::Decode(m) => ("decode", vec![m.clone()]),
-            PatternError::Remote(m) | PatternError::Link(m) => ("remote", vec![m.clone()]),
+            PatternError::Remote(m) => ("remote", vec![m.clone()]),
+            PatternError::Link(m) => ("link", vec![m.clone()]),
         };
         WireFailure { code: code.to_string(), message: e.to_string(), detail }
     }
@@ -157,6 +158,7 @@ impl WireFailure {
             ("busy", ..) => PatternError::Busy(self.detail),
             ("invalid_argument", _, m) => PatternError::InvalidArgument(m.unwrap_or(self.message)),
             ("decode", _, m) => PatternError::Decode(m.unwrap_or(self.message)),
+            ("link", _, m) => PatternError::Link(m.unwrap_or(self.message)),
             _ => PatternError::Remote(self.message),
         }
     }

@@ -202,7 +202,14 @@ pub struct WiringSlave {
     registry: Registry,
     ports: RwLock<BTreeMap<String, Arc<dyn Port>>>,
     cancel: Option<Cancel>,
+    also: RwLock<Option<AlsoServed>>,
 }
+
+/// More requests a wiring service answers for its process (a component's wiring service also
+/// carries the switches of `crate::switch`): given a request, the answer's future, or `None`
+/// if the request is not one of them.
+pub(crate) type AlsoServed =
+    Arc<dyn Fn(&[u8]) -> Option<futures::future::BoxFuture<'static, Vec<u8>>> + Send + Sync>;
 
 impl WiringSlave {
     /// Registers the wiring service of `component`.
@@ -222,6 +229,7 @@ impl WiringSlave {
             registry: registry.clone(),
             ports: RwLock::new(BTreeMap::new()),
             cancel,
+            also: RwLock::new(None),
         });
         registry.register_service(
             ServiceAddr::new(component, "wiring"),
@@ -265,6 +273,12 @@ impl WiringSlave {
         self.declare(name, || QueryPort { name: name.to_string(), conn: Arc::new(RwLock::new(None)), cancel })
     }
 
+    /// What port `name` expects of a service, and where it is connected.
+    pub(crate) fn port_status(&self, name: &str) -> PatternResult<(ServiceInfo, Option<ServiceAddr>)> {
+        let port = self.port(name)?;
+        Ok((port.info(), port.target()))
+    }
+
     fn port(&self, name: &str) -> PatternResult<Arc<dyn Port>> {
         self.ports.read().get(name).cloned().ok_or_else(|| PatternError::UnknownPort {
             component: self.component.clone(),
@@ -292,6 +306,11 @@ impl WiringSlave {
     fn record(&self, name: &str, port: &dyn Port) {
         let status = PortStatus { port: name.to_string(), info: port.info(), target: port.target() };
         self.tap.record(&self.topic, PortStatus::ID, self.registry.now(), &status);
+    }
+
+    /// Lets the service answer more requests from other processes (see [`AlsoServed`]).
+    pub(crate) fn serve_also(&self, also: AlsoServed) {
+        *self.also.write() = Some(also);
     }
 
     /// Every port with its connection.
@@ -327,6 +346,10 @@ pub enum WiringRequest {
 
 impl Served for WiringSlave {
     fn serve_request(self: Arc<Self>, payload: &[u8]) -> futures::future::BoxFuture<'static, Vec<u8>> {
+        let also = self.also.read().clone();
+        if let Some(answer) = also.and_then(|also| also(payload)) {
+            return answer;
+        }
         let done = match crate::wire::decode::<WiringRequest>(payload, "orsa.WiringRequest/1") {
             Err(e) => Err(PatternError::Decode(format!("to {}: {e}", self.topic))),
             Ok(WiringRequest::Connect { port, target }) => {

@@ -377,6 +377,7 @@ fn failure() -> impl Strategy<Value = WireFailure> {
             "unknown",
             "invalid_argument",
             "decode",
+            "link",
             "remote",
         ])
         .prop_map(str::to_string),

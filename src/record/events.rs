@@ -153,9 +153,13 @@ pub struct Exchanged {
     /// The payload as it crossed, CBOR in base64 (what a replay feeds back).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cbor: Option<String>,
-    /// A request that got no reply: why.
+    /// A request that got no reply: why, for people.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// A request that got no reply: the failure in its wire form (what a replay feeds back, so
+    /// a replayed caller sees the same error as the recorded one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure: Option<orsa_actors::wire::WireFailure>,
     /// What the service is (`Lookup`; none: no peer offers it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub info: Option<orsa_actors::ServiceInfo>,

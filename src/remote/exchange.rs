@@ -110,9 +110,12 @@ impl Transport for RecordingTransport {
             .map(move |reply| {
                 let e = match &reply {
                     Ok(bytes) => Exchanged { n: Some(n), ..Exchanged::came_in(bytes) },
-                    Err(error) => {
-                        Exchanged { n: Some(n), error: Some(error.to_string()), ..Exchanged::default() }
-                    }
+                    Err(error) => Exchanged {
+                        n: Some(n),
+                        error: Some(error.to_string()),
+                        failure: Some(orsa_actors::wire::WireFailure::from_error(error)),
+                        ..Exchanged::default()
+                    },
                 };
                 notes.note(ExchangeKind::Reply, &addr, &e);
                 reply

@@ -101,12 +101,12 @@ impl Transport for PlaybackTransport {
         let e = Exchanged::request(n, &payload);
         self.made(ExchangeKind::Request, addr, &e);
         let reply = self.log.replies.get(&(addr.clone(), n)).cloned();
-        let (clock, addr) = (self.clock, addr.clone());
+        let clock = self.clock;
         Box::pin(async move {
             match reply {
                 Some((at, reply)) => {
                     tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
-                    reply.map_err(|_| PatternError::NoAnswer(addr))
+                    reply
                 }
                 None => {
                     tokio::time::sleep(timeout).await;

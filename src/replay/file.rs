@@ -16,7 +16,7 @@ use crate::record::meta::RUN_METADATA;
 use orsa_actors::state::StateStatus;
 use orsa_actors::wiring::PortStatus;
 use orsa_actors::{CommObject, Stamped, Timestamp};
-use orsa_actors::{ServiceAddr, ServiceInfo};
+use orsa_actors::{PatternError, ServiceAddr, ServiceInfo};
 use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, RobotParams, SafetyCounters};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -95,7 +95,7 @@ pub struct ExchangeLog {
     /// Per service: what each lookup said, from when (ns).
     pub lookups: HashMap<ServiceAddr, Vec<(u64, Option<ServiceInfo>)>>,
     /// Per service and request number: when the reply came, and its bytes or why none came.
-    pub replies: HashMap<Call, (u64, Result<Vec<u8>, String>)>,
+    pub replies: HashMap<Call, (u64, Result<Vec<u8>, PatternError>)>,
     /// Per service and subscription number: each update, when it came, and its bytes.
     pub updates: HashMap<Call, Arrivals>,
     /// Per service and activation number: each firing, when it came, and its bytes.
@@ -451,9 +451,12 @@ impl Recording {
                     ExchangeKind::Lookup => log.lookups.entry(service).or_default().push((log_time, e.info)),
                     ExchangeKind::Reply => {
                         let n = numbered(&e)?;
-                        let reply = match &e.error {
-                            Some(error) => Err(error.clone()),
-                            None => Ok(e.bytes().map_err(decode)?),
+                        let reply = match (&e.failure, &e.error) {
+                            (Some(failure), _) => Err(failure.clone().into_error()),
+                            // A recording from before failures were kept whole: the
+                            // request went unanswered.
+                            (None, Some(_)) => Err(PatternError::NoAnswer(service.clone())),
+                            (None, None) => Ok(e.bytes().map_err(decode)?),
                         };
                         log.replies.insert((service, n), (log_time, reply));
                     }

@@ -87,3 +87,181 @@ async fn a_switch_from_another_process_is_made_whole_or_not_at_all() {
     assert_eq!(after[1], ("centerfollow".into(), None, "neutral".into()));
     t.close().await;
 }
+
+/// What the test's side of the link does to a switch's commit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Fault {
+    /// Nothing: everything goes through.
+    None,
+    /// The link is cut between prepare and commit: the commit (and the undo) never leave.
+    BeforeCommit,
+    /// The commit is held back past the robot's lease, then delivered.
+    LateCommit(Duration),
+    /// The commit arrives and is made, but its answer is lost; the undo goes through.
+    ReplyLost,
+    /// The commit arrives and is made, its answer is lost, and then the undo cannot leave.
+    ReplyLostThenCut,
+}
+
+/// The test's transport: zenoh, with a link cut injected into switch commits and undos.
+struct Cutting {
+    inner: std::sync::Arc<dyn orsa_actors::transport::Transport>,
+    cut: std::sync::Arc<parking_lot::Mutex<Fault>>,
+}
+
+fn op_of(payload: &[u8]) -> Option<String> {
+    let v: ciborium::Value = ciborium::from_reader(payload).ok()?;
+    let map = v.as_map()?;
+    map.iter().find(|(k, _)| k.as_text() == Some("op")).and_then(|(_, v)| v.as_text().map(str::to_string))
+}
+
+impl orsa_actors::transport::Transport for Cutting {
+    fn name(&self) -> &str {
+        "cutting"
+    }
+    fn lookup(&self, addr: &ServiceAddr) -> Option<orsa_actors::ServiceInfo> {
+        self.inner.lookup(addr)
+    }
+    fn send(&self, addr: &ServiceAddr, payload: Vec<u8>) -> orsa_actors::PatternResult<()> {
+        self.inner.send(addr, payload)
+    }
+    fn request(
+        &self,
+        addr: &ServiceAddr,
+        payload: Vec<u8>,
+        timeout: Duration,
+    ) -> futures::future::BoxFuture<'static, orsa_actors::PatternResult<Vec<u8>>> {
+        let cut = *self.cut.lock();
+        let op = op_of(&payload);
+        let inner = std::sync::Arc::clone(&self.inner);
+        let addr = addr.clone();
+        let link = |what: &str| Err(orsa_actors::PatternError::Link(format!("cut by the test: {what}")));
+        Box::pin(async move {
+            match (op.as_deref(), cut) {
+                (Some("switch_commit" | "switch_undo"), Fault::BeforeCommit) => {
+                    link("the request never left")
+                }
+                (Some("switch_commit"), Fault::LateCommit(d)) => {
+                    tokio::time::sleep(d).await;
+                    inner.request(&addr, payload, timeout).await
+                }
+                (Some("switch_commit"), Fault::ReplyLost | Fault::ReplyLostThenCut) => {
+                    let _made = inner.request(&addr, payload, timeout).await;
+                    link("the answer was lost")
+                }
+                (Some("switch_undo"), Fault::ReplyLostThenCut) => link("the request never left"),
+                _ => inner.request(&addr, payload, timeout).await,
+            }
+        })
+    }
+    fn subscribe(
+        &self,
+        addr: &ServiceAddr,
+        every: std::num::NonZeroU32,
+        sink: orsa_actors::transport::ByteSink,
+    ) -> orsa_actors::PatternResult<orsa_actors::transport::Subscription> {
+        self.inner.subscribe(addr, every, sink)
+    }
+    fn activate(
+        &self,
+        addr: &ServiceAddr,
+        mode: orsa_actors::transport::EventMode,
+        params: Vec<u8>,
+        sink: orsa_actors::transport::ByteSink,
+    ) -> orsa_actors::PatternResult<orsa_actors::transport::Subscription> {
+        self.inner.activate(addr, mode, params, sink)
+    }
+    fn service_added(
+        &self,
+        addr: &ServiceAddr,
+        info: &orsa_actors::ServiceInfo,
+        served: std::sync::Arc<dyn orsa_actors::transport::Served>,
+    ) {
+        self.inner.service_added(addr, info, served);
+    }
+    fn service_removed(&self, addr: &ServiceAddr) {
+        self.inner.service_removed(addr);
+    }
+}
+
+/// Switches made from this test's process on the robot process's behaviours, with the link cut
+/// at every point of the commit: after each, the robot's components are in the configuration
+/// before the switch or the one after it, never a mix. The robot's process makes its part of a
+/// switch on one commit message, so a cut can only decide whether that message came.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_link_cut_during_a_switch_leaves_the_old_or_the_new_configuration() {
+    use orsa_actors::switch::{Switch, SwitchMaster};
+    let sys = System::new("switchcut");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, _base) = base_stream(&registry, &t).await;
+    let cut = std::sync::Arc::new(parking_lot::Mutex::new(Fault::None));
+    let zenoh = registry.transport().expect("the test's zenoh transport");
+    registry.set_transport(std::sync::Arc::new(Cutting { inner: zenoh, cut: std::sync::Arc::clone(&cut) }));
+    let lease = Duration::from_millis(300);
+    let master = SwitchMaster::new(&registry, "test").lease(lease);
+    let step = Duration::from_secs(2);
+    let motors: ServiceAddr = "nomad200/navigationvelocity".parse().expect("addr");
+    let drive = |who: &str, other: &str| {
+        Switch::new()
+            .disconnect_named(other, "vel")
+            .state(other, "neutral")
+            .state(who, "active")
+            .connect_named(who, "vel", motors.clone())
+            .step_timeout(step)
+    };
+    master.apply(&drive("centerfollow", "wallfollow")).await.expect("center following drives");
+    let mut config = configuration(&registry).await;
+    let mut driver = "centerfollow";
+    // Each cut twice, in an order that mixes them, and a clean switch between some.
+    let cuts = [
+        Fault::BeforeCommit,
+        Fault::None,
+        Fault::ReplyLost,
+        Fault::LateCommit(lease * 2),
+        Fault::ReplyLostThenCut,
+        Fault::BeforeCommit,
+        Fault::LateCommit(lease * 2),
+        Fault::None,
+        Fault::ReplyLost,
+        Fault::ReplyLostThenCut,
+    ];
+    for (i, c) in cuts.into_iter().enumerate() {
+        let other = if driver == "centerfollow" { "wallfollow" } else { "centerfollow" };
+        *cut.lock() = c;
+        let result = master.apply(&drive(other, driver)).await;
+        *cut.lock() = Fault::None;
+        let seen = configuration(&registry).await;
+        let new = {
+            let mut n = config.clone();
+            for entry in &mut n {
+                let on = entry.0 == other;
+                entry.1 = on.then(|| motors.clone());
+                entry.2 = if on { "active".into() } else { "neutral".into() };
+            }
+            n
+        };
+        match (c, &result) {
+            (Fault::None, Ok(())) => assert_eq!(seen, new, "step {i}"),
+            (Fault::LateCommit(_) | Fault::ReplyLost, Err(e)) => {
+                // Refused for its lease, or made and undone: the robot says so.
+                assert!(e.nothing_changed(), "step {i} {c:?}: {e}");
+                assert_eq!(seen, config, "step {i} {c:?}: {e}");
+            }
+            (Fault::BeforeCommit | Fault::ReplyLostThenCut, Err(e)) => {
+                // No answer to the commit nor to the undo: this side cannot know, and the error
+                // says so for every change. The robot made all of it (the commit came) or none.
+                let want = if c == Fault::BeforeCommit { &config } else { &new };
+                assert_eq!(&seen, want, "step {i} {c:?}: {e}");
+                assert_eq!(e.not_undone.len(), 4, "{e}");
+                assert!(e.to_string().contains("whether the change is made there is unknown"), "{e}");
+            }
+            (c, r) => panic!("step {i}: {c:?} gave {r:?}"),
+        }
+        if seen == new {
+            driver = other;
+        }
+        config = seen;
+    }
+    t.close().await;
+}
