@@ -42,6 +42,7 @@ mod report;
 mod sense;
 mod sim;
 mod stats;
+mod switch;
 
 pub use render::render_markdown;
 pub use report::*;
@@ -117,6 +118,8 @@ struct Plan {
     /// machine.
     scale_repeat_up_to: usize,
     scale_repeats: usize,
+    /// Mode switches of each kind, in process.
+    switch_rounds: usize,
 }
 
 impl Plan {
@@ -139,7 +142,13 @@ impl Plan {
                 fanout_budget: 20_000,
                 fanout_min_rounds: 100,
                 sense_s: 20.0,
-                net: net::NetSizes { warmup: 300, back_to_back: 2_000, at_25hz: 150, sense_s: 10.0 },
+                net: net::NetSizes {
+                    warmup: 300,
+                    back_to_back: 2_000,
+                    at_25hz: 150,
+                    sense_s: 10.0,
+                    switch_rounds: 200,
+                },
                 mission_s: 120.0,
                 replay_s: 300.0,
                 replay_runs: 3,
@@ -149,6 +158,7 @@ impl Plan {
                 scale_min_s: 2.0,
                 scale_repeat_up_to: 100,
                 scale_repeats: 3,
+                switch_rounds: 2_000,
             }
         } else {
             Plan {
@@ -168,7 +178,13 @@ impl Plan {
                 fanout_budget: 200_000,
                 fanout_min_rounds: 300,
                 sense_s: 60.0,
-                net: net::NetSizes { warmup: 1_000, back_to_back: 10_000, at_25hz: 750, sense_s: 60.0 },
+                net: net::NetSizes {
+                    warmup: 1_000,
+                    back_to_back: 10_000,
+                    at_25hz: 750,
+                    sense_s: 60.0,
+                    switch_rounds: 1_000,
+                },
                 mission_s: 600.0,
                 replay_s: 3600.0,
                 replay_runs: 3,
@@ -178,6 +194,7 @@ impl Plan {
                 scale_min_s: 10.0,
                 scale_repeat_up_to: 100,
                 scale_repeats: 3,
+                switch_rounds: 20_000,
             }
         }
     }
@@ -222,6 +239,8 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let fanout = fanout::run(&plan.fanout, |n| fanout::rounds_for(n, budget, min))?;
     say("sense to act");
     let sense = sense::run(plan.sense_s)?;
+    say("mode switch");
+    let switch_in_process = switch::in_process(plan.switch_rounds)?;
     say("across processes (zenoh on loopback)");
     let (net, net_error) = match net::run(plan.net, net::exe_launcher) {
         Ok(n) => (Some(n), None),
@@ -289,6 +308,8 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
             })
             .map_or(f64::NAN, |r| r.latency.p50_ns)
     };
+    let switch =
+        SwitchCosts { in_process: switch_in_process, across: net.as_ref().and_then(|n| n.switch.clone()) };
     let mut report = BenchReport {
         inproc_push_p50_ns: find(inproc::ORSA_PUSH),
         raw_ractor_cast_p50_ns: find(inproc::RACTOR_CAST),
@@ -320,6 +341,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         net_error,
         mission,
         record_replay,
+        switch,
         scale,
         targets: Vec::new(),
     };
@@ -354,6 +376,14 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         measured: format!("{:.2}x", rr.record_ratio),
         met: Some(rr.record_ratio <= 1.25),
     });
+    let sw = &r.switch;
+    for (place, pair) in [("in process", Some(&sw.in_process)), ("across processes", sw.across.as_ref())] {
+        t.push(TargetCheck {
+            target: format!("a mode switch {place} costs at most 1.5x the same calls one by one (p50)"),
+            measured: pair.map_or_else(|| "not measured".into(), |p| format!("{:.2}x", p.p50_ratio)),
+            met: pair.map(|p| p.p50_ratio <= 1.5),
+        });
+    }
     for row in r.latency.iter().filter(|row| row.path == inproc::ORSA_PUSH) {
         t.push(TargetCheck {
             target: format!("in-process push p50 <= 1.5x raw ractor cast ({}, {})", row.runtime, row.mode),

@@ -397,8 +397,10 @@ pub(crate) struct NetSizes {
     pub(crate) back_to_back: usize,
     /// 25 Hz samples per path (0: skip the mode).
     pub(crate) at_25hz: usize,
-    /// Sense to act across processes, measured seconds (0: skip).
+    /// Sense to act across processes, measured seconds (0: skip, and skip the mode switch).
     pub(crate) sense_s: f64,
+    /// Mode switches of each kind across processes, after sense to act.
+    pub(crate) switch_rounds: usize,
 }
 
 /// CBOR costs of the sample, raw and in orsa's envelope, in this process: where a difference
@@ -613,10 +615,12 @@ async fn with_peer(
     }
     let codec = codec_costs(20_000);
 
-    let sense_to_act = if sizes.sense_s > 0.0 {
-        Some(super::sense::across(registry, transport, &control, sizes.sense_s).await?)
+    let (sense_to_act, switch) = if sizes.sense_s > 0.0 {
+        let (sense, switch) =
+            super::sense::across(registry, transport, &control, sizes.sense_s, sizes.switch_rounds).await?;
+        (Some(sense), Some(switch))
     } else {
-        None
+        (None, None)
     };
 
     match control.query(PeerRequest::Quit, Some(Duration::from_secs(5))).await {
@@ -637,5 +641,6 @@ async fn with_peer(
         latency,
         codec,
         sense_to_act,
+        switch,
     })
 }

@@ -1,6 +1,6 @@
 //! The report as Markdown tables.
 
-use super::{BenchReport, Latency};
+use super::{BenchReport, Latency, SwitchPair};
 use std::fmt::Write as _;
 
 /// A duration in nanoseconds, in the unit that reads best.
@@ -190,6 +190,26 @@ pub fn render_markdown(r: &BenchReport) -> String {
         runs(&rr.replay_wall_s),
         rr.compared,
         if rr.bit_exact { "bit-exact every time" } else { "NOT bit-exact" }
+    );
+    let sw = &r.switch;
+    let pair = |p: &SwitchPair| {
+        format!(
+            "one switch p50 {:.1} µs (p99 {:.1}), the four calls one by one p50 {:.1} µs (p99 {:.1}): **{:.2}x** ({} rounds each)",
+            p.switch.p50_ns / 1e3,
+            p.switch.p99_ns / 1e3,
+            p.one_by_one.p50_ns / 1e3,
+            p.one_by_one.p99_ns / 1e3,
+            p.p50_ratio,
+            p.rounds
+        )
+    };
+    let _ = writeln!(
+        s,
+        "Mode switch (hand the motors from one behaviour to the other: unwire it, set both states, wire the other), \
+         made as one all-or-nothing switch against the same four calls one by one, alternated. In process: {}. \
+         Across processes (the behaviours in the peer, the master stopped): {}.\n",
+        pair(&sw.in_process),
+        sw.across.as_ref().map_or_else(|| "not measured (the cross-process bench failed)".to_string(), pair)
     );
     let _ = writeln!(
         s,

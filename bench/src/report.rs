@@ -173,6 +173,8 @@ pub struct NetReport {
     pub codec: CodecCosts,
     /// Sense to act with the behaviours in the other process.
     pub sense_to_act: Option<SenseToAct>,
+    /// A mode switch of the behaviours in the other process.
+    pub switch: Option<SwitchPair>,
 }
 
 /// One leg of sense to act.
@@ -224,6 +226,29 @@ pub struct RecordReplay {
     pub compared: u64,
     /// The recording's size, bytes.
     pub file_bytes: u64,
+}
+
+/// A mode switch (hand the motors from one behaviour to the other: unwire, two states, wire)
+/// made as one all-or-nothing switch, and the same four calls one by one, alternated.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SwitchPair {
+    /// Hand-overs of each kind.
+    pub rounds: usize,
+    /// As one switch (prepare, then commit).
+    pub switch: Latency,
+    /// Call by call.
+    pub one_by_one: Latency,
+    /// Median switch over median one-by-one.
+    pub p50_ratio: f64,
+}
+
+/// What a mode switch costs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SwitchCosts {
+    /// Behaviours in the same process as the master.
+    pub in_process: SwitchPair,
+    /// Behaviours in another process (`None` if the cross-process bench failed).
+    pub across: Option<SwitchPair>,
 }
 
 /// N whole stacks in one process on one paused clock.
@@ -340,6 +365,8 @@ pub struct BenchReport {
     pub mission: MissionRtf,
     /// What recording and replaying cost.
     pub record_replay: RecordReplay,
+    /// What a mode switch costs.
+    pub switch: SwitchCosts,
     /// N robots in one process.
     pub scale: Vec<ScaleRow>,
     /// The targets, judged.

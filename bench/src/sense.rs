@@ -465,7 +465,8 @@ pub(crate) async fn across(
     transport: &orsa_net::ZenohTransport,
     control: &QueryClient<PeerRequest, PeerReply>,
     duration_s: f64,
-) -> anyhow::Result<SenseToAct> {
+    switch_rounds: usize,
+) -> anyhow::Result<(SenseToAct, super::SwitchPair)> {
     if !(duration_s.is_finite() && duration_s > 0.0) {
         anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
     }
@@ -537,16 +538,22 @@ pub(crate) async fn across(
         .await
         .context("the robot server's safety counters")?;
         let taken: Vec<Act> = std::mem::take(&mut *acts.lock());
+        // The master stops, the behaviours go on in the peer: hand the motors between them.
+        exec_sup.shutdown().await;
+        say(format!("  mode switch across processes: {switch_rounds} hand-overs each way"));
+        let motors = orsa_interfaces::nomad200::NAVIGATIONVELOCITY.on(robot.as_str()).untyped();
+        let switch =
+            super::switch::measure(registry, [WallFollow::NAME, CenterFollow::NAME], &motors, switch_rounds)
+                .await?;
         let (wire_steps, peer_restarts) =
             match control.query(PeerRequest::StopBehaviours, Some(Duration::from_secs(30))).await {
                 Ok(PeerReply::Steps { steps, restarts }) => (steps, restarts),
                 other => anyhow::bail!("the peer answered {other:?} to stopping the behaviours"),
             };
-        exec_sup.shutdown().await;
         let steps: Vec<Step> = wire_steps.iter().map(step_from_wire).collect();
         let taken: Vec<Act> = taken.into_iter().filter(|a| a.at >= from).collect();
         let m = attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
-        Ok(SenseToAct {
+        let sense = SenseToAct {
             duration_s,
             commands_received: taken.len() as u64,
             attributed: m.from_update.len() as u64,
@@ -557,7 +564,8 @@ pub(crate) async fn across(
             legs: legs(m.legs),
             stale_refused: safety.stale_refused,
             restarts: restarts.load(std::sync::atomic::Ordering::Relaxed) + peer_restarts,
-        })
+        };
+        Ok((sense, switch))
     }
     .await;
     robot_sup.shutdown().await;

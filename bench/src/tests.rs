@@ -83,6 +83,21 @@ fn sample_report() -> BenchReport {
             compared: 500,
             file_bytes: 100_000,
         },
+        switch: SwitchCosts {
+            in_process: SwitchPair {
+                rounds: 10,
+                switch: Latency { n: 10, p50_ns: 6000.0, p99_ns: 9000.0, max_ns: 9000.0, mean_ns: 6000.0 },
+                one_by_one: Latency {
+                    n: 10,
+                    p50_ns: 5000.0,
+                    p99_ns: 8000.0,
+                    max_ns: 8000.0,
+                    mean_ns: 5000.0,
+                },
+                p50_ratio: 1.2,
+            },
+            across: None,
+        },
         scale: vec![scale(1, 2000.0), scale(10, 2500.0), scale(100, 3500.0)],
         targets: Vec::new(),
     };
@@ -320,7 +335,7 @@ fn steps_from_the_peer_keep_their_unix_stamps() {
 
 #[test]
 fn a_tiny_cross_process_run_delivers_every_sample_in_order() {
-    let sizes = net::NetSizes { warmup: 5, back_to_back: 30, at_25hz: 3, sense_s: 3.0 };
+    let sizes = net::NetSizes { warmup: 5, back_to_back: 30, at_25hz: 3, sense_s: 3.0, switch_rounds: 20 };
     let report = net::run(sizes, test_launcher).expect("cross-process bench");
     assert_eq!(report.latency.len(), 2 * net::PATHS.len(), "{:?}", report.latency);
     for row in &report.latency {
@@ -387,7 +402,35 @@ fn sample_net() -> NetReport {
             stale_refused: 0,
             restarts: 0,
         }),
+        switch: Some(SwitchPair {
+            rounds: 5,
+            switch: lat(500_000.0),
+            one_by_one: lat(900_000.0),
+            p50_ratio: 0.55,
+        }),
     }
+}
+
+#[test]
+fn the_mode_switch_targets_judge_each_place_and_say_what_was_not_measured() {
+    let mut r = sample_report();
+    r.targets = judge(&r);
+    let find = |needle: &str| r.targets.iter().find(|t| t.target.contains(needle)).expect(needle).clone();
+    let inproc = find("a mode switch in process");
+    assert_eq!((inproc.met, inproc.measured.as_str()), (Some(true), "1.20x"));
+    let across = find("a mode switch across processes");
+    assert_eq!((across.met, across.measured.as_str()), (None, "not measured"));
+    r.switch.in_process.p50_ratio = 1.6;
+    r.switch.across = sample_net().switch;
+    r.targets = judge(&r);
+    let find = |needle: &str| r.targets.iter().find(|t| t.target.contains(needle)).expect(needle).clone();
+    assert_eq!(find("a mode switch in process").met, Some(false));
+    assert_eq!(find("a mode switch across processes").measured, "0.55x");
+    let md = render_markdown(&r);
+    assert!(
+        md.contains("In process: one switch p50 6.0 µs") && md.contains("**0.55x** (5 rounds each)"),
+        "{md}"
+    );
 }
 
 #[test]
