@@ -184,13 +184,41 @@ impl orsa_actors::transport::Transport for Cutting {
     }
 }
 
-/// Switches made from this test's process on the robot process's behaviours, with the link cut
-/// at every point of the commit: after each, the robot's components are in the configuration
-/// before the switch or the one after it, never a mix. The robot's process makes its part of a
-/// switch on one commit message, so a cut can only decide whether that message came.
+/// What a step of the random sequence asks for: a hand-over, or one a participant must refuse
+/// while preparing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Ask {
+    /// The other behaviour takes the motors.
+    Handover,
+    /// A hand-over that also sets a state the behaviour does not have.
+    UnknownState,
+    /// A hand-over that wires the port to a service of another type.
+    Incompatible,
+}
+
+/// A small deterministic generator (xorshift64*), so the sequence is the same on every run.
+struct Dice(u64);
+
+impl Dice {
+    fn pick<T: Copy>(&mut self, from: &[T]) -> T {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let r = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d);
+        from[(r >> 33) as usize % from.len()]
+    }
+}
+
+/// A random sequence of switches made from this test's process on the robot process's
+/// behaviours, with a fault at every step: the link cut between prepare and commit, a commit
+/// held past the robot's lease, a commit whose answer is lost (with the undo delivered or not),
+/// and switches a participant must refuse while preparing. After each, the robot's components
+/// are in the configuration before the switch or the one after it, never a mix, as a model says.
+/// The robot's process makes its part of a switch on one commit message, so a cut can only
+/// decide whether that message came.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_link_cut_during_a_switch_leaves_the_old_or_the_new_configuration() {
-    use orsa_actors::switch::{Switch, SwitchMaster};
+    use orsa_actors::switch::{Phase, Switch, SwitchMaster};
     let sys = System::new("switchcut");
     let _robot = sys.robot(&[]);
     let (registry, t) = sys.observe().await;
@@ -202,36 +230,40 @@ async fn a_link_cut_during_a_switch_leaves_the_old_or_the_new_configuration() {
     let master = SwitchMaster::new(&registry, "test").lease(lease);
     let step = Duration::from_secs(2);
     let motors: ServiceAddr = "nomad200/navigationvelocity".parse().expect("addr");
-    let drive = |who: &str, other: &str| {
-        Switch::new()
-            .disconnect_named(other, "vel")
-            .state(other, "neutral")
-            .state(who, "active")
-            .connect_named(who, "vel", motors.clone())
-            .step_timeout(step)
+    let bumpers: ServiceAddr = "nomad200/bumpers".parse().expect("addr");
+    let drive = |who: &str, other: &str, ask: Ask| {
+        let s = Switch::new().disconnect_named(other, "vel").state(other, "neutral");
+        let s = match ask {
+            Ask::UnknownState => s.state(who, "flying"),
+            _ => s.state(who, "active"),
+        };
+        let target = if ask == Ask::Incompatible { bumpers.clone() } else { motors.clone() };
+        s.connect_named(who, "vel", target).step_timeout(step)
     };
-    master.apply(&drive("centerfollow", "wallfollow")).await.expect("center following drives");
+    master.apply(&drive("centerfollow", "wallfollow", Ask::Handover)).await.expect("center following drives");
     let mut config = configuration(&registry).await;
     let mut driver = "centerfollow";
-    // Each cut twice, in an order that mixes them, and a clean switch between some.
-    let cuts = [
-        Fault::BeforeCommit,
+    let faults = [
         Fault::None,
-        Fault::ReplyLost,
-        Fault::LateCommit(lease * 2),
-        Fault::ReplyLostThenCut,
         Fault::BeforeCommit,
         Fault::LateCommit(lease * 2),
-        Fault::None,
         Fault::ReplyLost,
         Fault::ReplyLostThenCut,
     ];
-    for (i, c) in cuts.into_iter().enumerate() {
+    let asks = [Ask::Handover, Ask::Handover, Ask::Handover, Ask::UnknownState, Ask::Incompatible];
+    let mut dice = Dice(0x5a_2026);
+    let mut tried = std::collections::BTreeSet::new();
+    for i in 0..16 {
+        let (c, ask) = (dice.pick(&faults), dice.pick(&asks));
+        tried.insert(format!("{c:?}").split('(').next().unwrap_or_default().to_string());
+        tried.insert(format!("{ask:?}"));
         let other = if driver == "centerfollow" { "wallfollow" } else { "centerfollow" };
         *cut.lock() = c;
-        let result = master.apply(&drive(other, driver)).await;
+        let result = master.apply(&drive(other, driver, ask)).await;
         *cut.lock() = Fault::None;
         let seen = configuration(&registry).await;
+        // The model: a hand-over gives the other behaviour the motors and makes it the only
+        // active one; a switch a participant refuses leaves everything as it was.
         let new = {
             let mut n = config.clone();
             for entry in &mut n {
@@ -241,14 +273,19 @@ async fn a_link_cut_during_a_switch_leaves_the_old_or_the_new_configuration() {
             }
             n
         };
-        match (c, &result) {
-            (Fault::None, Ok(())) => assert_eq!(seen, new, "step {i}"),
-            (Fault::LateCommit(_) | Fault::ReplyLost, Err(e)) => {
+        match (ask, c, &result) {
+            (Ask::UnknownState | Ask::Incompatible, _, Err(e)) => {
+                assert_eq!(e.phase, Phase::Prepare, "step {i} {ask:?} {c:?}: {e}");
+                assert!(e.nothing_changed() && e.undone.is_empty(), "step {i} {ask:?} {c:?}: {e}");
+                assert_eq!(seen, config, "step {i} {ask:?} {c:?}: {e}");
+            }
+            (Ask::Handover, Fault::None, Ok(())) => assert_eq!(seen, new, "step {i}"),
+            (Ask::Handover, Fault::LateCommit(_) | Fault::ReplyLost, Err(e)) => {
                 // Refused for its lease, or made and undone: the robot says so.
                 assert!(e.nothing_changed(), "step {i} {c:?}: {e}");
                 assert_eq!(seen, config, "step {i} {c:?}: {e}");
             }
-            (Fault::BeforeCommit | Fault::ReplyLostThenCut, Err(e)) => {
+            (Ask::Handover, Fault::BeforeCommit | Fault::ReplyLostThenCut, Err(e)) => {
                 // No answer to the commit nor to the undo: this side cannot know, and the error
                 // says so for every change. The robot made all of it (the commit came) or none.
                 let want = if c == Fault::BeforeCommit { &config } else { &new };
@@ -256,12 +293,14 @@ async fn a_link_cut_during_a_switch_leaves_the_old_or_the_new_configuration() {
                 assert_eq!(e.not_undone.len(), 4, "{e}");
                 assert!(e.to_string().contains("whether the change is made there is unknown"), "{e}");
             }
-            (c, r) => panic!("step {i}: {c:?} gave {r:?}"),
+            (a, c, r) => panic!("step {i}: {a:?} with {c:?} gave {r:?}"),
         }
         if seen == new {
             driver = other;
         }
         config = seen;
     }
+    // The sequence went through every fault and every kind of switch.
+    assert_eq!(tried.len(), faults.len() + 3, "{tried:?}");
     t.close().await;
 }
