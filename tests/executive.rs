@@ -78,9 +78,12 @@ async fn master_runs_goals_reports_them_and_never_wires_two_behaviours() {
     let timeout = Some(Duration::from_secs(5));
 
     let bad = goals.query(ask("dance", None), timeout).await.expect("answer");
-    assert!(matches!(bad, GoalReply::Rejected { ref reason } if reason.contains("dance")), "{bad:?}");
+    assert!(
+        matches!(bad, GoalReply::Rejected { ref reason, switch: None } if reason.contains("dance")),
+        "{bad:?}"
+    );
     let bad = goals.query(ask("patrol", Some(1e20)), timeout).await.expect("answer");
-    assert!(matches!(bad, GoalReply::Rejected { .. }), "{bad:?}");
+    assert!(matches!(bad, GoalReply::Rejected { switch: None, .. }), "{bad:?}");
 
     let Ok(GoalReply::Accepted { id: patrol }) = goals.query(ask("patrol", None), timeout).await else {
         panic!("patrol refused")

@@ -296,7 +296,7 @@ pub struct SwitchRecord {
 crate::comm_object!(SwitchRecord, "orsa.SwitchRecord/1");
 
 /// A failed switch, as recorded.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SwitchFailure {
     /// When it failed.
     pub phase: Phase,
@@ -308,6 +308,25 @@ pub struct SwitchFailure {
     pub undone: Vec<Change>,
     /// Changes left made, with why.
     pub not_undone: Vec<(Change, String)>,
+}
+
+impl From<&SwitchError> for SwitchFailure {
+    fn from(e: &SwitchError) -> Self {
+        SwitchFailure {
+            phase: e.phase,
+            change: e.change.clone(),
+            error: e.error.to_string(),
+            undone: e.undone.clone(),
+            not_undone: e.not_undone.iter().map(|(c, e)| (c.clone(), e.to_string())).collect(),
+        }
+    }
+}
+
+impl SwitchFailure {
+    /// Whether every component is as it was before the switch.
+    pub fn nothing_changed(&self) -> bool {
+        self.not_undone.is_empty()
+    }
 }
 
 /// What a switch needs to know of a component before it changes it.
@@ -434,13 +453,7 @@ impl SwitchMaster {
         }
         let mut changes = switch.changes.clone();
         changes.sort_by_key(Change::rank);
-        let failed = result.as_ref().err().map(|e| SwitchFailure {
-            phase: e.phase,
-            change: e.change.clone(),
-            error: e.error.to_string(),
-            undone: e.undone.clone(),
-            not_undone: e.not_undone.iter().map(|(c, e)| (c.clone(), e.to_string())).collect(),
-        });
+        let failed = result.as_ref().err().map(SwitchFailure::from);
         let record = SwitchRecord { changes, failed };
         let id = <SwitchRecord as crate::CommObject>::ID;
         self.registry.tap_slot().record(&self.topic, id, self.registry.now(), &record);

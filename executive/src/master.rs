@@ -351,6 +351,7 @@ impl Master {
             let known: Vec<&String> = self.params.modes.keys().collect();
             return GoalReply::Rejected {
                 reason: format!("unknown mode '{}' (known: {known:?})", goal.mode),
+                switch: None,
             };
         };
         if let Some(s) = goal.for_s
@@ -358,6 +359,7 @@ impl Master {
         {
             return GoalReply::Rejected {
                 reason: format!("for_s must be a number of seconds from 0 to {MAX_GOAL_S}, not {s}"),
+                switch: None,
             };
         }
         // The whole mode change is one switch: unwire whoever drives (if the new mode's rules
@@ -381,7 +383,7 @@ impl Master {
             st.next_id += 1;
             let reason = e.to_string();
             fire(ctx, st, id, &goal.mode, GoalStatus::Failed, reason.clone());
-            return GoalReply::Rejected { reason };
+            return GoalReply::Rejected { reason, switch: Some((&e).into()) };
         }
         if let Some(old) = st.goal.take() {
             fire(ctx, st, old.id, &old.mode, GoalStatus::Preempted, format!("by a '{}' goal", goal.mode));

@@ -49,6 +49,12 @@ pub enum GoalReply {
     Rejected {
         /// What was wrong.
         reason: String,
+        /// When the goal was refused because its mode switch failed: which change failed, in
+        /// which phase, and what it left (a caller can tell a switch that could not be made
+        /// now, with nothing changed, from a mode that can never be made, or from a system
+        /// left half switched).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        switch: Option<orsa_actors::switch::SwitchFailure>,
     },
 }
 comm_object!(GoalReply, "orsa.executive.GoalReply/1");

@@ -16,6 +16,17 @@
 //! ```
 //! With no mission, the planner patrols for the whole run.
 //!
+//! A goal the executive refuses because its mode switch failed comes with the typed failure
+//! (`GoalReply::Rejected { switch }`), and the planner tells three cases apart:
+//! - the switch failed while being made and everything was undone (a behaviour busy in its
+//!   critical section past the step timeout, a link lost for a moment): the executive still runs
+//!   the previous goal, and the planner gives the goal again after `retry_after_s`, up to
+//!   `retries` times;
+//! - the switch failed while being prepared (the mode names something that cannot be made): a
+//!   retry cannot help, the mission is aborted naming the change;
+//! - the switch could not be undone everywhere: the system is half switched (the executive has
+//!   stopped the motors), the mission is aborted naming what was left.
+//!
 //! It knows the executive by its interface (`orsa_interfaces::executive`: the `goal` query and
 //! the `goals` event) and offers its own (`orsa_interfaces::planner`), so it depends on no other
 //! orsa crate than `orsa-actors` and `orsa-interfaces`.
@@ -23,6 +34,7 @@
 use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryClient;
+use orsa_actors::switch::Phase;
 use orsa_actors::{Component, ComponentError, Ctx};
 use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S};
 use orsa_interfaces::planner::{MISSION, MissionStatus, NEXT};
@@ -40,16 +52,41 @@ pub struct MissionStep {
 }
 
 /// Configuration of the planner (the `[planner]` table).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerParams {
     /// The goals, in order. Empty: patrol for the run's duration.
     pub mission: Vec<MissionStep>,
+    /// How many times a goal whose mode switch could not be made now (nothing changed) is
+    /// given again before the mission is aborted.
+    pub retries: u32,
+    /// How long to wait before giving it again, s.
+    pub retry_after_s: f64,
 }
+
+impl Default for PlannerParams {
+    fn default() -> Self {
+        PlannerParams { mission: Vec::new(), retries: 3, retry_after_s: 1.0 }
+    }
+}
+
+/// The most `planner.retries` may be.
+pub const MAX_RETRIES: u32 = 100;
+/// The longest `planner.retry_after_s` may be, s.
+pub const MAX_RETRY_AFTER_S: f64 = 600.0;
 
 impl PlannerParams {
     /// Checks the mission against the executive's modes; messages name the key.
     pub fn validate(&self, modes: &[&str]) -> Result<(), String> {
+        if self.retries > MAX_RETRIES {
+            return Err(format!("planner.retries: must be at most {MAX_RETRIES}, not {}", self.retries));
+        }
+        if !(self.retry_after_s.is_finite() && (0.0..=MAX_RETRY_AFTER_S).contains(&self.retry_after_s)) {
+            return Err(format!(
+                "planner.retry_after_s: must be a number of seconds from 0 to {MAX_RETRY_AFTER_S}, not {}",
+                self.retry_after_s
+            ));
+        }
         for (i, step) in self.mission.iter().enumerate() {
             if !modes.contains(&step.mode.as_str()) {
                 return Err(format!(
@@ -86,6 +123,10 @@ pub struct Planner {
     pub mission: Vec<MissionStep>,
     /// The executive component's name.
     pub executive: String,
+    /// How many times a goal whose switch could not be made now is given again.
+    pub retries: u32,
+    /// How long to wait before giving it again.
+    pub retry_after: Duration,
 }
 
 /// Messages of the [`Planner`].
@@ -100,6 +141,8 @@ pub enum PlannerMsg {
 /// The planner's running state.
 pub struct PlannerState {
     step: usize,
+    /// How many times the current step's goal was given again.
+    retried: u32,
     goal_id: Option<u64>,
     goals: QueryClient<Goal, GoalReply>,
     status: PushNewestServer<MissionStatus>,
@@ -133,7 +176,7 @@ impl Component for Planner {
         ctx.send_server(NEXT, |_| PlannerMsg::Next)?;
         let status = ctx.push_newest_server(MISSION)?;
         ctx.mailbox().cast(PlannerMsg::Next).map_err(|_| "planner: cannot reach its own mailbox")?;
-        Ok(PlannerState { step: 0, goal_id: None, goals, status })
+        Ok(PlannerState { step: 0, retried: 0, goal_id: None, goals, status })
     }
 
     async fn handle(
@@ -152,11 +195,45 @@ impl Component for Planner {
                 match st.goals.query(goal, Some(Duration::from_secs(5))).await? {
                     GoalReply::Accepted { id } => {
                         st.goal_id = Some(id);
+                        st.retried = 0;
                         self.publish(st, None);
                     }
-                    GoalReply::Rejected { reason } => {
-                        tracing::error!("planner: goal {} ({}) rejected: {reason}", st.step, step.mode);
-                        self.publish(st, Some(format!("aborted: step {} rejected: {reason}", st.step)));
+                    GoalReply::Rejected { switch: Some(f), reason }
+                        if f.phase == Phase::Commit && f.nothing_changed() && st.retried < self.retries =>
+                    {
+                        st.retried += 1;
+                        tracing::warn!(
+                            "planner: goal {} ({}) could not be switched to now ({reason}); the previous goal \
+                             goes on; giving it again in {:?} ({} of {})",
+                            st.step,
+                            step.mode,
+                            self.retry_after,
+                            st.retried,
+                            self.retries
+                        );
+                        let mailbox = ctx.mailbox().clone();
+                        let after = self.retry_after;
+                        tokio::spawn(async move {
+                            tokio::time::sleep(after).await;
+                            let _ = mailbox.cast(PlannerMsg::Next);
+                        });
+                    }
+                    GoalReply::Rejected { reason, switch } => {
+                        let why = match &switch {
+                            Some(f) if !f.nothing_changed() => "the system is left half switched",
+                            Some(f) if f.phase == Phase::Prepare => "its mode cannot be made",
+                            Some(_) => "its mode switch failed every time",
+                            None => "the goal is invalid",
+                        };
+                        tracing::error!(
+                            "planner: goal {} ({}) rejected, {why}: {reason}",
+                            st.step,
+                            step.mode
+                        );
+                        self.publish(
+                            st,
+                            Some(format!("aborted: step {} rejected, {why}: {reason}", st.step)),
+                        );
                     }
                 }
             }
@@ -202,8 +279,18 @@ mod tests {
                 MissionStep { mode: "patrol".into(), for_s: None },
                 MissionStep { mode: "dance".into(), for_s: None },
             ],
+            ..PlannerParams::default()
         };
         let e = bad.validate(&["patrol", "stop"]).expect_err("invalid");
         assert!(e.starts_with("planner.mission[1].mode: 'dance'"), "{e}");
+        for (p, key) in [
+            (PlannerParams { retries: MAX_RETRIES + 1, ..PlannerParams::default() }, "planner.retries"),
+            (PlannerParams { retry_after_s: -1.0, ..PlannerParams::default() }, "planner.retry_after_s"),
+            (PlannerParams { retry_after_s: f64::NAN, ..PlannerParams::default() }, "planner.retry_after_s"),
+        ] {
+            let e = p.validate(&["patrol"]).expect_err("invalid");
+            assert!(e.starts_with(key), "{e}");
+        }
+        assert_eq!(PlannerParams::default().validate(&["patrol"]), Ok(()));
     }
 }

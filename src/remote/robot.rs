@@ -552,7 +552,7 @@ async fn start_fallback(
     let reply = goals.query(Goal { mode: mode.to_string(), for_s: None }, Some(Duration::from_secs(5))).await;
     match reply {
         Ok(GoalReply::Accepted { .. }) => Ok(master),
-        Ok(GoalReply::Rejected { reason }) => {
+        Ok(GoalReply::Rejected { reason, .. }) => {
             master.stop().await;
             bail!("fallback goal rejected: {reason}")
         }

@@ -328,6 +328,10 @@ fn cbor_to_json(v: ciborium::Value) -> serde_json::Value {
     }
 }
 
+/// How long `orsa wire` and `orsa state` let their one change take (a state change waits for
+/// the component's activities to leave their critical sections) before it is undone.
+const TOOL_STEP_TIMEOUT: Duration = Duration::from_secs(5);
+
 /// `orsa wire`.
 pub fn wire(args: WireArgs) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
@@ -338,11 +342,14 @@ pub fn wire(args: WireArgs) -> anyhow::Result<()> {
         let registry = Registry::new();
         let transport = open(&registry, &args.net, "tool", None).await?;
         wait_for(&transport, &[ServiceAddr::new(&args.component, "wiring")], wait).await?;
+        // One change, made as a switch: checked before it is made, recorded as one switch
+        // event by the component's process, and refused with the same typed error.
+        let change = match &args.target {
+            Some(t) => Switch::new().connect_named(&args.component, &args.port, t.clone()),
+            None => Switch::new().disconnect_named(&args.component, &args.port),
+        };
+        SwitchMaster::new(&registry, "tool").apply(&change.step_timeout(TOOL_STEP_TIMEOUT)).await?;
         let master = WiringMaster::new(&registry);
-        match &args.target {
-            Some(t) => master.connect_named(&args.component, &args.port, t).await?,
-            None => master.disconnect_named(&args.component, &args.port).await?,
-        }
         for p in master.ports(&args.component).await? {
             let target = p.target.map_or("(disconnected)".to_string(), |t| t.to_string());
             crate::cli::say(&format!("{}.{} -> {target}", args.component, p.port));
@@ -359,10 +366,11 @@ pub fn state(args: StateArgs) -> anyhow::Result<()> {
         let registry = Registry::new();
         let transport = open(&registry, &args.net, "tool", None).await?;
         wait_for(&transport, &[ServiceAddr::new(&args.component, "state")], wait).await?;
-        let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
         if let Some(main) = &args.main {
-            master.set_state(main).await?;
+            let change = Switch::new().state(&args.component, main).step_timeout(TOOL_STEP_TIMEOUT);
+            SwitchMaster::new(&registry, "tool").apply(&change).await?;
         }
+        let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
         let s = master.status().await?;
         crate::cli::say(&format!(
             "{}: {}{}",

@@ -147,8 +147,13 @@ impl Catalog {
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
         c.register_untimed("planner", Place::Executive, |parts, spec| {
             no_params(spec)?;
-            let mission = parts.config.planner.mission_for(parts.duration_s);
-            Ok(Planner { mission, executive: orsa_interfaces::executive::NAME.into() })
+            let p = &parts.config.planner;
+            Ok(Planner {
+                mission: p.mission_for(parts.duration_s),
+                executive: orsa_interfaces::executive::NAME.into(),
+                retries: p.retries,
+                retry_after: Duration::from_secs_f64(p.retry_after_s),
+            })
         });
         c
     }
