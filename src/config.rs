@@ -240,6 +240,17 @@ impl Config {
         self.executive.validate()?;
         self.supervision.validate()?;
         self.link.validate(self.robot.cmd_timeout_s)?;
+        // A hand-over leaves the motors without a driver for one switch step, two if it fails
+        // and is undone: that must fit in the robot's command timeout, or the watchdog stops
+        // the robot in the middle of every slow hand-over.
+        let step = self.executive.switch_step_s;
+        if 2.0 * step > self.robot.cmd_timeout_s {
+            return Err(format!(
+                "executive.switch_step_s: {step} s is too long for robot.cmd_timeout_s = {} s: a \
+                 hand-over leaves the motors without a driver for up to two steps",
+                self.robot.cmd_timeout_s
+            ));
+        }
         // Kinds are checked against the catalog when the system starts (a program may add its own).
         self.system.validate(|_| true, &[])?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
@@ -339,6 +350,8 @@ mod tests {
         );
         let e = Config::from_toml("[link]\nheartbeat_period_s = 0.2\n", "m.toml").expect_err("too slow");
         assert!(e.to_string().contains("at least twice link.heartbeat_period_s"), "{e}");
+        let e = Config::from_toml("[executive]\nswitch_step_s = 0.3\n", "m.toml").expect_err("step too long");
+        assert!(e.to_string().starts_with("m.toml: executive.switch_step_s: 0.3 s is too long"), "{e}");
         let e = Config::load(Path::new("/nonexistent/orsa.toml")).expect_err("missing file");
         assert!(e.to_string().starts_with("/nonexistent/orsa.toml: cannot read"), "{e}");
     }

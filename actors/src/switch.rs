@@ -11,9 +11,14 @@
 //!    its state (in its process, wherever that is); every port must exist, every target service
 //!    must exist and be of the pattern and objects the port expects, every main state must be
 //!    declared, and no port or component may be named twice. A failure here changes nothing.
-//! 2. **Commit**, in an order that keeps the usual invariants at every instant: first every
-//!    disconnect (so two behaviours are never wired to one target during the switch), then the
-//!    state changes, then every connect. Each step gets at most the switch's step timeout. If a
+//! 2. **Commit**, in an order that keeps the usual invariants at every instant: first the state
+//!    changes of components the switch does not unwire (the behaviour taking over becomes
+//!    active while still unwired), then every disconnect (so two behaviours are never wired to
+//!    one target during the switch), then every connect, then the state changes of components
+//!    it unwired (the behaviour handing over is set neutral once unwired). A disconnect and the
+//!    connect that replaces it are neighbours: the motors go without a driver for one step at
+//!    most (two if that step fails and the disconnect is undone), however many states the
+//!    switch changes. Each step gets at most the switch's step timeout. If a
 //!    step fails or times out, the steps already made are **undone** in reverse order, each
 //!    port back on its previous target and each component back in its previous main state, and
 //!    the caller gets one [`SwitchError`] naming the change that failed, why, and whether the
@@ -130,12 +135,21 @@ impl Change {
         }
     }
 
-    /// Commit order: disconnects, then states, then connects.
-    fn rank(&self) -> u8 {
+    /// Commit order, in a switch of the changes `all`: the states of components this switch
+    /// does not unwire (the behaviour taking over is made active while still unwired), then every
+    /// disconnect, then every connect, then the states of components it unwires (the behaviour
+    /// handing over is set neutral once unwired). A disconnect and the connect that replaces it
+    /// are neighbours, so the target is without a client for one step at most.
+    fn rank(&self, all: &[Change]) -> u8 {
         match self {
-            Change::Disconnect { .. } => 0,
-            Change::State { .. } => 1,
+            Change::Disconnect { .. } => 1,
             Change::Connect { .. } => 2,
+            Change::State { component, .. } => {
+                let unwired = all
+                    .iter()
+                    .any(|c| matches!(c, Change::Disconnect { component: d, .. } if d == component));
+                if unwired { 3 } else { 0 }
+            }
         }
     }
 }
@@ -452,7 +466,7 @@ impl SwitchMaster {
             return result;
         }
         let mut changes = switch.changes.clone();
-        changes.sort_by_key(Change::rank);
+        changes.sort_by_key(|c| c.rank(&switch.changes));
         let failed = result.as_ref().err().map(SwitchFailure::from);
         let record = SwitchRecord { changes, failed };
         let id = <SwitchRecord as crate::CommObject>::ID;
@@ -541,7 +555,7 @@ impl SwitchMaster {
             return Err(e);
         }
         let mut plan = local;
-        plan.sort_by_key(|c| c.rank());
+        plan.sort_by_key(|c| c.rank(&switch.changes));
         if let Err((i, error)) = self.commit(&plan, &before, step).await {
             // A step that failed may still have taken effect (a reply lost on the way back):
             // it is undone too, which is harmless if it did not.
@@ -926,9 +940,10 @@ async fn serve_prepare(
 ) -> PatternResult<SwitchReply> {
     check_once(&changes).map_err(|(_, e)| e)?;
     let master = SwitchMaster::new(registry, "switch");
-    let mut mine: Vec<Change> = changes.into_iter().filter(|c| master.hosted_here(c.component())).collect();
+    let mut mine: Vec<Change> =
+        changes.iter().filter(|c| master.hosted_here(c.component())).cloned().collect();
     // Kept in commit order: the commit and an undo walk it as it is.
-    mine.sort_by_key(Change::rank);
+    mine.sort_by_key(|c| c.rank(&changes));
     let mut covers: Vec<String> = mine.iter().map(|c| c.component().to_string()).collect();
     covers.sort();
     covers.dedup();

@@ -91,7 +91,8 @@ async fn driven_by_b0() -> (System, SwitchMaster) {
 #[tokio::test(start_paused = true)]
 async fn switch_a_mode_change_is_made_in_the_safe_order() {
     let (s, master) = driven_by_b0().await;
-    // The connect comes first in the list: the commit still disconnects b0 before it wires b1.
+    // The connect comes first in the list: the commit still activates b1 while it is unwired,
+    // disconnects b0 just before it wires b1, and sets b0 neutral once it is unwired.
     let to_b1 = Switch::new()
         .connect("b1", VEL, MOTORS.on("robot"))
         .state("b1", "active")
@@ -104,8 +105,8 @@ async fn switch_a_mode_change_is_made_in_the_safe_order() {
     assert_eq!(c.wired["b0"], None);
     assert_eq!(c.wired["b1"].as_deref(), Some("robot/motors"));
     assert_eq!((c.state["b0"].as_str(), c.state["b1"].as_str()), ("neutral", "active"));
-    // One control event for the switch, with its changes in commit order; and the wiring
-    // slaves' own events show b0 unwired before b1 was wired.
+    // One control event for the switch, with its changes in commit order; and the wiring and
+    // state slaves' own events show them made in that order.
     let events = tap.events();
     let switches: Vec<SwitchRecord> = events
         .iter()
@@ -116,12 +117,15 @@ async fn switch_a_mode_change_is_made_in_the_safe_order() {
     let order: Vec<String> = switches[0].changes.iter().map(ToString::to_string).collect();
     assert_eq!(
         order,
-        ["disconnect b0.vel", "set b1 to active", "set b0 to neutral", "connect b1.vel to robot/motors"]
+        ["set b1 to active", "disconnect b0.vel", "connect b1.vel to robot/motors", "set b0 to neutral"]
     );
     assert_eq!(switches[0].failed, None);
-    let wiring: Vec<&str> =
-        events.iter().filter(|(t, _)| t.ends_with("/wiring")).map(|(t, _)| t.as_str()).collect();
-    assert_eq!(wiring, ["b0/wiring", "b1/wiring"]);
+    let made: Vec<&str> = events
+        .iter()
+        .filter(|(t, _)| t.ends_with("/wiring") || t.ends_with("/state"))
+        .map(|(t, _)| t.as_str())
+        .collect();
+    assert_eq!(made, ["b1/state", "b0/wiring", "b1/wiring", "b0/state"]);
 }
 
 #[tokio::test(start_paused = true)]
@@ -186,27 +190,73 @@ async fn switch_a_step_that_hangs_is_undone_with_everything_before_it() {
     assert_eq!(e.error, PatternError::Timeout);
     assert!(e.nothing_changed(), "{e}");
     let undone: Vec<String> = e.undone.iter().map(ToString::to_string).collect();
-    assert_eq!(undone, ["set b2 to neutral", "set b1 to active", "set b0 to neutral", "disconnect b0.vel"]);
+    // b1 was activated first (it is not unwired), then b2 hung: b0 was never touched.
+    assert_eq!(undone, ["set b2 to neutral", "set b1 to active"]);
     assert_eq!(observe(&s).await, before);
     // One step timeout for the hung step; the others and the undo take no time in process.
     assert_eq!(t0.elapsed(), Duration::from_millis(100));
 }
 
+/// What the tap saw: (topic, message, stamp).
 #[derive(Default)]
-struct Recorded(parking_lot::Mutex<Vec<(String, serde_json::Value)>>);
+struct Recorded(parking_lot::Mutex<Vec<(String, serde_json::Value, orsa_actors::Timestamp)>>);
 
 impl Recorded {
     fn events(&self) -> Vec<(String, serde_json::Value)> {
-        self.0.lock().clone()
+        self.0.lock().iter().map(|(t, v, _)| (t.clone(), v.clone())).collect()
+    }
+
+    /// The wiring events, as (component, its port's target or none, when).
+    fn wiring(&self) -> Vec<(String, Option<String>, orsa_actors::Timestamp)> {
+        self.0
+            .lock()
+            .iter()
+            .filter_map(|(t, v, at)| {
+                let component = t.strip_suffix("/wiring")?;
+                let target = v["target"]["service"].as_str().map(str::to_string);
+                Some((component.to_string(), target, *at))
+            })
+            .collect()
     }
 }
 
 impl Tap for Recorded {
-    fn record(&self, topic: &str, _type_id: &str, _stamp: orsa_actors::Timestamp, json: &[u8]) {
+    fn record(&self, topic: &str, _type_id: &str, stamp: orsa_actors::Timestamp, json: &[u8]) {
         if let Ok(v) = serde_json::from_slice(json) {
-            self.0.lock().push((topic.to_string(), v));
+            self.0.lock().push((topic.to_string(), v, stamp));
         }
     }
+}
+
+/// A hand-over whose outgoing behaviour hangs on being set neutral (its activity is in its
+/// critical section): the motors are never without a driver while the switch waits on the hung
+/// step, only at the instants of the swap and of its undo.
+#[tokio::test(start_paused = true)]
+async fn switch_the_motors_are_not_left_unwired_while_a_step_hangs() {
+    let (s, master) = driven_by_b0().await;
+    let _stuck: SubstateGuard = s.slaves["b0"].handle().try_acquire("drive").expect("drive");
+    let tap = Arc::new(Recorded::default());
+    s.registry.set_tap(Some(tap.clone()));
+    let handover = Switch::new()
+        .disconnect("b0", VEL)
+        .state("b0", "neutral")
+        .state("b1", "active")
+        .connect("b1", VEL, MOTORS.on("robot"));
+    let e = master.apply(&handover).await.expect_err("b0 hangs");
+    assert_eq!(e.change, Change::State { component: "b0".into(), main: "neutral".into() });
+    assert!(e.nothing_changed(), "{e}");
+    let wiring = tap.wiring();
+    let who: Vec<(&str, Option<&str>)> = wiring.iter().map(|(c, t, _)| (c.as_str(), t.as_deref())).collect();
+    assert_eq!(
+        who,
+        [("b0", None), ("b1", Some("motors")), ("b1", None), ("b0", Some("motors"))],
+        "swap, then its undo"
+    );
+    // Each unwiring is followed by a wiring at the same instant: the hung step (100 ms) is
+    // spent with b1 driving, not with nobody.
+    assert_eq!(wiring[0].2, wiring[1].2);
+    assert_eq!(wiring[2].2, wiring[3].2);
+    assert_eq!(wiring[2].2.as_nanos() - wiring[1].2.as_nanos(), 100_000_000);
 }
 
 /// What a random switch does to one behaviour.
