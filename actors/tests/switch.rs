@@ -237,11 +237,11 @@ async fn switch_the_motors_are_not_left_unwired_while_a_step_hangs() {
     let _stuck: SubstateGuard = s.slaves["b0"].handle().try_acquire("drive").expect("drive");
     let tap = Arc::new(Recorded::default());
     s.registry.set_tap(Some(tap.clone()));
-    let handover = Switch::new()
-        .disconnect("b0", VEL)
-        .state("b0", "neutral")
-        .state("b1", "active")
-        .connect("b1", VEL, MOTORS.on("robot"));
+    let handover = Switch::new().disconnect("b0", VEL).state("b0", "neutral").state("b1", "active").connect(
+        "b1",
+        VEL,
+        MOTORS.on("robot"),
+    );
     let e = master.apply(&handover).await.expect_err("b0 hangs");
     assert_eq!(e.change, Change::State { component: "b0".into(), main: "neutral".into() });
     assert!(e.nothing_changed(), "{e}");
