@@ -93,19 +93,43 @@ fn positive_secs(s: &str) -> Result<f64, String> {
     }
 }
 
+/// How a command ended, when it did not fail: each has its exit code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// It did what it was asked (exit code 0).
+    Completed,
+    /// The system gave up: its top supervisor went over its restart intensity; the motors were
+    /// stopped and the report written (exit code 3).
+    GaveUp,
+    /// Ctrl-C or SIGTERM ended it early; the report was written (exit code 130).
+    Interrupted,
+}
+
+impl Outcome {
+    /// The process's exit code (an error is 1, a command line error 2).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Outcome::Completed => 0,
+            Outcome::GaveUp => 3,
+            Outcome::Interrupted => 130,
+        }
+    }
+}
+
 /// Runs a parsed command line.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+pub fn run(cli: Cli) -> anyhow::Result<Outcome> {
+    let done = |r: anyhow::Result<()>| r.map(|()| Outcome::Completed);
     match cli.command {
         Command::Run(args) => run_mission(args),
-        Command::Robot(args) => crate::remote::robot(args),
-        Command::Executive(args) => crate::remote::executive(args),
-        Command::Teleop(args) => crate::remote::teleop(args),
-        Command::List(args) => crate::remote::list(args),
-        Command::Echo(args) => crate::remote::echo(args),
-        Command::Wire(args) => crate::remote::wire(args),
-        Command::State(args) => crate::remote::state(args),
-        Command::Switch(args) => crate::remote::switch(args),
-        Command::Replay(args) => crate::replay::command::run(args),
+        Command::Robot(args) => done(crate::remote::robot(args)),
+        Command::Executive(args) => done(crate::remote::executive(args)),
+        Command::Teleop(args) => done(crate::remote::teleop(args)),
+        Command::List(args) => done(crate::remote::list(args)),
+        Command::Echo(args) => done(crate::remote::echo(args)),
+        Command::Wire(args) => done(crate::remote::wire(args)),
+        Command::State(args) => done(crate::remote::state(args)),
+        Command::Switch(args) => done(crate::remote::switch(args)),
+        Command::Replay(args) => done(crate::replay::command::run(args)),
     }
 }
 
@@ -118,7 +142,33 @@ pub fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_mission(args: RunArgs) -> anyhow::Result<()> {
+/// Ctrl-C or SIGTERM, by name (on systems without SIGTERM, Ctrl-C only).
+fn interrupted() -> futures::future::BoxFuture<'static, String> {
+    Box::pin(async {
+        #[cfg(unix)]
+        let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
+        #[cfg(unix)]
+        let term = async move {
+            match term.as_mut() {
+                Some(t) => {
+                    t.recv().await;
+                }
+                None => std::future::pending::<()>().await,
+            }
+        };
+        #[cfg(not(unix))]
+        let term = std::future::pending::<()>();
+        tokio::select! {
+            r = tokio::signal::ctrl_c() => match r {
+                Ok(()) => "SIGINT (Ctrl-C)".to_string(),
+                Err(_) => std::future::pending().await,
+            },
+            () = term => "SIGTERM".to_string(),
+        }
+    })
+}
+
+fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let (world, label) = match &args.world {
         Some(p) => (World::from_path(p)?, p.display().to_string()),
         None => (World::palazzina()?, "palazzina (built in)".to_string()),
@@ -148,14 +198,23 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
     opts.record = args.record.clone();
     opts.realtime = args.realtime;
 
+    opts.interrupt = Some(interrupted());
+
+    // The signal handlers need the I/O driver; the paused clock still advances only when every
+    // task waits.
     let mut rt = tokio::runtime::Builder::new_current_thread();
-    rt.enable_time();
+    rt.enable_all();
     if !args.realtime {
         rt.start_paused(true);
     }
     let rt = rt.build().context("cannot start the tokio runtime")?;
     let wall = std::time::Instant::now();
     let RunOutcome { mut report, metrics, recording, .. } = rt.block_on(mission::run(opts))?;
+    let outcome = match report.ended {
+        mission::report::Ended::Completed => Outcome::Completed,
+        mission::report::Ended::GaveUp { .. } => Outcome::GaveUp,
+        mission::report::Ended::Interrupted { .. } => Outcome::Interrupted,
+    };
     report.wall_seconds = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
@@ -189,7 +248,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<()> {
         }
         None => {}
     }
-    Ok(())
+    Ok(outcome)
 }
 
 /// A progress bar over `len_s` seconds of `what` time (`simulated`, `replayed`), or a hidden

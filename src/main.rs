@@ -34,7 +34,7 @@ fn main() -> std::process::ExitCode {
     };
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
     match orsa::cli::run(cli) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(outcome) => std::process::ExitCode::from(outcome.exit_code()),
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE

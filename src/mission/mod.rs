@@ -25,7 +25,7 @@ use orsa_hardware::sim::Side;
 use orsa_hardware::world::World;
 use orsa_interfaces::executive::{self, WiringChange};
 use orsa_interfaces::nomad200::{self, SafetyCounters};
-use report::{Report, SafetyFigures};
+use report::{Ended, Report, SafetyFigures};
 use stack::{Stack, StackError};
 use std::sync::Arc;
 use std::time::Duration;
@@ -59,6 +59,10 @@ pub struct RunOptions {
     /// The kinds of component the config's `[system]` table may name (default: the built-in
     /// ones; a program adds its own, see `examples/new_behaviour.rs`).
     pub catalog: crate::system::Catalog,
+    /// Ends the run early when it completes, with the name of what interrupted it (`orsa run`
+    /// passes Ctrl-C and SIGTERM): the run stops the motors, and reports and records what
+    /// happened up to then.
+    pub interrupt: Option<futures::future::BoxFuture<'static, String>>,
 }
 
 impl RunOptions {
@@ -83,6 +87,7 @@ impl RunOptions {
             faults: None,
             realtime: false,
             catalog: crate::system::Catalog::builtin(),
+            interrupt: None,
         }
     }
 }
@@ -135,7 +140,7 @@ fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
 }
 
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.
-pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
+pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     if !(opts.duration_s.is_finite() && opts.duration_s > 0.0) {
         return Err(MissionError::Invalid(format!(
             "duration must be a positive number of seconds, not {}",
@@ -147,6 +152,8 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         None => None,
     };
     let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
+    // The top supervisor giving up ends the run (its children are gone).
+    let (gave_up_tx, mut gave_up_rx) = tokio::sync::watch::channel(None::<SupervisorEvent>);
     let ev_rec = recording.clone();
     let tap = recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>);
     let stack = Stack::start_with(
@@ -159,6 +166,9 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         move |e| {
             if let Some(r) = &ev_rec {
                 r.supervisor_event(&e);
+            }
+            if e.kind == SupervisorEventKind::GaveUp && e.supervisor == crate::system::TOP_SUPERVISOR {
+                let _ = gave_up_tx.send(Some(e.clone()));
             }
             // The receiver lives until the run ends.
             let _ = ev_tx.send(e);
@@ -197,8 +207,36 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let behaviours = opts.config.executive.behaviours();
     let behaviours: Vec<&str> = behaviours.iter().map(String::as_str).collect();
     let check_every = ((1.0 / opts.sample_period_s).round() as u64).max(1);
+    // What may end the run before its time: a signal, or the top supervisor giving up.
+    let interrupt = opts.interrupt.take();
+    let early = async move {
+        let signal = async move {
+            match interrupt {
+                Some(i) => i.await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            signal = signal => Early::Interrupted(signal),
+            e = gave_up_rx.wait_for(Option::is_some) => match e.ok().and_then(|e| e.clone()) {
+                Some(e) => Early::GaveUp(e),
+                None => std::future::pending().await,
+            },
+        }
+    };
+    tokio::pin!(early);
+    let mut ended = Ended::Completed;
+    let mut simulated_s = opts.duration_s;
     for k in 1..=samples {
-        ticks.tick().await;
+        tokio::select! {
+            biased;
+            _ = ticks.tick() => {}
+            why = &mut early => {
+                simulated_s = (k - 1) as f64 * opts.sample_period_s;
+                ended = stop_early(&stack, why, simulated_s).await;
+                break;
+            }
+        }
         while let Ok(change) = wrx.try_recv() {
             driving = change.driving.clone();
         }
@@ -231,9 +269,21 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         p.abort();
     }
     let robot = opts.config.robot.name.as_str();
-    let safety = QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot))?
-        .query(Empty {}, Some(Duration::from_secs(1)))
-        .await?;
+    // A robot server the supervisor gave up on has no counters to give: the report says how
+    // the run ended, and its safety figures are zero.
+    let safety =
+        match QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot)) {
+            Ok(c) => c.query(Empty {}, Some(Duration::from_secs(1))).await,
+            Err(e) => Err(e),
+        };
+    let safety = match (safety, &ended) {
+        (Ok(s), _) => s,
+        (Err(e), Ended::Completed) => return Err(e.into()),
+        (Err(e), _) => {
+            tracing::warn!("the robot server's safety counters are lost with it: {e}");
+            SafetyCounters::default()
+        }
+    };
     let faults_switch = stack.registry.faults();
     let clock = stack.registry.clock();
     let boards = stack.board_faults.clone();
@@ -255,7 +305,8 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
         command_timeouts: safety.timeouts,
         stale_commands_applied: safety.stale_applied,
     };
-    let mut report = Report::new(opts.world_label, opts.seed, opts.duration_s, &metrics, restarts, safety);
+    let mut report = Report::new(opts.world_label, opts.seed, simulated_s, &metrics, restarts, safety);
+    report.ended = ended;
     report.delivery = delivery;
     report.integrity = held;
     if let Some(plan) = &opts.faults {
@@ -291,4 +342,54 @@ pub async fn run(opts: RunOptions) -> Result<RunOutcome, MissionError> {
     }
     let recording = recording.and_then(|r| r.finish().transpose());
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
+}
+
+/// What ended a run before its time.
+enum Early {
+    /// A signal, by name.
+    Interrupted(String),
+    /// The top supervisor gave up.
+    GaveUp(SupervisorEvent),
+}
+
+/// How long a run that ends early waits for the robot to come to rest.
+const STOP_WAIT: Duration = Duration::from_secs(2);
+
+/// Ends a run before its time at `at_s`. Interrupted, the stack is shut down as at the end of
+/// a run (the robot server stops the motors). Given up, the robot server is gone with its
+/// watchdog: the motors are stopped straight on the board, and the robot is given `STOP_WAIT`
+/// to come to rest.
+async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
+    use orsa_hardware::board::MotorBoard as _;
+    match why {
+        Early::Interrupted(signal) => {
+            tracing::warn!("interrupted by {signal} at {at_s:.1} s: writing the report");
+            Ended::Interrupted { at_s, signal }
+        }
+        Early::GaveUp(e) => {
+            let board = stack.sim.motor_board();
+            let t0 = tokio::time::Instant::now();
+            if let Err(e) = board.stop().await {
+                tracing::error!("cannot stop the motors: {e}");
+            }
+            let stopped_in_s = match board.wait_stop(STOP_WAIT).await {
+                Ok(()) => Some(t0.elapsed().as_secs_f64()),
+                Err(e) => {
+                    tracing::error!(
+                        "the robot is still moving {STOP_WAIT:?} after the motors were stopped: {e}"
+                    );
+                    None
+                }
+            };
+            let ended = Ended::GaveUp {
+                at_s,
+                supervisor: e.supervisor,
+                child: e.child,
+                reason: e.reason,
+                stopped_in_s,
+            };
+            tracing::error!("the run {}", ended.describe());
+            ended
+        }
+    }
 }

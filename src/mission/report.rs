@@ -50,9 +50,60 @@ pub struct BumpAt {
     pub driving: Option<String>,
 }
 
+/// How a run ended.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "how", rename_all = "snake_case")]
+pub enum Ended {
+    /// It ran its whole duration.
+    #[default]
+    Completed,
+    /// The top supervisor gave up: restarts went over its intensity. The motors were stopped
+    /// and the run ended there.
+    GaveUp {
+        /// Simulated time it gave up at, s.
+        at_s: f64,
+        /// The supervisor that gave up.
+        supervisor: String,
+        /// The child whose failure was one restart too many.
+        child: String,
+        /// Why that child failed, and the count.
+        reason: String,
+        /// How long the robot took to come to rest after the motors were stopped, s (`None`:
+        /// not within the wait).
+        stopped_in_s: Option<f64>,
+    },
+    /// A signal (Ctrl-C, SIGTERM) ended the run early.
+    Interrupted {
+        /// Simulated time it ended at, s.
+        at_s: f64,
+        /// Which signal.
+        signal: String,
+    },
+}
+
+impl Ended {
+    /// One line for people.
+    pub fn describe(&self) -> String {
+        match self {
+            Ended::Completed => "completed".into(),
+            Ended::GaveUp { at_s, supervisor, child, reason, stopped_in_s } => format!(
+                "gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed once too often \
+                 ({reason}); the motors were stopped{}",
+                stopped_in_s.map_or(" (the robot was still moving 2 s later)".to_string(), |s| format!(
+                    " and the robot was at rest {s:.2} s later"
+                ))
+            ),
+            Ended::Interrupted { at_s, signal } => format!("was interrupted by {signal} at {at_s:.1} s"),
+        }
+    }
+}
+
 /// Everything `report.json` says about a run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Report {
+    /// How the run ended (its figures cover the time up to then).
+    #[serde(default)]
+    pub ended: Ended,
     /// The world's name and where it came from.
     pub world: String,
     /// The seed.
@@ -103,6 +154,7 @@ impl Report {
         safety: SafetyFigures,
     ) -> Self {
         Report {
+            ended: Ended::Completed,
             world,
             seed,
             sim_seconds,
@@ -177,6 +229,9 @@ impl Report {
             if self.wall_seconds > 0.0 { self.sim_seconds / self.wall_seconds } else { 0.0 },
             self.restarts
         );
+        if self.ended != Ended::Completed {
+            let _ = write!(out, "\nthe run {}", self.ended.describe());
+        }
         out
     }
 }

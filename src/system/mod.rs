@@ -77,6 +77,9 @@ impl std::fmt::Debug for System {
     }
 }
 
+/// The name of a system's supervisor unless the builder is given another.
+pub const TOP_SUPERVISOR: &str = "orsa";
+
 impl System {
     /// Starts describing the system of `config` (its `[system]` table).
     pub fn builder(config: &Config) -> SystemBuilder<'_> {
@@ -87,7 +90,7 @@ impl System {
             names: None,
             robot: None,
             duration_s: 3600.0,
-            name: "orsa".into(),
+            name: TOP_SUPERVISOR.into(),
             on_event: None,
         }
     }
