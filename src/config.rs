@@ -12,6 +12,7 @@ use orsa_planner::PlannerParams;
 use orsa_reactive::centerfollow::CenterFollowParams;
 use orsa_reactive::wallfollow::WallFollowParams;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The commented default configuration, as shipped.
@@ -92,21 +93,63 @@ impl LinkParams {
     }
 }
 
-/// How the stack's supervisor restarts what fails.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// How the stack's supervisors restart what fails: a top supervisor over subtrees, each with its
+/// own strategy and intensity, so that a behaviour crashing often uses up the behaviours'
+/// budget, never the robot server's. A subtree that gives up is restarted whole by the top; the
+/// top giving up ends the run in a safe state (the motors stopped on the board).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SupervisionParams {
-    /// More restarts than this within `period_s` and the supervisor gives up (escalates).
+    /// The top supervisor: more restarts than this (of subtrees, and of components in no
+    /// subtree) within `period_s` and the system gives up.
     pub max_restarts: u32,
     /// The window of `max_restarts`, seconds.
     pub period_s: f64,
     /// A handler running longer than this fails its instance (the hung-handler watchdog).
     pub handler_timeout_s: f64,
+    /// The subtrees, by name (given in a file, they replace the default ones). A component in
+    /// none is a child of the top supervisor.
+    pub subtrees: BTreeMap<String, Subtree>,
+}
+
+/// One subtree of the supervision tree.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Subtree {
+    /// The components it supervises, in start order.
+    pub members: Vec<String>,
+    /// Which members a restart affects (`one_for_one`, `one_for_all`, `rest_for_one`).
+    #[serde(default = "one_for_one")]
+    pub strategy: orsa_actors::supervision::Strategy,
+    /// More restarts than this within `period_s` and the subtree gives up (the top restarts it).
+    pub max_restarts: u32,
+    /// The window of `max_restarts`, seconds.
+    pub period_s: f64,
+}
+
+fn one_for_one() -> orsa_actors::supervision::Strategy {
+    orsa_actors::supervision::Strategy::OneForOne
 }
 
 impl Default for SupervisionParams {
     fn default() -> Self {
-        SupervisionParams { max_restarts: 10, period_s: 60.0, handler_timeout_s: 1.0 }
+        let tree = |members: &[&str], max_restarts| Subtree {
+            members: members.iter().map(|m| m.to_string()).collect(),
+            strategy: one_for_one(),
+            max_restarts,
+            period_s: 60.0,
+        };
+        SupervisionParams {
+            max_restarts: 3,
+            period_s: 60.0,
+            handler_timeout_s: 1.0,
+            subtrees: BTreeMap::from([
+                ("server".to_string(), tree(&["nomad200"], 5)),
+                ("behaviours".to_string(), tree(&["wallfollow", "centerfollow"], 20)),
+                ("executive".to_string(), tree(&["master"], 5)),
+                ("deliberative".to_string(), tree(&["planner"], 5)),
+            ]),
+        }
     }
 }
 
@@ -128,7 +171,28 @@ impl SupervisionParams {
                 self.handler_timeout_s
             ));
         }
+        let mut seen = std::collections::BTreeSet::new();
+        for (name, t) in &self.subtrees {
+            let key = format!("supervision.subtrees.{name}");
+            if !(t.period_s.is_finite() && t.period_s > 0.0 && t.period_s <= 86_400.0) {
+                return Err(format!("{key}.period_s: must be from 0 to 86400 seconds, not {}", t.period_s));
+            }
+            if t.members.is_empty() {
+                return Err(format!("{key}.members: a subtree supervises at least one component"));
+            }
+            if let Some(m) = t.members.iter().find(|m| !seen.insert(m.as_str())) {
+                return Err(format!("{key}.members: '{m}' is in two subtrees (or twice in one)"));
+            }
+        }
         Ok(())
+    }
+
+    /// The subtree `component` is in, if any.
+    pub fn subtree_of(&self, component: &str) -> Option<(&str, &Subtree)> {
+        self.subtrees
+            .iter()
+            .find(|(_, t)| t.members.iter().any(|m| m == component))
+            .map(|(n, t)| (n.as_str(), t))
     }
 }
 
@@ -251,6 +315,17 @@ impl Config {
                 self.robot.cmd_timeout_s
             ));
         }
+        // A subtree is a child of the top supervisor beside the components in no subtree: their
+        // names must differ. (Members that are not components of the system are left out: a
+        // process starts the subtrees of the components it hosts.)
+        if let Some(c) = self.system.components.iter().find(|c| {
+            self.supervision.subtrees.contains_key(&c.name) && self.supervision.subtree_of(&c.name).is_none()
+        }) {
+            return Err(format!(
+                "supervision.subtrees.{}: the component '{}' is in no subtree and has the subtree's name",
+                c.name, c.name
+            ));
+        }
         // Kinds are checked against the catalog when the system starts (a program may add its own).
         self.system.validate(|_| true, &[])?;
         let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
@@ -352,6 +427,34 @@ mod tests {
         assert!(e.to_string().contains("at least twice link.heartbeat_period_s"), "{e}");
         let e = Config::from_toml("[executive]\nswitch_step_s = 0.3\n", "m.toml").expect_err("step too long");
         assert!(e.to_string().starts_with("m.toml: executive.switch_step_s: 0.3 s is too long"), "{e}");
+        let e = Config::from_toml(
+            "[supervision.subtrees.a]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\n\
+             [supervision.subtrees.b]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\n",
+            "m.toml",
+        )
+        .expect_err("member twice");
+        assert!(
+            e.to_string().contains("supervision.subtrees.b.members: 'wallfollow' is in two subtrees"),
+            "{e}"
+        );
+        let e = Config::from_toml(
+            "[supervision.subtrees.a]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = -1\n",
+            "m.toml",
+        )
+        .expect_err("bad period");
+        assert!(e.to_string().contains("supervision.subtrees.a.period_s"), "{e}");
+        let e = Config::from_toml(
+            "[supervision.subtrees.a]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\nstrategy = \"all\"\n",
+            "m.toml",
+        )
+        .expect_err("bad strategy");
+        assert!(e.to_string().starts_with("m.toml:5:") && e.to_string().contains("`one_for_one`"), "{e}");
+        let e = Config::from_toml(
+            "[supervision.subtrees.master]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\n",
+            "m.toml",
+        )
+        .expect_err("a subtree named like a component in none");
+        assert!(e.to_string().contains("supervision.subtrees.master: the component 'master'"), "{e}");
         let e = Config::load(Path::new("/nonexistent/orsa.toml")).expect_err("missing file");
         assert!(e.to_string().starts_with("/nonexistent/orsa.toml: cannot read"), "{e}");
     }

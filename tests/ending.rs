@@ -6,56 +6,108 @@ use orsa::config::Config;
 use orsa::faults::{FaultPlan, PlanTargets};
 use orsa::mission::report::Ended;
 use orsa::mission::{self, RunOptions};
+use orsa_actors::supervision::SupervisorEventKind;
 use orsa_hardware::world::World;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-/// Both behaviours panic every 2 s from 2 s on: their restarts exceed the supervisor's
-/// intensity (10 in 60 s) at the eleventh.
-const EVERY_TWO_SECONDS: &str = r#"
+/// The robot server is killed every 2 s from 2 s on: its subtree (5 restarts in 60 s) gives up
+/// at the sixth kill, 12 s later; the top restarts the subtree, which gives up again 12 s later,
+/// and the fourth give-up in 60 s is one more than the top allows (3).
+const SERVER_KILLED_EVERY_TWO_SECONDS: &str = r#"
 [[fault]]
 at = 2.0
-kind = "panic"
-target = "wallfollow"
+kind = "kill"
+target = "nomad200"
 every = 2.0
+"#;
+
+/// The plan that, with every component under one supervisor (10 restarts in 60 s), ended the run
+/// at 35 s: the robot server killed every 23 s, the behaviours panicking every 11 and 13 s,
+/// the master hanging every 17 s.
+const OVERLAPPING: &str = r#"
+[[fault]]
+at = 5.0
+kind = "kill"
+target = "nomad200"
+every = 23.0
 
 [[fault]]
 at = 3.0
 kind = "panic"
+target = "wallfollow"
+every = 11.0
+
+[[fault]]
+at = 4.0
+kind = "panic"
 target = "centerfollow"
-every = 2.0
+every = 13.0
+
+[[fault]]
+at = 6.0
+kind = "hang"
+target = "master"
+every = 17.0
 "#;
 
-fn options(duration_s: f64) -> RunOptions {
-    let config = Config::default();
-    let mut o =
-        RunOptions::new(World::palazzina().expect("world"), "palazzina", config.clone(), 1, duration_s);
-    o.faults = Some(
-        FaultPlan::parse(EVERY_TWO_SECONDS, "the test's plan", &PlanTargets::for_stack(&config))
-            .expect("plan"),
-    );
+fn options(config: Config, plan: &str, duration_s: f64) -> RunOptions {
+    let targets = PlanTargets::for_stack(&config);
+    let mut o = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, duration_s);
+    o.faults = Some(FaultPlan::parse(plan, "the test's plan", &targets).expect("plan"));
     o
 }
 
 #[tokio::test(start_paused = true)]
 async fn a_run_whose_supervisor_gives_up_stops_the_robot_and_still_reports() {
-    let out = mission::run(options(600.0)).await.expect("a report, not an error");
+    let out = mission::run(options(Config::default(), SERVER_KILLED_EVERY_TWO_SECONDS, 600.0))
+        .await
+        .expect("a report, not an error");
     let r = &out.report;
     let Ended::GaveUp { at_s, supervisor, child, reason, stopped_in_s } = &r.ended else {
         panic!("ended {:?}", r.ended)
     };
-    // The eleventh restart in 60 s: the panic at 12 s.
-    assert_eq!((*at_s, supervisor.as_str(), child.as_str()), (12.0, "orsa", "wallfollow"));
-    assert!(reason.contains("injected fault"), "{reason}");
-    // Stopped straight on the board: at rest well within the robot's command timeout.
+    assert_eq!((*at_s, supervisor.as_str(), child.as_str()), (48.0, "orsa", "server"));
+    assert!(reason.contains("supervisor `server` gave up") && reason.contains("nomad200"), "{reason}");
+    // Stopped straight on the board: at rest within the robot's command timeout.
     let stopped = stopped_in_s.expect("at rest");
     assert!(stopped > 0.0 && stopped <= 0.5, "{stopped}");
-    // The figures cover the time up to then; the supervisor's restarts are all counted.
-    assert_eq!(r.sim_seconds, 12.0);
-    assert_eq!(r.restarts, 10);
-    assert!(r.distance_m > 1.0, "{}", r.distance_m);
-    assert_eq!(out.metrics.trajectory.last().map(|s| s.0), Some(12.0));
+    // The figures cover the time up to then.
+    assert_eq!(r.sim_seconds, 48.0);
+    assert_eq!(out.metrics.trajectory.last().map(|s| s.0), Some(48.0));
+    let gave_up: Vec<&str> = out
+        .supervisor_events
+        .iter()
+        .filter(|e| e.kind == SupervisorEventKind::GaveUp)
+        .map(|e| e.supervisor.as_str())
+        .collect();
+    assert_eq!(gave_up, ["server", "server", "server", "server", "orsa"]);
+}
+
+/// The tree keeps each part's failures to its own budget: under overlapping faults at several per
+/// minute the run goes on, and the robot server is restarted only when it is killed itself. With
+/// everything under one supervisor, as before, the same plan ends the run.
+#[tokio::test(start_paused = true)]
+async fn behaviours_crashing_often_never_take_the_robot_server_down() {
+    let out = mission::run(options(Config::default(), OVERLAPPING, 600.0)).await.expect("run");
+    let r = &out.report;
+    assert_eq!(r.ended, Ended::Completed);
+    assert_eq!((r.bumps, r.stalls), (0, 0));
+    let restarts = &r.faults.as_ref().expect("faults").restarts;
+    // Killed at 5, 28, ... 580 s: 26 times, restarted 26 times.
+    assert_eq!(restarts.get("nomad200"), Some(&26), "{restarts:?}");
+    assert!(restarts.get("wallfollow").is_some_and(|n| *n >= 50), "{restarts:?}");
+    assert!(!out.supervisor_events.iter().any(|e| e.kind == SupervisorEventKind::GaveUp));
+
+    let flat =
+        Config::from_toml("[supervision]\nmax_restarts = 10\nsubtrees = {}\n", "flat.toml").expect("config");
+    let out = mission::run(options(flat, OVERLAPPING, 600.0)).await.expect("a report");
+    assert!(
+        matches!(out.report.ended, Ended::GaveUp { ref supervisor, .. } if supervisor == "orsa"),
+        "{:?}",
+        out.report.ended
+    );
 }
 
 #[tokio::test(start_paused = true)]

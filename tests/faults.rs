@@ -15,9 +15,11 @@ fn plan(text: &str, config: &Config) -> FaultPlan {
 #[tokio::test(start_paused = true)]
 async fn a_behaviour_panicking_at_10_hz_for_ten_minutes_never_leaves_the_robot_on_a_stale_command() {
     let mut config = Config::default();
-    // Ten restarts a second for ten minutes is the point of the test, not a reason to give up.
-    config.supervision.max_restarts = 1_000;
-    config.supervision.period_s = 60.0;
+    // Ten restarts a second for ten minutes is the point of the test, not a reason for the
+    // behaviours' subtree to give up.
+    let behaviours = config.supervision.subtrees.get_mut("behaviours").expect("the behaviours' subtree");
+    behaviours.max_restarts = 1_000;
+    behaviours.period_s = 60.0;
     let plan = plan(
         "[[fault]]\nat = 10.0\nkind = \"panic\"\ntarget = \"centerfollow\"\nevery = 0.1\nuntil = 610.0\n",
         &config,

@@ -205,11 +205,13 @@ impl<'a> SystemBuilder<'a> {
             .collect())
     }
 
-    /// Makes the hosted components, starts them under one supervisor on `registry`'s clock
-    /// and sets the states and wiring their entries ask for. Must run inside a tokio runtime.
+    /// Makes the hosted components, starts them under the supervision tree of
+    /// `[supervision]` on `registry`'s clock (a top supervisor over the subtrees of the hosted
+    /// components, in the order their first member is hosted) and sets the states and wiring
+    /// their entries ask for. Must run inside a tokio runtime.
     pub async fn start(self, registry: &Registry) -> Result<System, AssemblyError> {
         let hosted = self.hosted()?;
-        let s = self.config.supervision;
+        let s = &self.config.supervision;
         let timeout = Duration::from_secs_f64(s.handler_timeout_s);
         let parts = Parts { config: self.config, duration_s: self.duration_s, robot: self.robot.as_ref() };
         let mut spec = SupervisorSpec::new(self.name.clone(), Strategy::OneForOne)
@@ -221,10 +223,28 @@ impl<'a> SystemBuilder<'a> {
         // Whatever fails, nothing made is left registered and nothing started is left running.
         let mut removers: Vec<Box<dyn Fn() + Send + Sync>> = Vec::new();
         let undo = |removers: &[Box<dyn Fn() + Send + Sync>]| removers.iter().for_each(|r| r());
+        // The top's children in start order: a component in no subtree, or a subtree (started
+        // where its first hosted member is).
+        enum Slot {
+            Component(orsa_actors::supervision::ChildSpec),
+            Subtree(String),
+        }
+        let mut slots: Vec<Slot> = Vec::new();
+        let mut subtrees: std::collections::BTreeMap<String, SupervisorSpec> = Default::default();
         for c in &hosted {
             match self.catalog.make(registry, &parts, c, timeout) {
                 Ok(made) => {
-                    spec = spec.with_child(made.child);
+                    match s.subtree_of(&c.name) {
+                        Some((name, t)) => {
+                            let tree = subtrees.entry(name.to_string()).or_insert_with(|| {
+                                slots.push(Slot::Subtree(name.to_string()));
+                                SupervisorSpec::new(name, t.strategy)
+                                    .with_intensity(t.max_restarts, Duration::from_secs_f64(t.period_s))
+                            });
+                            tree.children.push(made.child);
+                        }
+                        None => slots.push(Slot::Component(made.child)),
+                    }
                     removers.push(made.remove);
                 }
                 Err(e) => {
@@ -232,6 +252,16 @@ impl<'a> SystemBuilder<'a> {
                     return Err(e.into());
                 }
             }
+        }
+        for slot in slots {
+            let child = match slot {
+                Slot::Component(child) => child,
+                Slot::Subtree(name) => match subtrees.remove(&name) {
+                    Some(tree) => orsa_actors::supervision::ChildSpec::supervisor(name, tree),
+                    None => continue,
+                },
+            };
+            spec.children.push(child);
         }
         let supervisor = match Supervisor::start(spec).await {
             Ok(s) => s,
