@@ -56,6 +56,7 @@ mod error;
 pub mod event;
 pub mod fault;
 pub mod ledger;
+pub mod logbudget;
 pub mod prelude;
 mod push;
 pub mod push_newest;

@@ -72,6 +72,8 @@ struct Inner {
     components: RwLock<BTreeMap<String, ()>>,
     transport: RwLock<Option<Arc<dyn Transport>>>,
     decode_errors: std::sync::atomic::AtomicU64,
+    /// Lines about undecodable messages: a few a second, the rest counted.
+    decode_log: crate::logbudget::LogBudget,
     faults: crate::fault::Faults,
     ledger: crate::ledger::Ledger,
     /// The switches other processes prepared or committed here (`crate::switch` keeps its
@@ -120,6 +122,7 @@ impl Registry {
                 components: RwLock::new(BTreeMap::new()),
                 transport: RwLock::new(None),
                 decode_errors: std::sync::atomic::AtomicU64::new(0),
+                decode_log: crate::logbudget::LogBudget::hostile_input(),
                 faults: crate::fault::Faults::new(clock),
                 ledger: crate::ledger::Ledger::default(),
                 switches: parking_lot::Mutex::new(std::collections::HashMap::new()),
@@ -183,11 +186,12 @@ impl Registry {
         }
     }
 
-    /// Counts and logs a message from another process that did not decode. Nothing else
-    /// happens: the message is dropped and the receiver goes on.
+    /// Counts and logs a message from another process that did not decode (at most 10 lines a
+    /// second; the next line logged says how many were left out). Nothing else happens: the
+    /// message is dropped and the receiver goes on.
     pub fn note_decode_error(&self, from: &dyn fmt::Display, e: &dyn fmt::Display) {
         self.inner.decode_errors.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        tracing::warn!("dropped an undecodable message from {from}: {e}");
+        self.inner.decode_log.warn(|| format!("dropped an undecodable message from {from}: {e}"));
     }
 
     /// How many messages from other processes failed to decode so far.

@@ -58,6 +58,8 @@ pub(crate) struct Inner {
     pub(crate) published: AtomicU64,
     pub(crate) received: AtomicU64,
     pub(crate) decode_errors: AtomicU64,
+    /// Lines about malformed messages and tokens: a few a second, the rest counted.
+    pub(crate) bad_log: orsa_actors::logbudget::LogBudget,
     pub(crate) discovery: tokio::sync::watch::Sender<u64>,
     pub(crate) on_process_lost: Mutex<Vec<ProcessLost>>,
     pub(crate) on_process_found: Mutex<Vec<ProcessLost>>,
@@ -107,6 +109,7 @@ impl ZenohTransport {
             published: AtomicU64::new(0),
             received: AtomicU64::new(0),
             decode_errors: AtomicU64::new(0),
+            bad_log: orsa_actors::logbudget::LogBudget::hostile_input(),
             discovery: tokio::sync::watch::Sender::new(0),
             on_process_lost: Mutex::new(Vec::new()),
             on_process_found: Mutex::new(Vec::new()),
@@ -334,12 +337,12 @@ impl ZenohTransport {
 impl Inner {
     pub(crate) fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
         self.decode_errors.fetch_add(1, Ordering::Relaxed);
-        tracing::warn!("dropped an undecodable message on {from}: {e}");
+        self.bad_log.warn(|| format!("dropped an undecodable message on {from}: {e}"));
     }
 
     pub(crate) fn on_service_token(self: &Arc<Self>, key: &str, kind: SampleKind) {
         let Some(a) = self.keys.parse_service_token(key) else {
-            tracing::warn!("ignoring a malformed service token '{key}'");
+            self.bad_log.warn(|| format!("ignoring a malformed service token '{key}'"));
             return;
         };
         if a.host == self.zid {
@@ -363,7 +366,7 @@ impl Inner {
 
     pub(crate) fn on_process_token(self: &Arc<Self>, key: &str, kind: SampleKind) {
         let Some(p) = self.keys.parse_process_token(key) else {
-            tracing::warn!("ignoring a malformed process token '{key}'");
+            self.bad_log.warn(|| format!("ignoring a malformed process token '{key}'"));
             return;
         };
         match kind {

@@ -186,6 +186,45 @@ async fn a_corrupted_message_is_rejected_and_counted_and_nothing_else_changes() 
     assert_eq!(robot_stats.decode_errors, 2, "the robot counted the undecodable command and the bad request");
 }
 
+/// A flood of malformed commands is counted one by one but logged at most 10 lines a second:
+/// the log stays short, and the robot still takes the good command that follows.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_flood_of_malformed_messages_is_counted_whole_and_logged_within_a_budget() {
+    let sys = System::new("flood");
+    let robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let motors: ServiceAddr = MOTORS.parse().expect("addr");
+    let key = t.keys().send(&motors);
+    let flood = 2_000u64;
+    let t0 = std::time::Instant::now();
+    for i in 0..flood {
+        t.session().put(key.clone(), format!("\u{ff} garbage {i}").into_bytes()).await.expect("put");
+    }
+    // The good command goes on the same key after the flood: once it drives, the robot has
+    // taken every message before it.
+    let client = orsa_actors::send::SendClient::<orsa::interfaces::nomad200::NavigationVelocity>::connect(
+        &registry, &motors,
+    )
+    .expect("client");
+    client
+        .send(orsa::interfaces::nomad200::NavigationVelocity {
+            stamp: registry.now(),
+            v_m_s: 0.05,
+            omega_rad_s: 0.0,
+        })
+        .expect("send");
+    until_base(&mut base, Duration::from_secs(10), "the good command drives", |b| b.v_m_s > 0.0).await;
+    let seconds = t0.elapsed().as_secs_f64();
+    let stats = t.all_stats(Duration::from_secs(5)).await;
+    let proc = t.processes().into_iter().find(|p| p.role == "robot").expect("the robot's process token");
+    let counted = stats.get(&proc.zid).map(|s| s.decode_errors).unwrap_or_default();
+    assert_eq!(counted, flood, "every malformed message counted");
+    let lines = robot.log_text().lines().filter(|l| l.contains("undecodable")).count() as f64;
+    assert!(lines >= 1.0, "the first ones are logged");
+    assert!(lines <= 10.0 * (seconds.ceil() + 1.0), "{lines} lines in {seconds:.1} s");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_drives_its_fallback_mode_without_an_executive_and_hands_back_to_a_new_one() {
     let sys = System::new("fallback");
