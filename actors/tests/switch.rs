@@ -31,16 +31,22 @@ struct System {
     _keep: Vec<Box<dyn std::any::Any>>,
 }
 
+/// The robot's services (two of f64, one of text) on `registry`; what must live as long as
+/// they do goes into `keep`.
+fn robot_services(registry: &Registry, keep: &mut Vec<Box<dyn std::any::Any>>) {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    keep.push(Box::new(rx));
+    SendServer::register(registry, MOTORS.on("robot"), Sink::channel(tx.clone())).expect("motors");
+    SendServer::register(registry, OTHER.on("robot"), Sink::channel(tx)).expect("other");
+    let (ttx, trx) = tokio::sync::mpsc::unbounded_channel();
+    keep.push(Box::new(trx));
+    SendServer::register(registry, TEXT.on("robot"), Sink::channel(ttx)).expect("text");
+}
+
 fn system() -> System {
     let registry = Registry::new();
     let mut keep: Vec<Box<dyn std::any::Any>> = Vec::new();
-    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-    keep.push(Box::new(rx));
-    SendServer::register(&registry, MOTORS.on("robot"), Sink::channel(tx.clone())).expect("motors");
-    SendServer::register(&registry, OTHER.on("robot"), Sink::channel(tx)).expect("other");
-    let (ttx, trx) = tokio::sync::mpsc::unbounded_channel();
-    keep.push(Box::new(trx));
-    SendServer::register(&registry, TEXT.on("robot"), Sink::channel(ttx)).expect("text");
+    robot_services(&registry, &mut keep);
     let mut slaves = BTreeMap::new();
     for b in BEHAVIOURS {
         let w = WiringSlave::register(&registry, b).expect("wiring");
@@ -438,13 +444,7 @@ async fn supervised() -> Supervised {
     use orsa_actors::supervision::{Strategy, Supervisor, SupervisorSpec};
     let registry = Registry::new();
     let mut keep: Vec<Box<dyn std::any::Any>> = Vec::new();
-    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-    keep.push(Box::new(rx));
-    SendServer::register(&registry, MOTORS.on("robot"), Sink::channel(tx.clone())).expect("motors");
-    SendServer::register(&registry, OTHER.on("robot"), Sink::channel(tx)).expect("other");
-    let (ttx, trx) = tokio::sync::mpsc::unbounded_channel();
-    keep.push(Box::new(trx));
-    SendServer::register(&registry, TEXT.on("robot"), Sink::channel(ttx)).expect("text");
+    robot_services(&registry, &mut keep);
     let behaviours: Vec<_> = BEHAVIOURS
         .iter()
         .map(|b| orsa_actors::component::ComponentHandle::new(&registry, b, Behaviour).expect("behaviour"))

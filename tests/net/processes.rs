@@ -166,24 +166,34 @@ async fn a_corrupted_message_is_rejected_and_counted_and_nothing_else_changes() 
         "a bad request is answered with a decode error"
     );
     // A good command after the garbage is applied.
-    let client = orsa_actors::send::SendClient::<orsa::interfaces::nomad200::NavigationVelocity>::connect(
-        &registry, &teleop,
-    )
-    .expect("teleop client");
-    client
+    drive_slowly(&registry, &teleop);
+    until_base(&mut base, Duration::from_secs(10), "the good command drives", |b| b.v_m_s > 0.0).await;
+    let after = safety(&registry).await;
+    assert_eq!(after.applied, before.applied + 1, "exactly the good command was applied");
+    assert_eq!(
+        robot_decode_errors(&t).await,
+        2,
+        "the robot counted the undecodable command and the bad request"
+    );
+}
+
+/// Sends one good command, 5 cm/s straight ahead, to `addr`.
+fn drive_slowly(registry: &Registry, addr: &ServiceAddr) {
+    orsa_actors::send::SendClient::<orsa::interfaces::nomad200::NavigationVelocity>::connect(registry, addr)
+        .expect("client")
         .send(orsa::interfaces::nomad200::NavigationVelocity {
             stamp: registry.now(),
             v_m_s: 0.05,
             omega_rad_s: 0.0,
         })
         .expect("send");
-    until_base(&mut base, Duration::from_secs(10), "the good command drives", |b| b.v_m_s > 0.0).await;
-    let after = safety(&registry).await;
-    assert_eq!(after.applied, before.applied + 1, "exactly the good command was applied");
+}
+
+/// How many undecodable messages the robot's process counted, as its stats say.
+async fn robot_decode_errors(t: &ZenohTransport) -> u64 {
     let stats = t.all_stats(Duration::from_secs(5)).await;
     let robot = t.processes().into_iter().find(|p| p.role == "robot").expect("the robot's process token");
-    let robot_stats = stats.get(&robot.zid).unwrap_or_else(|| panic!("stats keyed by process: {stats:?}"));
-    assert_eq!(robot_stats.decode_errors, 2, "the robot counted the undecodable command and the bad request");
+    stats.get(&robot.zid).unwrap_or_else(|| panic!("stats keyed by process: {stats:?}")).decode_errors
 }
 
 /// A flood of malformed commands is counted one by one but logged at most 10 lines a second:
@@ -203,23 +213,10 @@ async fn a_flood_of_malformed_messages_is_counted_whole_and_logged_within_a_budg
     }
     // The good command goes on the same key after the flood: once it drives, the robot has
     // taken every message before it.
-    let client = orsa_actors::send::SendClient::<orsa::interfaces::nomad200::NavigationVelocity>::connect(
-        &registry, &motors,
-    )
-    .expect("client");
-    client
-        .send(orsa::interfaces::nomad200::NavigationVelocity {
-            stamp: registry.now(),
-            v_m_s: 0.05,
-            omega_rad_s: 0.0,
-        })
-        .expect("send");
+    drive_slowly(&registry, &motors);
     until_base(&mut base, Duration::from_secs(10), "the good command drives", |b| b.v_m_s > 0.0).await;
     let seconds = t0.elapsed().as_secs_f64();
-    let stats = t.all_stats(Duration::from_secs(5)).await;
-    let proc = t.processes().into_iter().find(|p| p.role == "robot").expect("the robot's process token");
-    let counted = stats.get(&proc.zid).map(|s| s.decode_errors).unwrap_or_default();
-    assert_eq!(counted, flood, "every malformed message counted");
+    assert_eq!(robot_decode_errors(&t).await, flood, "every malformed message counted");
     let lines = robot.log_text().lines().filter(|l| l.contains("undecodable")).count() as f64;
     assert!(lines >= 1.0, "the first ones are logged");
     assert!(lines <= 10.0 * (seconds.ceil() + 1.0), "{lines} lines in {seconds:.1} s");
