@@ -106,6 +106,18 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// The outcome of a command that ended so; a fatal error (whose report was written) is the
+    /// command's error (exit code 1).
+    pub fn of(ended: &mission::report::Ended) -> anyhow::Result<Outcome> {
+        use mission::report::Ended;
+        match ended {
+            Ended::Completed => Ok(Outcome::Completed),
+            Ended::GaveUp { .. } => Ok(Outcome::GaveUp),
+            Ended::Interrupted { .. } => Ok(Outcome::Interrupted),
+            Ended::Failed { at_s, error } => Err(anyhow::anyhow!("failed at {at_s:.1} s: {error}")),
+        }
+    }
+
     /// The process's exit code (an error is 1, a command line error 2).
     pub fn exit_code(self) -> u8 {
         match self {
@@ -121,8 +133,8 @@ pub fn run(cli: Cli) -> anyhow::Result<Outcome> {
     let done = |r: anyhow::Result<()>| r.map(|()| Outcome::Completed);
     match cli.command {
         Command::Run(args) => run_mission(args),
-        Command::Robot(args) => done(crate::remote::robot(args)),
-        Command::Executive(args) => done(crate::remote::executive(args)),
+        Command::Robot(args) => crate::remote::robot(args),
+        Command::Executive(args) => crate::remote::executive(args),
         Command::Teleop(args) => done(crate::remote::teleop(args)),
         Command::List(args) => done(crate::remote::list(args)),
         Command::Echo(args) => done(crate::remote::echo(args)),
@@ -143,7 +155,7 @@ pub fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
 }
 
 /// Ctrl-C or SIGTERM, by name (on systems without SIGTERM, Ctrl-C only).
-fn interrupted() -> futures::future::BoxFuture<'static, String> {
+pub(crate) fn interrupted() -> futures::future::BoxFuture<'static, String> {
     Box::pin(async {
         #[cfg(unix)]
         let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
@@ -210,11 +222,6 @@ fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let rt = rt.build().context("cannot start the tokio runtime")?;
     let wall = std::time::Instant::now();
     let RunOutcome { mut report, metrics, recording, .. } = rt.block_on(mission::run(opts))?;
-    let outcome = match report.ended {
-        mission::report::Ended::Completed => Outcome::Completed,
-        mission::report::Ended::GaveUp { .. } => Outcome::GaveUp,
-        mission::report::Ended::Interrupted { .. } => Outcome::Interrupted,
-    };
     report.wall_seconds = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
@@ -248,7 +255,7 @@ fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         }
         None => {}
     }
-    Ok(outcome)
+    Outcome::of(&report.ended)
 }
 
 /// A progress bar over `len_s` seconds of `what` time (`simulated`, `replayed`), or a hidden

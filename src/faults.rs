@@ -21,7 +21,7 @@
 //! | `drop`, `delay`, `duplicate` | a service, `component/service` (Send or push) | yes | `delay_s` for `delay` |
 //! | `sensor_stuck`, `sensor_dropout`, `sensor_noise` | a ring: `sonar`, `infrared`, `bumpers` | yes | `sigma_m` for `sensor_noise` |
 //! | `motor_stall` | `motors` | yes | |
-//! | `link_cut` | a process role (`executive`, `teleop`, `tool`) | yes | only in `orsa robot --faults` |
+//! | `link_cut` | a process role: `executive`, `teleop`, `tool` from the robot; `robot`, `teleop`, `tool` from the executive | yes | only in `orsa robot --faults` and `orsa executive --faults` |
 //!
 //! Every error names the fault (its number and line in the file) and what is wrong with it,
 //! and lists what would have been accepted.
@@ -144,8 +144,9 @@ pub struct PlanTargets {
     pub components: Vec<String>,
     /// Services whose messages can be faulted (Send and push services).
     pub services: Vec<ServiceAddr>,
-    /// Whether processes exist (so `link_cut` makes sense).
-    pub processes: bool,
+    /// The roles of the other processes this one may cut its link to (`link_cut`); empty in a
+    /// single-process run.
+    pub roles: Vec<String>,
 }
 
 impl PlanTargets {
@@ -161,7 +162,7 @@ impl PlanTargets {
         ];
         let mut services = robot_and_behaviour_services(robot);
         services.push(ServiceAddr::new("master", "driving"));
-        PlanTargets { components, services, processes: false }
+        PlanTargets { components, services, roles: Vec::new() }
     }
 
     /// What `orsa robot`'s process offers to a plan: the robot server and the behaviours, their
@@ -170,7 +171,17 @@ impl PlanTargets {
         let robot = config.robot.name.as_str();
         let components = vec![robot.to_string(), "wallfollow".into(), "centerfollow".into()];
         let services = robot_and_behaviour_services(robot);
-        PlanTargets { components, services, processes: true }
+        let roles = ["executive", "teleop", "tool"].map(String::from).to_vec();
+        PlanTargets { components, services, roles }
+    }
+
+    /// What `orsa executive`'s process offers to a plan: the master and the planner, the
+    /// master's push, and the links to the robot and the tools.
+    pub fn for_executive(_config: &crate::config::Config) -> Self {
+        let components = vec!["master".to_string(), "planner".to_string()];
+        let services = vec![ServiceAddr::new("master", "driving")];
+        let roles = ["robot", "teleop", "tool"].map(String::from).to_vec();
+        PlanTargets { components, services, roles }
     }
 }
 
@@ -341,17 +352,18 @@ fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> 
         }
         "link_cut" => {
             needs_duration("link_cut")?;
-            if !targets.processes {
+            if targets.roles.is_empty() {
                 return Err(
-                    "'link_cut' cuts the link between processes: use it with `orsa robot --faults`, \
-                            not in a single-process run"
+                    "'link_cut' cuts the link between processes: use it with `orsa robot --faults` or \
+                     `orsa executive --faults`, not in a single-process run"
                         .into(),
                 );
             }
-            if !["executive", "teleop", "tool"].contains(&raw.target.as_str()) {
+            if !targets.roles.contains(&raw.target) {
                 return Err(format!(
-                    "unknown process role '{}' (known: executive, teleop, tool)",
-                    raw.target
+                    "unknown process role '{}' (known here: {})",
+                    raw.target,
+                    targets.roles.join(", ")
                 ));
             }
             Action::LinkCut { role: raw.target.clone() }
@@ -612,7 +624,7 @@ mod tests {
         PlanTargets {
             components: vec!["nomad200".into(), "centerfollow".into()],
             services: vec!["nomad200/navigationvelocity".parse().expect("addr")],
-            processes: false,
+            roles: Vec::new(),
         }
     }
 
@@ -684,6 +696,27 @@ sigma_m = 0.02
         for (text, expected) in cases {
             let e = FaultPlan::parse(text, "plan.toml", &targets()).expect_err(text).to_string();
             assert!(e.starts_with("plan.toml: "), "{e}");
+            assert!(e.contains(expected), "{e}\n  should contain: {expected}");
+        }
+    }
+
+    #[test]
+    fn an_executive_plan_names_the_executives_components_and_cuts_its_link_to_the_robot() {
+        let config = crate::config::Config::default();
+        let targets = PlanTargets::for_executive(&config);
+        let ok = "[[fault]]\nat = 1\nkind = \"hang\"\ntarget = \"master\"\n\n\
+                  [[fault]]\nat = 2\nkind = \"link_cut\"\ntarget = \"robot\"\nduration = 1\n\n\
+                  [[fault]]\nat = 3\nkind = \"drop\"\ntarget = \"master/driving\"\nduration = 1\n";
+        let plan = FaultPlan::parse(ok, "exec.toml", &targets).expect("an executive plan");
+        assert_eq!(plan.faults.len(), 3);
+        for (text, expected) in [
+            ("[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"nomad200\"\n", "unknown component 'nomad200'"),
+            (
+                "[[fault]]\nat = 1\nkind = \"link_cut\"\ntarget = \"executive\"\nduration = 1\n",
+                "unknown process role 'executive' (known here: robot, teleop, tool)",
+            ),
+        ] {
+            let e = FaultPlan::parse(text, "exec.toml", &targets).expect_err(text).to_string();
             assert!(e.contains(expected), "{e}\n  should contain: {expected}");
         }
     }

@@ -21,7 +21,8 @@
 //!   deciding components again, bit for bit or with other parameters.
 //! - [`remote`]: the robot, the executive, teleoperation and the tools as separate processes
 //!   over zenoh (crate `orsa-net`).
-//! - [`faults`]: reads fault plans and breaks a running stack on purpose.
+//! - [`faults`]: reads fault plans and breaks a running stack on purpose; [`ending`]: how a
+//!   long-running command ends (time, signal, giving up, fatal error) and reports it.
 //! - [`cli`]: the `orsa` command line; the binary only parses arguments and calls it.
 //!
 //! The benchmark harness is the crate `orsa-bench` (`cargo run --release -p orsa-bench`), and
@@ -36,6 +37,7 @@ pub use orsa_reactive as reactive;
 
 pub mod cli;
 pub mod config;
+pub mod ending;
 pub mod faults;
 mod keyboard;
 pub mod mission;

@@ -411,7 +411,7 @@ impl PeerBehaviours {
         let supervisor = System::builder(&config)
             .catalog(catalog(None, &steps))
             .select(&[WallFollow::NAME, CenterFollow::NAME])
-            .supervisor("behaviours")
+            .supervisor("bench-behaviours")
             .on_event(count_restarts(&restarts))
             .start(registry)
             .await
@@ -485,7 +485,7 @@ pub(crate) async fn across(
     let robot_sup = System::builder(&config)
         .catalog(catalog(Some((sim.sensor_board(), motors)), &steps))
         .select(&[config.robot.name.as_str()])
-        .supervisor("robot")
+        .supervisor("bench-robot")
         .on_event(count_restarts(&restarts))
         .start(registry)
         .await
@@ -517,7 +517,7 @@ pub(crate) async fn across(
             .catalog(catalog(None, &steps))
             .select(&["master", "planner"])
             .duration(duration_s + 5.0)
-            .supervisor("executive")
+            .supervisor("bench-executive")
             .on_event(count_restarts(&restarts))
             .start(registry)
             .await

@@ -79,6 +79,13 @@ pub enum Ended {
         /// Which signal.
         signal: String,
     },
+    /// A fatal error ended it (the command's exit code is 1).
+    Failed {
+        /// Time it ended at, s.
+        at_s: f64,
+        /// The error, with its causes.
+        error: String,
+    },
 }
 
 impl Ended {
@@ -94,6 +101,7 @@ impl Ended {
                 ))
             ),
             Ended::Interrupted { at_s, signal } => format!("was interrupted by {signal} at {at_s:.1} s"),
+            Ended::Failed { at_s, error } => format!("failed at {at_s:.1} s: {error}"),
         }
     }
 }

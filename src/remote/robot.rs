@@ -1,7 +1,8 @@
 //! `orsa robot`: the robot process, its behaviours, and what it does when the executive is lost.
 
-use super::{NetArgs, load_config, open, runtime, secs, until_stopped};
+use super::{NetArgs, load_config, open, runtime, secs};
 use crate::config::Config;
+use crate::mission::report::Ended;
 use crate::record::events::{LINK_EVENT, LINK_EVENTS, LinkEvent, LinkEventKind};
 use crate::system::{Place, RobotBoards, System};
 use anyhow::{Context as _, bail};
@@ -19,6 +20,9 @@ use orsa_interfaces::nomad200::NavigationVelocity;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
+
+/// The robot process's top supervisor (`orsa run`'s is [`TOP_SUPERVISOR`](crate::system::TOP_SUPERVISOR)).
+pub const ROBOT_TOP: &str = "orsa-robot";
 
 /// Arguments of `orsa robot`.
 #[derive(Debug, clap::Args)]
@@ -60,12 +64,19 @@ pub struct RobotArgs {
 /// What `orsa robot --report` writes at exit.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RobotReport {
+    /// How the process ended (its figures cover the time up to then).
+    #[serde(default)]
+    pub ended: Ended,
     /// Seconds the robot ran (its clock at the end).
     pub duration_s: f64,
     /// When the fault plan's clock started (its `at` 0), seconds on the robot's clock.
     pub plan_started_at_s: Option<f64>,
-    /// What the robot server did with velocity commands over its whole life.
+    /// What the robot server did with velocity commands over its whole life (zero when its
+    /// supervisor gave up: the server's counts went with it).
     pub safety: orsa_interfaces::nomad200::SafetyCounters,
+    /// Restarts by the supervisors, all components together.
+    #[serde(default)]
+    pub restarts: u64,
     /// What link cuts kept from crossing.
     pub link: orsa_net::LinkCutStats,
     /// What the fault plan broke and how the robot came back (with `--faults`).
@@ -97,7 +108,7 @@ struct Executive {
 }
 
 /// `orsa robot`.
-pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
+pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
     let world = match &args.world {
         Some(p) => World::from_path(p)?,
         None => World::palazzina()?,
@@ -161,201 +172,234 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             tap.note(SYSTEM_STARTING, SYSTEM_STARTING_TYPE, registry.now(), &SystemStarting { hosted });
         }
         let events_tap = recording.clone();
+        let top = crate::ending::TopWatch::new(ROBOT_TOP);
+        let top_sink = top.clone();
         let system = builder
             .robot(RobotBoards::simulated(&sim, &config, &boards))
-            .supervisor("robot")
+            .supervisor(ROBOT_TOP)
             .on_event(move |e| {
                 if let Some(r) = &events_tap {
                     r.supervisor_event(&e);
                 }
+                top_sink.see(&e);
                 sink.lock().push(e)
             })
             .start(&registry)
             .await
             .context("starting the robot")?;
         let supervisor = system.supervisor;
-        let transport = open(&registry, &args.net, "robot", None).await?;
-        eprintln!("robot: up as {} (zenoh id {})", robot, transport.zid());
-
-        let (ev_tx, mut ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
-        let tx = ev_tx.clone();
-        transport.on_process_lost(move |p| {
-            if p.role == "executive" {
-                let _ = tx.send(RobotEvent::ExecutiveGone(p.zid.clone()));
-            }
-        });
-        let tx = ev_tx.clone();
-        transport.on_process_found(move |p| {
-            if p.role == "executive" {
-                let _ = tx.send(RobotEvent::ExecutiveFound(p.zid.clone()));
-            }
-        });
-        let tx = ev_tx.clone();
-        let _beats = transport
-            .on_heartbeat("executive", move |zid, h| {
-                let _ = tx.send(RobotEvent::Beat(zid.to_string(), h.period_ms));
-            })
-            .await?;
-        // The robot's own base state, to report when it came to rest and moved again.
-        let (base_tx, mut base_rx) = tokio::sync::mpsc::unbounded_channel();
-        let base = orsa_actors::push_timed::PushTimedClient::<orsa_interfaces::nomad200::BaseState>::connect_to(
-            &registry,
-            orsa_interfaces::nomad200::BASESTATE.on(robot.as_str()),
-            orsa_actors::Sink::channel(base_tx),
-        )?;
-        base.subscribe(1)?;
-
-        let plan_started_at = plan.as_ref().map(|_| registry.now());
-        if let (Some(r), Some(plan), Some(at)) = (&recording, &plan, plan_started_at) {
-            use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, FaultsStarted};
-            r.note(FAULTS_STARTED, FAULTS_STARTED_TYPE, at, &FaultsStarted { faults: plan.faults.len() });
-        }
-        let plan_task = plan.clone().map(|plan| {
-            let t = transport.clone();
-            let tx = ev_tx.clone();
-            let link: crate::faults::LinkSwitch = Arc::new(move |role: &str, cut: bool| {
-                t.cut_link(role, cut);
-                let _ = tx.send(RobotEvent::Link(role.to_string(), cut));
-            });
-            let targets =
-                crate::faults::FaultTargets { faults: registry.faults(), boards: boards.clone(), link: Some(link) };
-            tokio::spawn(crate::faults::run_plan(plan, targets, duration.map_or(1e7, |d| d.as_secs_f64())))
-        });
-        drop(ev_tx);
-
-        let behaviours = ["wallfollow", "centerfollow"];
-        let motors_addr = ServiceAddr::new(&robot, "navigationvelocity");
-        let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors_addr)?;
+        // From here on, every way out writes the report: what the loop leaves is kept here.
+        let mut transport: Option<orsa_net::ZenohTransport> = None;
+        let mut plan_task = None;
+        let mut plan_started_at = None;
         let mut fallback: Option<ComponentHandle<Master>> = None;
-        let mut executives: std::collections::BTreeMap<String, Executive> = std::collections::BTreeMap::new();
         let mut links: Vec<crate::faults::LinkCutReport> = Vec::new();
         let mut link_log: Vec<(f64, String, String)> = Vec::new();
-        let far = Duration::from_secs(86_400);
-        let stop = until_stopped(duration);
-        tokio::pin!(stop);
-        loop {
-            let now = tokio::time::Instant::now();
-            let next = executives.values().filter(|e| !e.lost).map(|e| e.deadline).min().unwrap_or(now + far);
-            tokio::select! {
-                () = &mut stop => break,
-                () = tokio::time::sleep_until(next) => {
-                    let now = tokio::time::Instant::now();
-                    let expired: Vec<String> = executives
-                        .iter()
-                        .filter(|(_, e)| !e.lost && e.deadline <= now)
-                        .map(|(z, _)| z.clone())
-                        .collect();
-                    for zid in expired {
-                        let why = format!("no heartbeat for {} ms", lease.as_millis());
-                        let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why, &recording).await;
-                        if let Some(e) = executives.get_mut(&zid) {
-                            e.lost = true;
-                            e.restore = restore;
-                        }
-                        note_loss(&registry, &mut links, &mut link_log, &zid, &why);
-                        start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
-                    }
+        let mut base = None;
+        let run = async {
+            let t = open(&registry, &args.net, "robot", None).await?;
+            eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
+            let transport = &*transport.insert(t);
+
+            let (ev_tx, mut ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
+            let tx = ev_tx.clone();
+            transport.on_process_lost(move |p| {
+                if p.role == "executive" {
+                    let _ = tx.send(RobotEvent::ExecutiveGone(p.zid.clone()));
                 }
-                Some(ev) = ev_rx.recv() => match ev {
-                    RobotEvent::ExecutiveFound(zid) => {
-                        // A new executive takes over: the fallback master goes first (the
-                        // executive waits for its services to disappear before it starts).
-                        if let Some(f) = fallback.take() {
-                            eprintln!("robot: executive {zid} is back: stopping the fallback");
-                            f.stop().await;
-                        }
-                        let e = executives.entry(zid.clone()).or_insert(Executive {
-                            deadline: tokio::time::Instant::now() + lease,
-                            lost: false,
-                            restore: None,
-                            warned: false,
-                        });
-                        if e.lost {
-                            e.lost = false;
-                            e.deadline = tokio::time::Instant::now() + lease;
-                            let restore = e.restore.take();
-                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
+            });
+            let tx = ev_tx.clone();
+            transport.on_process_found(move |p| {
+                if p.role == "executive" {
+                    let _ = tx.send(RobotEvent::ExecutiveFound(p.zid.clone()));
+                }
+            });
+            let tx = ev_tx.clone();
+            let _beats = transport
+                .on_heartbeat("executive", move |zid, h| {
+                    let _ = tx.send(RobotEvent::Beat(zid.to_string(), h.period_ms));
+                })
+                .await?;
+            // The robot's own base state, to report when it came to rest and moved again.
+            let (base_tx, mut base_rx) = tokio::sync::mpsc::unbounded_channel();
+            let b = orsa_actors::push_timed::PushTimedClient::<orsa_interfaces::nomad200::BaseState>::connect_to(
+                &registry,
+                orsa_interfaces::nomad200::BASESTATE.on(robot.as_str()),
+                orsa_actors::Sink::channel(base_tx),
+            )?;
+            b.subscribe(1)?;
+            base = Some(b);
+
+            plan_started_at = plan.as_ref().map(|_| registry.now());
+            if let (Some(r), Some(plan), Some(at)) = (&recording, &plan, plan_started_at) {
+                use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, FaultsStarted};
+                r.note(FAULTS_STARTED, FAULTS_STARTED_TYPE, at, &FaultsStarted { faults: plan.faults.len() });
+            }
+            plan_task = plan.clone().map(|plan| {
+                let t = transport.clone();
+                let tx = ev_tx.clone();
+                let link: crate::faults::LinkSwitch = Arc::new(move |role: &str, cut: bool| {
+                    t.cut_link(role, cut);
+                    let _ = tx.send(RobotEvent::Link(role.to_string(), cut));
+                });
+                let targets =
+                    crate::faults::FaultTargets { faults: registry.faults(), boards: boards.clone(), link: Some(link) };
+                tokio::spawn(crate::faults::run_plan(plan, targets, duration.map_or(1e7, |d| d.as_secs_f64())))
+            });
+            drop(ev_tx);
+
+            let behaviours = ["wallfollow", "centerfollow"];
+            let motors_addr = ServiceAddr::new(&robot, "navigationvelocity");
+            let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors_addr)?;
+            let mut executives: std::collections::BTreeMap<String, Executive> = std::collections::BTreeMap::new();
+            let far = Duration::from_secs(86_400);
+            let stop = crate::ending::until_end(duration, &top);
+            tokio::pin!(stop);
+            let why = loop {
+                let now = tokio::time::Instant::now();
+                let next = executives.values().filter(|e| !e.lost).map(|e| e.deadline).min().unwrap_or(now + far);
+                tokio::select! {
+                    stop = &mut stop => break stop,
+                    () = tokio::time::sleep_until(next) => {
+                        let now = tokio::time::Instant::now();
+                        let expired: Vec<String> = executives
+                            .iter()
+                            .filter(|(_, e)| !e.lost && e.deadline <= now)
+                            .map(|(z, _)| z.clone())
+                            .collect();
+                        for zid in expired {
+                            let why = format!("no heartbeat for {} ms", lease.as_millis());
+                            let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why, &recording).await;
+                            if let Some(e) = executives.get_mut(&zid) {
+                                e.lost = true;
+                                e.restore = restore;
+                            }
+                            note_loss(&registry, &mut links, &mut link_log, &zid, &why);
+                            start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
                         }
                     }
-                    RobotEvent::ExecutiveGone(zid) => {
-                        let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
-                        if !was_lost {
-                            let why = "its process token disappeared";
-                            lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why, &recording).await;
-                            note_loss(&registry, &mut links, &mut link_log, &zid, why);
-                        }
-                        start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
-                    }
-                    RobotEvent::Beat(zid, period_ms) => {
-                        let e = executives.entry(zid.clone()).or_insert(Executive {
-                            deadline: tokio::time::Instant::now() + lease,
-                            lost: false,
-                            restore: None,
-                            warned: false,
-                        });
-                        e.deadline = tokio::time::Instant::now() + lease;
-                        if !e.warned && Duration::from_millis(period_ms.saturating_mul(2)) > lease {
-                            e.warned = true;
-                            eprintln!(
-                                "robot: executive {zid} beats every {period_ms} ms: too slow for the {} ms lease \
-                                 (link.heartbeat_period_s in its config)",
-                                lease.as_millis()
-                            );
-                        }
-                        if e.lost {
-                            e.lost = false;
-                            let restore = e.restore.take();
+                    Some(ev) = ev_rx.recv() => match ev {
+                        RobotEvent::ExecutiveFound(zid) => {
+                            // A new executive takes over: the fallback master goes first (the
+                            // executive waits for its services to disappear before it starts).
                             if let Some(f) = fallback.take() {
-                                eprintln!("robot: executive {zid} is heard again: stopping the fallback");
+                                eprintln!("robot: executive {zid} is back: stopping the fallback");
                                 f.stop().await;
                             }
-                            executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
-                        }
-                    }
-                    RobotEvent::Link(role, cut) => {
-                        let t = registry.clock().since_start(registry.now()).as_secs_f64();
-                        if cut {
-                            eprintln!("robot: [{t:.3} s] fault: link to {role} cut");
-                            links.push(crate::faults::LinkCutReport { role: role.clone(), cut_at_s: t, ..Default::default() });
-                            link_log.push((t, role, "link cut".into()));
-                        } else {
-                            eprintln!("robot: [{t:.3} s] fault: link to {role} restored");
-                            if let Some(l) = links.iter_mut().rev().find(|l| l.role == role && l.restored_at_s.is_none()) {
-                                l.restored_at_s = Some(t);
+                            let e = executives.entry(zid.clone()).or_insert(Executive {
+                                deadline: tokio::time::Instant::now() + lease,
+                                lost: false,
+                                restore: None,
+                                warned: false,
+                            });
+                            if e.lost {
+                                e.lost = false;
+                                e.deadline = tokio::time::Instant::now() + lease;
+                                let restore = e.restore.take();
+                                executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
                             }
-                            link_log.push((t, role, "link restored".into()));
                         }
-                    }
-                },
-                Some(u) = base_rx.recv() => {
-                    let u: orsa_actors::Update<orsa_interfaces::nomad200::BaseState> = u;
-                    let t = registry.clock().since_start(u.sent_at).as_secs_f64();
-                    let b = &u.value;
-                    let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
-                    for l in &mut links {
-                        if l.at_rest_at_s.is_none() && t >= l.cut_at_s && at_rest {
-                            l.at_rest_at_s = Some(t);
+                        RobotEvent::ExecutiveGone(zid) => {
+                            let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
+                            if !was_lost {
+                                let why = "its process token disappeared";
+                                lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why, &recording).await;
+                                note_loss(&registry, &mut links, &mut link_log, &zid, why);
+                            }
+                            start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
                         }
-                        if l.moving_again_at_s.is_none() && l.restored_at_s.is_some_and(|r| t >= r) && !at_rest {
-                            l.moving_again_at_s = Some(t);
+                        RobotEvent::Beat(zid, period_ms) => {
+                            let e = executives.entry(zid.clone()).or_insert(Executive {
+                                deadline: tokio::time::Instant::now() + lease,
+                                lost: false,
+                                restore: None,
+                                warned: false,
+                            });
+                            e.deadline = tokio::time::Instant::now() + lease;
+                            if !e.warned && Duration::from_millis(period_ms.saturating_mul(2)) > lease {
+                                e.warned = true;
+                                eprintln!(
+                                    "robot: executive {zid} beats every {period_ms} ms: too slow for the {} ms lease \
+                                     (link.heartbeat_period_s in its config)",
+                                    lease.as_millis()
+                                );
+                            }
+                            if e.lost {
+                                e.lost = false;
+                                let restore = e.restore.take();
+                                if let Some(f) = fallback.take() {
+                                    eprintln!("robot: executive {zid} is heard again: stopping the fallback");
+                                    f.stop().await;
+                                }
+                                executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
+                            }
+                        }
+                        RobotEvent::Link(role, cut) => {
+                            let t = registry.clock().since_start(registry.now()).as_secs_f64();
+                            if cut {
+                                eprintln!("robot: [{t:.3} s] fault: link to {role} cut");
+                                links.push(crate::faults::LinkCutReport { role: role.clone(), cut_at_s: t, ..Default::default() });
+                                link_log.push((t, role, "link cut".into()));
+                            } else {
+                                eprintln!("robot: [{t:.3} s] fault: link to {role} restored");
+                                if let Some(l) = links.iter_mut().rev().find(|l| l.role == role && l.restored_at_s.is_none()) {
+                                    l.restored_at_s = Some(t);
+                                }
+                                link_log.push((t, role, "link restored".into()));
+                            }
+                        }
+                    },
+                    Some(u) = base_rx.recv() => {
+                        let u: orsa_actors::Update<orsa_interfaces::nomad200::BaseState> = u;
+                        let t = registry.clock().since_start(u.sent_at).as_secs_f64();
+                        let b = &u.value;
+                        let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
+                        for l in &mut links {
+                            if l.at_rest_at_s.is_none() && t >= l.cut_at_s && at_rest {
+                                l.at_rest_at_s = Some(t);
+                            }
+                            if l.moving_again_at_s.is_none() && l.restored_at_s.is_some_and(|r| t >= r) && !at_rest {
+                                l.moving_again_at_s = Some(t);
+                            }
                         }
                     }
                 }
-            }
+            };
+            anyhow::Ok(why)
         }
+        .await;
         if let Some(p) = plan_task {
             p.abort();
         }
-        let safety = orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_interfaces::nomad200::SafetyCounters>::connect(
-            &registry,
-            orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
-        )?
-        .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
-        .await
-        .unwrap_or_else(|e| {
-            eprintln!("robot: cannot read the safety counters: {e}");
+        let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
+        let ended = match run {
+            Ok(crate::ending::Stop::GaveUp(e)) => {
+                // The robot server is gone with its watchdog: the motors are stopped on the board.
+                eprintln!("robot: [{at_s:.3} s] supervisor '{}' gave up ({}): stopping the motors", e.supervisor, e.reason);
+                let stopped_in = crate::ending::stop_on_board(&sim.motor_board()).await;
+                crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, stopped_in)
+            }
+            Ok(stop) => crate::ending::ended(stop, at_s, None),
+            Err(e) => Ended::Failed { at_s, error: format!("{e:#}") },
+        };
+        if ended != Ended::Completed {
+            eprintln!("robot: {}", ended.describe());
+        }
+        let safety = if matches!(ended, Ended::GaveUp { .. }) {
+            // Its server is gone: what it counted went with it.
             Default::default()
-        });
+        } else {
+            orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_interfaces::nomad200::SafetyCounters>::connect(
+                &registry,
+                orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
+            )?
+            .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
+            .await
+            .unwrap_or_else(|e| {
+                eprintln!("robot: cannot read the safety counters: {e}");
+                Default::default()
+            })
+        };
         if let Some(f) = fallback {
             f.stop().await;
         }
@@ -381,14 +425,19 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             report.links = links.clone();
             report
         });
+        let (restarts, _) = crate::faults::restarts_of(&supervisor_events.lock());
         let report = RobotReport {
+            ended: ended.clone(),
             duration_s: end_s,
             plan_started_at_s: plan_started_at.map(|t| registry.clock().since_start(t).as_secs_f64()),
             safety,
-            link: transport.link_cut_stats(),
+            restarts: restarts.values().sum(),
+            link: transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default(),
             faults,
         };
-        transport.close().await;
+        if let Some(t) = transport {
+            t.close().await;
+        }
         if let Some(p) = &args.report {
             std::fs::write(p, serde_json::to_string_pretty(&report)?)
                 .with_context(|| format!("{}: cannot write the report", p.display()))?;
@@ -402,7 +451,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<()> {
             Some(Err(e)) => bail!("the robot stopped, but its recording failed: {e}"),
             _ => {}
         }
-        Ok(())
+        crate::cli::Outcome::of(&ended)
     })
 }
 

@@ -257,9 +257,9 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     let events = Arc::clone(&capture);
     // The supervisor as the recording process named it (its events carry the name).
     let supervisor = match rec.meta.process.as_str() {
-        "run" => "orsa",
-        "robot" => "robot",
-        "executive" => "executive",
+        "run" => crate::system::TOP_SUPERVISOR,
+        "robot" => crate::remote::ROBOT_TOP,
+        "executive" => crate::remote::EXECUTIVE_TOP,
         other => {
             return Err(ReplayError::Metadata {
                 path: rec.path.clone(),

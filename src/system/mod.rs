@@ -212,6 +212,14 @@ impl<'a> SystemBuilder<'a> {
     pub async fn start(self, registry: &Registry) -> Result<System, AssemblyError> {
         let hosted = self.hosted()?;
         let s = &self.config.supervision;
+        // Events name their supervisor: the top must be told apart from its subtrees.
+        if s.subtrees.contains_key(&self.name) {
+            return Err(AssemblyError::Invalid(format!(
+                "supervision.subtrees.{0}: '{0}' is the name of this process's top supervisor; \
+                 give the subtree another name",
+                self.name
+            )));
+        }
         let timeout = Duration::from_secs_f64(s.handler_timeout_s);
         let parts = Parts { config: self.config, duration_s: self.duration_s, robot: self.robot.as_ref() };
         let mut spec = SupervisorSpec::new(self.name.clone(), Strategy::OneForOne)

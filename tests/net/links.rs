@@ -6,13 +6,13 @@ use super::*;
 use orsa::faults::LinkCutReport;
 use orsa::remote::RobotReport;
 
-fn plan(name: &str, text: &str) -> PathBuf {
+pub(crate) fn plan(name: &str, text: &str) -> PathBuf {
     let p = std::env::temp_dir().join(format!("orsa-test-{}-{name}.toml", std::process::id()));
     std::fs::write(&p, text).expect("write the plan");
     p
 }
 
-fn report_path(name: &str) -> PathBuf {
+pub(crate) fn report_path(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("orsa-test-{}-{name}.json", std::process::id()))
 }
 

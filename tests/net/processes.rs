@@ -8,7 +8,7 @@ use orsa_actors::{Empty, ServiceAddr};
 
 const MOTORS: &str = "nomad200/navigationvelocity";
 
-async fn wired(registry: &Registry) -> Vec<String> {
+pub(crate) async fn wired(registry: &Registry) -> Vec<String> {
     let master = WiringMaster::new(registry);
     let mut out = Vec::new();
     for b in ["wallfollow", "centerfollow"] {

@@ -1,0 +1,103 @@
+//! How a long-running command ends, and what it does on the way out: `orsa run`, `orsa robot`
+//! and `orsa executive` end when their time is up, on Ctrl-C or SIGTERM, when their top
+//! supervisor gives up, or on a fatal error; each writes its report on every one of those paths
+//! and says how it ended ([`Ended`]), and the command's exit code tells them apart
+//! ([`Outcome`](crate::cli::Outcome)).
+
+use crate::mission::report::Ended;
+use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
+use orsa_hardware::board::MotorBoard;
+use std::time::Duration;
+use tokio::sync::watch;
+
+/// What ended a process's main loop.
+#[derive(Debug, Clone)]
+pub enum Stop {
+    /// Its time was up.
+    Time,
+    /// A signal, by name.
+    Signal(String),
+    /// Its top supervisor gave up.
+    GaveUp(SupervisorEvent),
+}
+
+/// Watches a system's supervisor events for its top supervisor (`top`) giving up.
+#[derive(Debug, Clone)]
+pub struct TopWatch {
+    top: String,
+    tx: std::sync::Arc<watch::Sender<Option<SupervisorEvent>>>,
+}
+
+impl TopWatch {
+    /// A watch on the supervisor named `top`.
+    pub fn new(top: &str) -> Self {
+        TopWatch { top: top.to_string(), tx: std::sync::Arc::new(watch::channel(None).0) }
+    }
+
+    /// Hands it one supervisor event (call it from the system's event sink).
+    pub fn see(&self, e: &SupervisorEvent) {
+        if e.kind == SupervisorEventKind::GaveUp && e.supervisor == self.top {
+            self.tx.send_replace(Some(e.clone()));
+        }
+    }
+
+    /// Resolves with the event of the top giving up (never, if it does not).
+    pub async fn gave_up(&self) -> SupervisorEvent {
+        let mut rx = self.tx.subscribe();
+        match rx.wait_for(Option::is_some).await {
+            Ok(e) => match e.clone() {
+                Some(e) => e,
+                None => std::future::pending().await,
+            },
+            Err(_) => std::future::pending().await,
+        }
+    }
+}
+
+/// Resolves with what ends the process: `duration` (if any) passing, Ctrl-C or SIGTERM, or
+/// the top supervisor giving up.
+pub async fn until_end(duration: Option<Duration>, top: &TopWatch) -> Stop {
+    let limit = async {
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        () = limit => Stop::Time,
+        signal = crate::cli::interrupted() => Stop::Signal(signal),
+        e = top.gave_up() => Stop::GaveUp(e),
+    }
+}
+
+/// How long a process that gave up waits for the robot to come to rest.
+pub const STOP_WAIT: Duration = Duration::from_secs(2);
+
+/// Stops the motors straight on the board (the robot server and its watchdog are gone) and
+/// waits up to [`STOP_WAIT`] for the robot to come to rest: the seconds it took, or `None` if
+/// it was still moving.
+pub async fn stop_on_board<B: MotorBoard>(board: &B) -> Option<f64> {
+    let t0 = tokio::time::Instant::now();
+    if let Err(e) = board.stop().await {
+        tracing::error!("cannot stop the motors: {e}");
+    }
+    match board.wait_stop(STOP_WAIT).await {
+        Ok(()) => Some(t0.elapsed().as_secs_f64()),
+        Err(e) => {
+            tracing::error!("the robot is still moving {STOP_WAIT:?} after the motors were stopped: {e}");
+            None
+        }
+    }
+}
+
+/// The [`Ended`] of a process stopped by `stop` at `at_s` (seconds on its clock); a give-up's
+/// `stopped_in_s` is how long the robot took to come to rest, if the process drives one.
+pub fn ended(stop: Stop, at_s: f64, stopped_in_s: Option<f64>) -> Ended {
+    match stop {
+        Stop::Time => Ended::Completed,
+        Stop::Signal(signal) => Ended::Interrupted { at_s, signal },
+        Stop::GaveUp(e) => {
+            Ended::GaveUp { at_s, supervisor: e.supervisor, child: e.child, reason: e.reason, stopped_in_s }
+        }
+    }
+}
