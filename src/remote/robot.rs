@@ -79,8 +79,74 @@ pub struct RobotReport {
     pub restarts: u64,
     /// What link cuts kept from crossing.
     pub link: orsa_net::LinkCutStats,
+    /// Every time the robot stopped itself because it lost its executive: how fast it reacted
+    /// and how far it went.
+    #[serde(default)]
+    pub stops: Vec<StopReport>,
     /// What the fault plan broke and how the robot came back (with `--faults`).
     pub faults: Option<crate::faults::FaultsReport>,
+}
+
+/// One stop the robot made by itself: from the moment it knew it had to stop to the moment it
+/// was at rest. Times are seconds on the robot's clock.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StopReport {
+    /// Why it stopped.
+    pub cause: String,
+    /// When the loss was established (a lease expired, a token disappeared).
+    pub detected_at_s: f64,
+    /// When the zero command was handed to the robot server.
+    pub zero_at_s: f64,
+    /// Its speed then, from its last base state, m/s.
+    pub v_m_s: f64,
+    /// When its base state first read at rest (base states come every 100 ms).
+    pub at_rest_at_s: Option<f64>,
+    /// How far it went from the detection to rest, by odometry, m.
+    pub distance_m: f64,
+    /// Where it was at the last base state seen (odometry), for the distance.
+    #[serde(skip)]
+    last: Option<(f64, f64)>,
+}
+
+impl StopReport {
+    fn new(
+        registry: &Registry,
+        cause: String,
+        detected: orsa_actors::Timestamp,
+        zero: orsa_actors::Timestamp,
+        base: Option<&orsa_interfaces::nomad200::BaseState>,
+    ) -> Self {
+        let s = |t| registry.clock().since_start(t).as_secs_f64();
+        StopReport {
+            cause,
+            detected_at_s: s(detected),
+            zero_at_s: s(zero),
+            v_m_s: base.map_or(0.0, |b| b.v_m_s),
+            at_rest_at_s: None,
+            distance_m: 0.0,
+            last: base.map(|b| (b.x_m, b.y_m)),
+        }
+    }
+
+    /// A base state at `t_s`: the distance grows until the robot is at rest.
+    fn see(&mut self, t_s: f64, b: &orsa_interfaces::nomad200::BaseState) {
+        if self.at_rest_at_s.is_some() || t_s < self.detected_at_s {
+            return;
+        }
+        if let Some((x, y)) = self.last {
+            self.distance_m += (b.x_m - x).hypot(b.y_m - y);
+        }
+        self.last = Some((b.x_m, b.y_m));
+        if b.v_m_s == 0.0 && b.omega_rad_s == 0.0 {
+            self.at_rest_at_s = Some(t_s);
+        }
+    }
+}
+
+/// The registry's timestamp of tokio instant `at` (now, minus how long ago `at` was).
+fn now_ts(registry: &Registry, at: tokio::time::Instant) -> orsa_actors::Timestamp {
+    let ago = tokio::time::Instant::now().saturating_duration_since(at);
+    orsa_actors::Timestamp(registry.now().0.saturating_sub(ago.as_nanos() as u64))
 }
 
 /// What the robot's main loop hears about.
@@ -196,6 +262,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         let mut links: Vec<crate::faults::LinkCutReport> = Vec::new();
         let mut link_log: Vec<(f64, String, String)> = Vec::new();
         let mut base = None;
+        let mut stops: Vec<StopReport> = Vec::new();
         let run = async {
             let t = open(&registry, &args.net, "robot", None).await?;
             eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
@@ -252,6 +319,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             let motors_addr = ServiceAddr::new(&robot, "navigationvelocity");
             let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors_addr)?;
             let mut executives: std::collections::BTreeMap<String, Executive> = std::collections::BTreeMap::new();
+            let mut last_base: Option<orsa_interfaces::nomad200::BaseState> = None;
             let far = Duration::from_secs(86_400);
             let stop = crate::ending::until_end(duration, &top);
             tokio::pin!(stop);
@@ -262,14 +330,15 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                     stop = &mut stop => break stop,
                     () = tokio::time::sleep_until(next) => {
                         let now = tokio::time::Instant::now();
-                        let expired: Vec<String> = executives
+                        let expired: Vec<(String, tokio::time::Instant)> = executives
                             .iter()
                             .filter(|(_, e)| !e.lost && e.deadline <= now)
-                            .map(|(z, _)| z.clone())
+                            .map(|(z, e)| (z.clone(), e.deadline))
                             .collect();
-                        for zid in expired {
+                        for (zid, deadline) in expired {
                             let why = format!("no heartbeat for {} ms", lease.as_millis());
-                            let restore = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why, &recording).await;
+                            let (restore, commanded) = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, &why, &recording).await;
+                            stops.push(StopReport::new(&registry, format!("executive lost: {why}"), now_ts(&registry, deadline), commanded, last_base.as_ref()));
                             if let Some(e) = executives.get_mut(&zid) {
                                 e.lost = true;
                                 e.restore = restore;
@@ -303,7 +372,9 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                             let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
                             if !was_lost {
                                 let why = "its process token disappeared";
-                                lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why, &recording).await;
+                                let detected = registry.now();
+                                let (_, commanded) = lose_executive(&registry, &behaviours, &motors, &motors_addr, &zid, why, &recording).await;
+                                stops.push(StopReport::new(&registry, format!("executive lost: {why}"), detected, commanded, last_base.as_ref()));
                                 note_loss(&registry, &mut links, &mut link_log, &zid, why);
                             }
                             start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
@@ -354,6 +425,10 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                         let t = registry.clock().since_start(u.sent_at).as_secs_f64();
                         let b = &u.value;
                         let at_rest = b.v_m_s == 0.0 && b.omega_rad_s == 0.0;
+                        for stop in &mut stops {
+                            stop.see(t, b);
+                        }
+                        last_base = Some(b.clone());
                         for l in &mut links {
                             if l.at_rest_at_s.is_none() && t >= l.cut_at_s && at_rest {
                                 l.at_rest_at_s = Some(t);
@@ -433,6 +508,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             safety,
             restarts: restarts.values().sum(),
             link: transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default(),
+            stops,
             faults,
         };
         if let Some(t) = transport {
@@ -455,8 +531,14 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
     })
 }
 
-/// The executive `zid` is lost (`why`): unwires every behaviour and commands the motors to
-/// zero. Answers the behaviour it had wired to the motors.
+/// How long the robot waits for each behaviour to be unwired when its executive is lost (the
+/// motors were commanded to zero before).
+const UNWIRE_WAIT: Duration = Duration::from_millis(250);
+
+/// The executive `zid` is lost (`why`): commands the motors to zero at once, then unwires
+/// every behaviour (all at once, each within [`UNWIRE_WAIT`]) and commands zero again, in case
+/// a behaviour's command landed in between. Answers the behaviour it had wired to the motors,
+/// and when the first zero was handed to the robot server.
 async fn lose_executive(
     registry: &Registry,
     behaviours: &[&str],
@@ -465,27 +547,45 @@ async fn lose_executive(
     zid: &str,
     why: &str,
     recording: &Option<Arc<crate::mission::recording::McapTap>>,
-) -> Option<String> {
-    let t = registry.clock().since_start(registry.now()).as_secs_f64();
-    eprintln!("robot: [{t:.3} s] executive {zid} lost ({why}): unwiring the behaviours and stopping");
-    let wiring = WiringMaster::new(registry);
-    let mut driving = None;
-    for b in behaviours {
-        if let Ok(ports) = wiring.ports(b).await
-            && ports.iter().any(|p| p.port == VEL.name() && p.target.as_ref() == Some(motors_addr))
-        {
-            driving = Some((*b).to_string());
-        }
-        if let Err(e) = wiring.disconnect(b, VEL).await {
-            tracing::warn!("robot: cannot unwire {b}: {e}");
-        }
-    }
-    let zero = NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
-    note_link(registry, recording, zid, LinkEventKind::Lost, why, Some(zero));
-    if let Err(e) = motors.send(zero) {
+) -> (Option<String>, orsa_actors::Timestamp) {
+    let detected = registry.now();
+    let zero = || NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
+    let first = zero();
+    if let Err(e) = motors.send(first) {
         tracing::warn!("robot: cannot stop the motors: {e}");
     }
-    driving
+    let commanded = registry.now();
+    let t = registry.clock().since_start(detected).as_secs_f64();
+    eprintln!(
+        "robot: [{t:.3} s] executive {zid} lost ({why}): motors commanded to zero, unwiring the behaviours"
+    );
+    note_link(registry, recording, zid, LinkEventKind::Lost, why, Some(first));
+    let wiring = WiringMaster::new(registry);
+    let unwire = |b: &str| {
+        let (wiring, b) = (wiring.clone(), b.to_string());
+        async move {
+            let drove = async {
+                let ports = wiring.ports(&b).await.ok()?;
+                ports
+                    .iter()
+                    .any(|p| p.port == VEL.name() && p.target.as_ref() == Some(motors_addr))
+                    .then_some(())
+            };
+            let drove = tokio::time::timeout(UNWIRE_WAIT, drove).await.ok().flatten().is_some();
+            match tokio::time::timeout(UNWIRE_WAIT, wiring.disconnect(&b, VEL)).await {
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => tracing::warn!("robot: cannot unwire {b}: {e}"),
+                Err(_) => tracing::warn!("robot: {b} was not unwired within {UNWIRE_WAIT:?}"),
+            }
+            drove.then_some(b)
+        }
+    };
+    let driving =
+        futures::future::join_all(behaviours.iter().map(|b| unwire(b))).await.into_iter().flatten().next();
+    if let Err(e) = motors.send(zero()) {
+        tracing::warn!("robot: cannot stop the motors: {e}");
+    }
+    (driving, commanded)
 }
 
 /// Notes what the link watchdog did in the recording, if there is one (a replay feeds it back).

@@ -11,6 +11,7 @@ mod links;
 mod processes;
 mod replay;
 mod security;
+mod stopping;
 mod switch;
 
 #[allow(dead_code, unreachable_pub)]
