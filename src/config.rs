@@ -107,6 +107,10 @@ pub struct SupervisionParams {
     pub period_s: f64,
     /// A handler running longer than this fails its instance (the hung-handler watchdog).
     pub handler_timeout_s: f64,
+    /// A component whose restart failed to start it (its setup failed: a robot process
+    /// briefly unreachable, say) is tried again after this, doubled at each failure in a row
+    /// up to 16 times; 0: at once, as in OTP, and the restart budget goes in one instant.
+    pub retry_start_s: f64,
     /// The subtrees, by name (given in a file, they replace the default ones). A component in
     /// none is a child of the top supervisor.
     pub subtrees: BTreeMap<String, Subtree>,
@@ -143,6 +147,7 @@ impl Default for SupervisionParams {
             max_restarts: 3,
             period_s: 60.0,
             handler_timeout_s: 1.0,
+            retry_start_s: 0.1,
             subtrees: BTreeMap::from([
                 ("server".to_string(), tree(&["nomad200"], 5)),
                 ("behaviours".to_string(), tree(&["wallfollow", "centerfollow"], 20)),
@@ -160,6 +165,12 @@ impl SupervisionParams {
             return Err(format!(
                 "supervision.period_s: must be from 0 to 86400 seconds, not {}",
                 self.period_s
+            ));
+        }
+        if !(self.retry_start_s.is_finite() && (0.0..=60.0).contains(&self.retry_start_s)) {
+            return Err(format!(
+                "supervision.retry_start_s: must be from 0 to 60 seconds, not {}",
+                self.retry_start_s
             ));
         }
         if !(self.handler_timeout_s.is_finite()

@@ -19,6 +19,13 @@
 //! previous goal goes on. Progress
 //! goes out on the Event service `goals` ([`GoalEvent`]: started, reached, failed, preempted);
 //! every change of driver goes out on the Push newest service `driving` ([`WiringChange`]).
+//!
+//! When the robot was away (its infrared scans stopped for a second, or count from 1 again:
+//! a new robot process), the master checks that the robot's side is as it set it: the driver wired to the
+//! motors and nobody else, every behaviour in the state its mode gives it. Where it is not (a
+//! restarted robot process comes back with nothing wired), it sets it again in one switch, so
+//! the system comes back by itself. The check is made on a scan, an input a replay feeds back
+//! at its recorded place, so a replay makes it at the same point.
 
 use crate::rules::{Arbiter, Mode, Readings, validate_modes};
 use orsa_actors::event::EventServer;
@@ -113,6 +120,10 @@ pub struct Master {
     pub params: ExecutiveParams,
 }
 
+/// No infrared scan for this long and the master checks the robot's wiring when they come
+/// back (it may be a new robot process).
+const SILENCE: Duration = Duration::from_secs(1);
+
 /// Messages of the [`Master`].
 #[derive(Debug)]
 pub enum MasterMsg {
@@ -156,6 +167,12 @@ pub struct MasterState {
     events: EventServer<GoalFilter, GoalEvent, GoalEvent>,
     wiring_push: PushNewestServer<WiringChange>,
     kept: Arc<parking_lot::Mutex<Kept>>,
+    /// The newest infrared scan's sequence number and when it was sent.
+    ir_seq: u64,
+    ir_at: orsa_actors::Timestamp,
+    /// The robot server started again: the wiring and states are to be checked (until the
+    /// check could be made).
+    check_pending: bool,
 }
 
 impl Component for Master {
@@ -198,6 +215,9 @@ impl Component for Master {
             events,
             wiring_push,
             kept,
+            ir_seq: 0,
+            ir_at: orsa_actors::Timestamp(0),
+            check_pending: false,
         };
         st.next_id = st.kept.lock().next_id;
         // Nothing drives until the goal is known again: a first start has none; a restarted
@@ -230,6 +250,22 @@ impl Component for Master {
     ) -> Result<(), ComponentError> {
         match msg {
             MasterMsg::Ir(scan) => {
+                // A robot server that started again (a new robot process) counts its scans
+                // from 1 again, and the scans stop meanwhile: after either the master looks.
+                let silent = scan.sent_at.saturating_since(st.ir_at) > SILENCE;
+                if (scan.seq < st.ir_seq || silent) && st.ir_seq > 0 {
+                    tracing::info!(
+                        seq = scan.seq,
+                        before = st.ir_seq,
+                        "master: the robot was away: checking its wiring"
+                    );
+                    st.check_pending = true;
+                }
+                st.ir_seq = scan.seq;
+                st.ir_at = scan.sent_at;
+                if st.check_pending {
+                    st.check_pending = !self.check_wiring(ctx, st).await;
+                }
                 fill(&mut st.readings.infrared, &scan);
                 st.readings_s = st.readings_s.max(scan.stamp.as_secs_f64());
                 self.arbitrate(ctx, st).await;
@@ -336,6 +372,56 @@ impl Master {
             stop_motors(ctx, st);
         }
         self.push_driving(ctx, st);
+    }
+
+    /// Checks that the driver, and nobody else, is wired to the motors and that every behaviour
+    /// is in its mode's state; sets it all again in one switch where it is not. Whether the
+    /// check could be made (a robot it cannot reach yet is checked again at the next scan).
+    async fn check_wiring(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) -> bool {
+        let Some(mode) = self.mode(st) else { return true };
+        let motors = st.motors_addr.untyped();
+        let step = Duration::from_secs_f64(self.params.switch_step_s);
+        let mut switch = Switch::new().step_timeout(step);
+        let mut wrong = Vec::new();
+        for (name, sm) in &st.states {
+            // Each look within a switch step: a robot that does not answer now (frozen, cut
+            // off) holds the master's handler no longer than that.
+            let look = async { (st.wiring.ports(name).await, sm.status().await) };
+            let Ok((Ok(ports), Ok(status))) = tokio::time::timeout(step, look).await else {
+                return false;
+            };
+            let wired = ports.iter().any(|p| p.port == VEL.name() && p.target.as_ref() == Some(&motors));
+            let drives = st.driving.as_deref() == Some(name.as_str());
+            if wired && !drives {
+                switch = switch.disconnect(name, VEL);
+                wrong.push(format!("{name} wired"));
+            }
+            if drives && !wired {
+                switch = switch.connect(name, VEL, &st.motors_addr);
+                wrong.push(format!("{name} not wired"));
+            }
+            let want = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
+            if status.current != want && status.pending.as_deref() != Some(want) {
+                switch = switch.state(name, want);
+                wrong.push(format!("{name} {} instead of {want}", status.current));
+            }
+        }
+        if wrong.is_empty() {
+            return true;
+        }
+        tracing::warn!(
+            "master: the robot is not as the master set it ({}): setting it again",
+            wrong.join(", ")
+        );
+        if let Err(e) = st.switch.apply(&switch).await {
+            self.after_failed_switch(ctx, st, &e).await;
+            if st.driving.is_none() {
+                stop_motors(ctx, st);
+            }
+            self.push_driving(ctx, st);
+            return !e.nothing_changed();
+        }
+        true
     }
 
     fn push_driving(&self, ctx: &Ctx<MasterMsg>, st: &MasterState) {

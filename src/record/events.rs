@@ -33,10 +33,14 @@ pub struct LinkEvent {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LinkEventKind {
-    /// The executive was lost: the behaviours were unwired and the motors commanded to zero.
+    /// The executive was lost: the motors were commanded to zero (the behaviours are unwired
+    /// next).
     Lost,
     /// It was heard again.
     Back,
+    /// After a loss, the behaviours were unwired and the motors commanded to zero again (in
+    /// case a behaviour's command came in between).
+    Unwired,
 }
 
 /// The message on [`FAULTS_STARTED`].

@@ -356,8 +356,14 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
             Ok(stop) => crate::ending::ended(stop, at_s, None),
             Err(e) => Ended::Failed { at_s, error: format!("{e:#}") },
         };
-        if ended != Ended::Completed {
-            eprintln!("executive: {}", ended.describe());
+        match &ended {
+            Ended::Completed => {}
+            // The executive stops no motors itself: the robot does, when it sees it go.
+            Ended::GaveUp { at_s, supervisor, child, reason, .. } => eprintln!(
+                "executive: gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed \
+                 once too often ({reason}); the behaviours were unwired and the robot stops as this process leaves"
+            ),
+            other => eprintln!("executive: {}", other.describe()),
         }
         if let Some(s) = supervisor {
             s.shutdown().await;

@@ -428,7 +428,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                         for stop in &mut stops {
                             stop.see(t, b);
                         }
-                        last_base = Some(b.clone());
+                        last_base = Some(*b);
                         for l in &mut links {
                             if l.at_rest_at_s.is_none() && t >= l.cut_at_s && at_rest {
                                 l.at_rest_at_s = Some(t);
@@ -551,6 +551,8 @@ async fn lose_executive(
     let detected = registry.now();
     let zero = || NavigationVelocity { stamp: registry.now(), v_m_s: 0.0, omega_rad_s: 0.0 };
     let first = zero();
+    // Noted first: a replay feeds the note back and sends its command there.
+    note_link(registry, recording, zid, LinkEventKind::Lost, why, Some(first));
     if let Err(e) = motors.send(first) {
         tracing::warn!("robot: cannot stop the motors: {e}");
     }
@@ -559,7 +561,6 @@ async fn lose_executive(
     eprintln!(
         "robot: [{t:.3} s] executive {zid} lost ({why}): motors commanded to zero, unwiring the behaviours"
     );
-    note_link(registry, recording, zid, LinkEventKind::Lost, why, Some(first));
     let wiring = WiringMaster::new(registry);
     let unwire = |b: &str| {
         let (wiring, b) = (wiring.clone(), b.to_string());
@@ -582,7 +583,9 @@ async fn lose_executive(
     };
     let driving =
         futures::future::join_all(behaviours.iter().map(|b| unwire(b))).await.into_iter().flatten().next();
-    if let Err(e) = motors.send(zero()) {
+    let again = zero();
+    note_link(registry, recording, zid, LinkEventKind::Unwired, "behaviours unwired", Some(again));
+    if let Err(e) = motors.send(again) {
         tracing::warn!("robot: cannot stop the motors: {e}");
     }
     (driving, commanded)

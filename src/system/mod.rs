@@ -222,8 +222,10 @@ impl<'a> SystemBuilder<'a> {
         }
         let timeout = Duration::from_secs_f64(s.handler_timeout_s);
         let parts = Parts { config: self.config, duration_s: self.duration_s, robot: self.robot.as_ref() };
+        let retry = Duration::from_secs_f64(s.retry_start_s);
         let mut spec = SupervisorSpec::new(self.name.clone(), Strategy::OneForOne)
             .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))
+            .with_retry_delay(retry)
             .with_clock(registry.clock());
         if let Some(sink) = self.on_event.clone() {
             spec = spec.with_event_sink(move |e| sink(e));
@@ -248,6 +250,7 @@ impl<'a> SystemBuilder<'a> {
                                 slots.push(Slot::Subtree(name.to_string()));
                                 SupervisorSpec::new(name, t.strategy)
                                     .with_intensity(t.max_restarts, Duration::from_secs_f64(t.period_s))
+                                    .with_retry_delay(retry)
                             });
                             tree.children.push(made.child);
                         }

@@ -5,6 +5,7 @@
 //! These run in real time (zenoh and processes cannot run on a paused clock). Every wait is
 //! for a condition with a deadline; no test sleeps to let something happen.
 
+mod chaos;
 mod ending;
 mod examples;
 mod links;

@@ -84,6 +84,7 @@ impl SupervisorState {
                     child.cell = Some(cell);
                     child.restarts = child.restarts.saturating_add(1);
                     child.retry_pending = false;
+                    child.start_failures = 0;
                     let why = if id == trigger {
                         reason.to_string()
                     } else {
@@ -94,9 +95,22 @@ impl SupervisorState {
                 Err(why) => {
                     // As OTP: leave the rest unstarted and try again later (counting a restart),
                     // so that requests such as a shutdown get through meanwhile.
-                    self.children[j].retry_pending = true;
+                    let child = &mut self.children[j];
+                    child.retry_pending = true;
+                    child.start_failures = child.start_failures.saturating_add(1);
+                    let delay = self.retry_delay * (1u32 << (child.start_failures - 1).min(4));
                     self.emit(j, SupervisorEventKind::StartFailed, &why);
-                    let _ = me.send_message(SupervisorMsg::Retry(RetryRestart { child: id }));
+                    let retry = SupervisorMsg::Retry(RetryRestart { child: id });
+                    if delay.is_zero() {
+                        let _ = me.send_message(retry);
+                    } else {
+                        let me = me.clone();
+                        tokio::spawn(async move {
+                            tokio::time::sleep(delay).await;
+                            // A supervisor that is gone has nothing to retry.
+                            let _ = me.send_message(retry);
+                        });
+                    }
                     break;
                 }
             }

@@ -80,6 +80,7 @@ impl Actor for Supervisor {
         }
         let mut state = SupervisorState {
             window: RestartWindow::new(spec.intensity, spec.period),
+            retry_delay: spec.retry_delay,
             strategy: spec.strategy,
             children: Vec::with_capacity(spec.children.len()),
             clock: spec.clock.unwrap_or_else(Clock::start),
@@ -95,6 +96,7 @@ impl Actor for Supervisor {
                     cell: Some(cell),
                     restarts: 0,
                     retry_pending: false,
+                    start_failures: 0,
                 }),
                 Err(reason) => {
                     state.stopping = true;

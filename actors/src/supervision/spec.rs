@@ -182,6 +182,11 @@ pub struct SupervisorSpec {
     pub intensity: u32,
     /// The sliding window of the restart intensity, on tokio's clock.
     pub period: Duration,
+    /// How long to wait before trying again to start a child whose restart failed to start
+    /// it, doubled at each failure in a row (at most 16 times this); zero, as in OTP: at once.
+    /// A start that fails because something outside is briefly unreachable (a robot process
+    /// frozen for a moment) then does not use up the intensity in one instant.
+    pub retry_delay: Duration,
     /// The children, in start order.
     pub children: Vec<ChildSpec>,
     /// The clock of event timestamps; `None` lends the parent's (nested) or starts one.
@@ -198,6 +203,7 @@ impl SupervisorSpec {
             strategy,
             intensity: 1,
             period: Duration::from_secs(5),
+            retry_delay: Duration::ZERO,
             children: Vec::new(),
             clock: None,
             event_sink: None,
@@ -208,6 +214,12 @@ impl SupervisorSpec {
     pub fn with_intensity(mut self, intensity: u32, period: Duration) -> Self {
         self.intensity = intensity;
         self.period = period;
+        self
+    }
+
+    /// This spec with a delay before retrying a failed start (see [`SupervisorSpec::retry_delay`]).
+    pub fn with_retry_delay(mut self, delay: Duration) -> Self {
+        self.retry_delay = delay;
         self
     }
 
@@ -240,6 +252,7 @@ impl fmt::Debug for SupervisorSpec {
             .field("strategy", &self.strategy)
             .field("intensity", &self.intensity)
             .field("period", &self.period)
+            .field("retry_delay", &self.retry_delay)
             .field("children", &self.children)
             .field("clock", &self.clock)
             .field("event_sink", &self.event_sink.is_some())

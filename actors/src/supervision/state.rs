@@ -18,6 +18,7 @@ pub struct SupervisorState {
     pub(super) name: String,
     pub(super) strategy: Strategy,
     pub(super) window: RestartWindow,
+    pub(super) retry_delay: std::time::Duration,
     /// In start order.
     pub(super) children: Vec<Child>,
     pub(super) clock: Clock,
@@ -43,6 +44,8 @@ pub(super) struct Child {
     pub(super) restarts: u32,
     /// A restart of this child failed to start it and a retry is pending.
     pub(super) retry_pending: bool,
+    /// Failed starts in a row (the retry delay doubles with each).
+    pub(super) start_failures: u32,
 }
 
 impl SupervisorState {
@@ -97,6 +100,7 @@ impl SupervisorState {
                     cell: Some(cell.clone()),
                     restarts: 0,
                     retry_pending: false,
+                    start_failures: 0,
                 });
                 Ok(cell)
             }

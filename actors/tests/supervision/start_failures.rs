@@ -84,3 +84,43 @@ async fn supervision_initial_start_failure_stops_the_children_already_started() 
     .await;
     assert!(matches!(dup, Err(StartError::DuplicateChild { child, .. }) if child == "a"));
 }
+
+#[tokio::test(start_paused = true)]
+async fn supervision_a_failed_start_is_retried_after_a_delay_that_doubles_and_resets_once_it_starts() {
+    let (sink, mut rx) = event_channel();
+    let refuse = Arc::new(AtomicU32::new(0));
+    let flaky = Worker { id: "f", refuse_starts: Some(refuse.clone()), ..Worker::default() };
+    let sup = Supervisor::start(
+        SupervisorSpec::new("s", Strategy::OneForOne)
+            .with_intensity(10, Duration::from_secs(60))
+            .with_retry_delay(Duration::from_millis(100))
+            .with_child(ChildSpec::actor("f", flaky, || ()))
+            .with_event_sink(sink),
+    )
+    .await
+    .expect("start");
+    for round in 0..2 {
+        refuse.store(3, Ordering::SeqCst);
+        tell(&sup, "f", Cmd::Fail).await;
+        let failed = next(&mut rx).await;
+        assert_eq!(failed.kind, Kind::ChildFailed);
+        let t0 = tokio::time::Instant::now();
+        let mut at = Vec::new();
+        for _ in 0..4 {
+            let e = next(&mut rx).await;
+            at.push((e.kind, t0.elapsed().as_millis()));
+        }
+        // Started at once and failed; retried after 100, then 200, then 400 ms more.
+        assert_eq!(
+            at,
+            [
+                (Kind::StartFailed, 0),
+                (Kind::StartFailed, 100),
+                (Kind::StartFailed, 300),
+                (Kind::Restarted, 700)
+            ],
+            "round {round}: the delay starts again from 100 ms after a start that worked"
+        );
+    }
+    sup.shutdown().await;
+}

@@ -1,0 +1,114 @@
+//! Process chaos: the robot and the executive as real processes on loopback, killed
+//! (SIGKILL), frozen (SIGSTOP, SIGCONT) and started again, one fault after the other. After
+//! each the system comes back by itself: the robot stops when it loses its executive and
+//! patrols again when an executive is back (a restarted robot is wired again by the
+//! executive's master); no stale command is ever applied; and the robot's report counts every
+//! stop the faults called for, each commanded within 0.1 s of the loss.
+
+use super::links::report_path;
+use super::*;
+use orsa::mission::report::Ended;
+use orsa::remote::{ExecutiveReport, RobotReport};
+
+/// How long the system may take to come back after a fault (a process starting included).
+const BACK: Duration = Duration::from_secs(20);
+/// A freeze shorter than zenoh's 1 s lease, longer than the 0.3 s heartbeat lease: only the
+/// heartbeat notices.
+const FREEZE: Duration = Duration::from_millis(700);
+
+fn signal(p: &Proc, sig: &str) {
+    let ok =
+        std::process::Command::new("kill").args([sig, &p.child.id().to_string()]).status().expect("run kill");
+    assert!(ok.success(), "kill {sig} failed");
+}
+
+/// SIGTERMs `p` and waits for it: its exit code.
+async fn terminate(p: Proc) -> (Option<i32>, Proc) {
+    signal(&p, "-TERM");
+    tokio::task::spawn_blocking(move || {
+        let mut p = p;
+        let s = p.child.wait().expect("wait");
+        (s.code(), p)
+    })
+    .await
+    .expect("join")
+}
+
+async fn driving(base: &mut mpsc::UnboundedReceiver<Update<BaseState>>, what: &str) {
+    until_base(base, BACK, what, |b| b.v_m_s > 0.15).await;
+}
+
+async fn stopped(base: &mut mpsc::UnboundedReceiver<Update<BaseState>>, what: &str) {
+    until_base(base, Duration::from_secs(5), what, |b| b.v_m_s == 0.0).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_counts_add_up() {
+    let sys = System::new("chaos");
+    let robot_json = report_path("chaos-robot");
+    let exec_json = report_path("chaos-exec");
+    let robot1 = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let exec1 = sys.run("exec1", "executive", &[]);
+    driving(&mut base, "the executive drives").await;
+
+    // 1. The robot's process frozen: it patrols again once it runs.
+    signal(&robot1, "-STOP");
+    tokio::time::sleep(FREEZE).await; // the fault's own length, not a wait for something
+    signal(&robot1, "-CONT");
+    driving(&mut base, "patrols again after the robot's freeze").await;
+
+    // 2. The robot's process killed and started again: the executive wires the new one.
+    let mut robot1 = robot1;
+    robot1.child.kill().expect("kill -9 the robot");
+    let _ = robot1.child.wait();
+    let robot2 = sys.robot(&["--report", robot_json.to_str().expect("utf-8")]);
+    driving(&mut base, "the executive drives the restarted robot").await;
+
+    // 3. The executive frozen: the robot stops on the missing heartbeat, then gives the
+    //    executive its behaviour back.
+    signal(&exec1, "-STOP");
+    stopped(&mut base, "stops while the executive is frozen").await;
+    signal(&exec1, "-CONT");
+    driving(&mut base, "patrols again after the executive's freeze").await;
+
+    // 4. The executive killed, then another one started.
+    let mut exec1 = exec1;
+    exec1.child.kill().expect("kill -9 the executive");
+    let _ = exec1.child.wait();
+    stopped(&mut base, "stops when the executive is killed").await;
+    let exec2 = sys.run("exec2", "executive", &["--report", exec_json.to_str().expect("utf-8")]);
+    driving(&mut base, "a new executive drives").await;
+
+    // 5. Both end as a user ends them, and report.
+    let (code, exec2) = terminate(exec2).await;
+    assert_eq!(code, Some(130), "{}", exec2.log_text());
+    stopped(&mut base, "stops when the executive leaves").await;
+    let (code, robot2) = terminate(robot2).await;
+    assert_eq!(code, Some(130), "{}", robot2.log_text());
+
+    let e: ExecutiveReport =
+        serde_json::from_str(&std::fs::read_to_string(&exec_json).expect("the executive's report"))
+            .expect("json");
+    assert!(matches!(e.ended, Ended::Interrupted { .. }), "{:?}", e.ended);
+    assert_eq!(e.restarts, 0, "nothing in the executive failed");
+    let r: RobotReport =
+        serde_json::from_str(&std::fs::read_to_string(&robot_json).expect("the robot's report"))
+            .expect("json");
+    assert!(matches!(r.ended, Ended::Interrupted { .. }), "{:?}", r.ended);
+    // The restarted robot lost its executive three times: frozen, killed, ended.
+    let causes: Vec<&str> = r.stops.iter().map(|s| s.cause.as_str()).collect();
+    assert_eq!(r.stops.len(), 3, "{causes:?}\n{}", robot2.log_text());
+    assert!(causes.iter().all(|c| c.starts_with("executive lost")), "{causes:?}");
+    assert!(causes[1].ends_with("its process token disappeared"), "the kill: {causes:?}");
+    assert!(causes[2].ends_with("its process token disappeared"), "the end: {causes:?}");
+    for s in &r.stops {
+        let reaction = s.zero_at_s - s.detected_at_s;
+        assert!((0.0..=0.1).contains(&reaction), "zero {reaction} s after the loss: {s:?}");
+        assert!(s.at_rest_at_s.is_some(), "came to rest: {s:?}");
+    }
+    assert_eq!(r.safety.stale_applied, 0, "no stale command applied: {:?}", r.safety);
+    assert_eq!(r.restarts, 0, "nothing in the robot failed");
+    assert!(r.safety.applied > 0);
+}
