@@ -7,6 +7,8 @@
 
 mod examples;
 mod links;
+#[cfg(target_os = "linux")]
+mod memory;
 mod processes;
 mod replay;
 mod security;
