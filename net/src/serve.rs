@@ -4,6 +4,7 @@
 
 use crate::control::{ActivateRequest, SubscribeRequest};
 use crate::session::{Inner, link};
+use futures::FutureExt as _;
 use orsa_actors::addr::{ServiceAddr, ServiceInfo};
 use orsa_actors::transport::{ByteSink, Served, Subscription};
 use orsa_actors::wire::{Reply, decode, encode};
@@ -94,20 +95,24 @@ impl Inner {
                         let Some(query) = inner.admit_query(query) else { return };
                         inner.received.fetch_add(1, Ordering::Relaxed);
                         let payload = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
-                        let answer = Arc::clone(&export.served).serve_request(&payload);
+                        let mut answer = Arc::clone(&export.served).serve_request(&payload);
+                        // A request refused at once (undecodable, say) is answered here and
+                        // holds nothing: a stream of them costs no memory, however fast.
+                        if let Some(reply) = (&mut answer).now_or_never() {
+                            inner.answer(query, &topic, reply);
+                            return;
+                        }
+                        // One a component answers later waits in a task, and at most
+                        // MAX_REQUESTS_IN_FLIGHT do.
+                        let Ok(permit) = Arc::clone(&inner.requests_in_flight).try_acquire_owned() else {
+                            inner.refuse_busy(query, &topic);
+                            return;
+                        };
                         let topic = topic.clone();
                         inner.runtime.clone().spawn(async move {
                             let reply = answer.await;
-                            if let Ok(Reply::Err(f)) = decode::<Reply<serde::de::IgnoredAny>>(&reply, "reply")
-                                && f.code == "decode"
-                            {
-                                inner.bad(&topic, &f.message);
-                            }
-                            // Cut off while the request was being served: the answer is lost.
-                            let Some(query) = inner.answerable(query) else { return };
-                            if let Err(e) = query.reply(query.key_expr().clone(), reply).await {
-                                tracing::debug!("{topic}: cannot reply: {e}");
-                            }
+                            inner.answer(query, &topic, reply);
+                            drop(permit);
                         });
                     })
                     .wait()?;
@@ -174,7 +179,7 @@ impl Inner {
                         Err(PatternError::Decode(e.to_string()))
                     }
                 };
-                reply_now(&inner, query, result);
+                reply_now(query, result);
             })
             .wait()?;
         Ok(Box::new(q))
@@ -333,15 +338,48 @@ impl Outlet {
 
 /// The most distinct every-n-th streams one push service serves to peers (each is a publisher).
 pub(crate) const MAX_STREAMS: usize = 64;
-pub(crate) fn reply_now<T: Serialize>(
-    inner: &Arc<Inner>,
-    query: zenoh::query::Query,
-    result: PatternResult<T>,
-) {
+/// Answers `query` with `result` now, on the calling thread (zenoh's own `reply().await` does
+/// the same work: a task would only add a queue that a flood of requests could fill).
+pub(crate) fn reply_now<T: Serialize>(query: zenoh::query::Query, result: PatternResult<T>) {
     let bytes = encode(&Reply::from_result(result));
-    inner.runtime.spawn(async move {
-        if let Err(e) = query.reply(query.key_expr().clone(), bytes).await {
-            tracing::debug!("cannot reply: {e}");
+    if let Err(e) = query.reply(query.key_expr().clone(), bytes).wait() {
+        tracing::debug!("cannot reply: {e}");
+    }
+}
+
+/// The most requests from peers that wait for a component's answer at once. Each waits in a
+/// task holding the request (about 1 KB with zenoh's share); beyond this, a request is refused
+/// at once (`refused_busy` in the stats). A robot's peers have a few requests out at a time.
+pub(crate) const MAX_REQUESTS_IN_FLIGHT: usize = 256;
+
+impl Inner {
+    /// Answers a request to `topic` with the reply bytes a service produced, counting a
+    /// decode error; unless the requester was cut off meanwhile.
+    pub(crate) fn answer(&self, query: zenoh::query::Query, topic: &str, reply: Vec<u8>) {
+        if let Ok(Reply::Err(f)) = decode::<Reply<serde::de::IgnoredAny>>(&reply, "reply")
+            && f.code == "decode"
+        {
+            self.bad(topic, &f.message);
         }
-    });
+        // Cut off while the request was being served: the answer is lost.
+        let Some(query) = self.answerable(query) else { return };
+        if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
+            tracing::debug!("{topic}: cannot reply: {e}");
+        }
+    }
+
+    /// Refuses a request to `topic` because [`MAX_REQUESTS_IN_FLIGHT`] are waiting already.
+    pub(crate) fn refuse_busy(&self, query: zenoh::query::Query, topic: &str) {
+        self.refused_busy.fetch_add(1, Ordering::Relaxed);
+        let why = format!(
+            "{topic} refused the request: {MAX_REQUESTS_IN_FLIGHT} requests from peers are being served already"
+        );
+        self.bad_log.warn(|| why.clone());
+        let failure =
+            orsa_actors::wire::WireFailure { code: "overloaded".into(), message: why, detail: Vec::new() };
+        let bytes = encode(&Reply::<()>::Err(failure));
+        if let Err(e) = query.reply(query.key_expr().clone(), bytes).wait() {
+            tracing::debug!("{topic}: cannot reply: {e}");
+        }
+    }
 }

@@ -15,6 +15,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+use zenoh::Wait as _;
 use zenoh::sample::SampleKind;
 
 /// Traffic figures of one transport.
@@ -26,6 +27,10 @@ pub struct NetStats {
     pub received: u64,
     /// Messages from peers that failed to decode (dropped, counted, logged).
     pub decode_errors: u64,
+    /// Requests from peers refused because as many as this process serves at once were
+    /// waiting for an answer already (absent from older peers' figures: 0).
+    #[serde(default)]
+    pub refused_busy: u64,
 }
 
 /// A subscription or activation this process holds at a peer, kept to renew it when the
@@ -58,6 +63,10 @@ pub(crate) struct Inner {
     pub(crate) published: AtomicU64,
     pub(crate) received: AtomicU64,
     pub(crate) decode_errors: AtomicU64,
+    /// Requests from peers waiting for a component's answer, at most
+    /// [`MAX_REQUESTS_IN_FLIGHT`](crate::serve::MAX_REQUESTS_IN_FLIGHT).
+    pub(crate) requests_in_flight: Arc<tokio::sync::Semaphore>,
+    pub(crate) refused_busy: AtomicU64,
     /// Lines about malformed messages and tokens: a few a second, the rest counted.
     pub(crate) bad_log: orsa_actors::logbudget::LogBudget,
     pub(crate) discovery: tokio::sync::watch::Sender<u64>,
@@ -109,6 +118,8 @@ impl ZenohTransport {
             published: AtomicU64::new(0),
             received: AtomicU64::new(0),
             decode_errors: AtomicU64::new(0),
+            requests_in_flight: Arc::new(tokio::sync::Semaphore::new(crate::serve::MAX_REQUESTS_IN_FLIGHT)),
+            refused_busy: AtomicU64::new(0),
             bad_log: orsa_actors::logbudget::LogBudget::hostile_input(),
             discovery: tokio::sync::watch::Sender::new(0),
             on_process_lost: Mutex::new(Vec::new()),
@@ -169,15 +180,14 @@ impl ZenohTransport {
                     received: inner.received.load(Ordering::Relaxed),
                     decode_errors: inner.decode_errors.load(Ordering::Relaxed)
                         + inner.registry.decode_errors(),
+                    refused_busy: inner.refused_busy.load(Ordering::Relaxed),
                 };
                 // Reply on this process's own key, so a wildcard query tells the processes apart.
                 let key = inner.keys.stats(&inner.zid);
                 let bytes = encode(&Reply::from_result(Ok::<_, PatternError>(figures)));
-                inner.runtime.spawn(async move {
-                    if let Err(e) = query.reply(key, bytes).await {
-                        tracing::debug!("cannot reply with the stats: {e}");
-                    }
-                });
+                if let Err(e) = query.reply(key, bytes).wait() {
+                    tracing::debug!("cannot reply with the stats: {e}");
+                }
             })
             .await
             .map_err(|e| NetError::Open(e.to_string()))?;
@@ -225,6 +235,7 @@ impl ZenohTransport {
             received: self.inner.received.load(Ordering::Relaxed),
             decode_errors: self.inner.decode_errors.load(Ordering::Relaxed)
                 + self.inner.registry.decode_errors(),
+            refused_busy: self.inner.refused_busy.load(Ordering::Relaxed),
         }
     }
 

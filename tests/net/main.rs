@@ -9,6 +9,8 @@ mod chaos;
 mod ending;
 mod examples;
 mod links;
+#[cfg(target_os = "linux")]
+mod memory;
 mod processes;
 mod replay;
 mod security;
