@@ -186,6 +186,11 @@ impl Faults {
         self.inner.log.lock().clone()
     }
 
+    /// Entries in the fault log so far (without copying it).
+    pub fn event_count(&self) -> usize {
+        self.inner.log.lock().len()
+    }
+
     /// Message faults applied so far, per service.
     pub fn message_counts(&self) -> Vec<(ServiceAddr, MessageFaultCounts)> {
         let mut v: Vec<_> = self.inner.counts.lock().iter().map(|(a, c)| (a.clone(), *c)).collect();

@@ -14,7 +14,9 @@
 //!   than 0.10 m.
 //!
 //! [`Metrics`] is a pure accumulator fed with [`Sample`]s at a fixed period; the mission samples
-//! the simulator's truth on tokio's clock.
+//! the simulator's truth on tokio's clock. The figures of one hour of a run are a second
+//! accumulator fed the same samples ([`Metrics::after`]), so they are computed as the whole
+//! run's are. [`process_memory`] reads what the process holds, for the hourly rows.
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -73,6 +75,9 @@ impl Stats {
 #[derive(Debug, Clone, Default)]
 pub struct Metrics {
     period_s: f64,
+    /// Whether the series for the plot (`trajectory`, `offset_series`, `clearance_series`) are
+    /// kept: they grow with the run's length.
+    keep_series: bool,
     last_t_s: Option<f64>,
     /// Seconds each behaviour (or "none") drove.
     pub driving_s: BTreeMap<String, f64>,
@@ -105,9 +110,31 @@ pub struct Metrics {
 pub const NONE: &str = "none";
 
 impl Metrics {
-    /// An accumulator for samples taken every `period_s`.
+    /// An accumulator for samples taken every `period_s`, keeping the series for the plot.
     pub fn new(period_s: f64) -> Self {
-        Metrics { period_s, ..Default::default() }
+        Metrics { period_s, keep_series: true, ..Default::default() }
+    }
+
+    /// An accumulator that takes over after `last`: the next sample stands for the time since
+    /// `last`, its 60 s stall windows start there, and only later contacts count as bumps
+    /// (`bumps` and `distance_m` stay cumulated, as in the samples). It keeps no series.
+    pub fn after(period_s: f64, last: &Sample) -> Self {
+        Metrics {
+            period_s,
+            keep_series: false,
+            last_t_s: Some(last.t_s),
+            window_start: (last.t_s, last.travelled_m),
+            bumps: last.bumps,
+            distance_m: last.travelled_m,
+            ..Default::default()
+        }
+    }
+
+    /// This accumulator, keeping the series for the plot or not (they take memory in
+    /// proportion to the run's length: a few MB an hour at 10 Hz).
+    pub fn keeping_series(mut self, keep: bool) -> Self {
+        self.keep_series = keep;
+        self
     }
 
     /// Adds one sample; each sample stands for the `period_s` before it.
@@ -123,7 +150,9 @@ impl Metrics {
             Some("wallfollow") => {
                 if let Some(c) = s.left_m {
                     self.clearance.add(c);
-                    self.clearance_series.push((s.t_s, c));
+                    if self.keep_series {
+                        self.clearance_series.push((s.t_s, c));
+                    }
                 }
             }
             Some("centerfollow") => {
@@ -131,7 +160,9 @@ impl Metrics {
                     let off = (r - l) / 2.0;
                     self.offset.add(off);
                     self.abs_offset.add(off.abs());
-                    self.offset_series.push((s.t_s, off));
+                    if self.keep_series {
+                        self.offset_series.push((s.t_s, off));
+                    }
                 }
             }
             _ => {}
@@ -149,7 +180,9 @@ impl Metrics {
             }
             self.window_start = (self.window_start.0 + 60.0, s.travelled_m);
         }
-        self.trajectory.push((s.t_s, s.x_m, s.y_m, s.driving.clone()));
+        if self.keep_series {
+            self.trajectory.push((s.t_s, s.x_m, s.y_m, s.driving.clone()));
+        }
     }
 
     /// Each behaviour's share of the time.
@@ -157,6 +190,26 @@ impl Metrics {
         let total: f64 = self.driving_s.values().sum();
         self.driving_s.iter().map(|(k, v)| (k.clone(), if total > 0.0 { v / total } else { 0.0 })).collect()
     }
+}
+
+/// What the process holds in memory: (resident now, resident at its peak), KiB, from
+/// `VmRSS` and `VmHWM` in `/proc/self/status` (Linux); `None` where that cannot be read.
+pub fn process_memory() -> (Option<u64>, Option<u64>) {
+    match std::fs::read_to_string("/proc/self/status") {
+        Ok(status) => parse_status(&status),
+        Err(_) => (None, None),
+    }
+}
+
+/// `VmRSS` and `VmHWM` of a `/proc/<pid>/status` text, KiB.
+fn parse_status(status: &str) -> (Option<u64>, Option<u64>) {
+    let field = |name: &str| {
+        status.lines().find_map(|l| {
+            let rest = l.strip_prefix(name)?.strip_prefix(':')?;
+            rest.trim().strip_suffix("kB")?.trim().parse::<u64>().ok()
+        })
+    };
+    (field("VmRSS"), field("VmHWM"))
 }
 
 #[cfg(test)]
@@ -205,5 +258,35 @@ mod tests {
         // Deviations of +-0.02, 0, 0: variance 0.0002.
         assert!((s.std().expect("samples") - 0.0002f64.sqrt()).abs() < 1e-12);
         assert_eq!(m.clearance.n, 60);
+    }
+
+    #[test]
+    fn an_hour_after_a_sample_counts_only_what_follows_it() {
+        let mut whole = Metrics::new(1.0);
+        let mut hour: Option<Metrics> = None;
+        for k in 1..=240 {
+            let t = f64::from(k);
+            // Moving for 120 s (one bump at 100 s), then still for 120 s (one bump at 200 s).
+            let travelled = 0.2 * t.min(120.0);
+            let s = sample(t, travelled, Some("wallfollow"), u64::from(k >= 100) + u64::from(k >= 200));
+            whole.add(&s);
+            if let Some(h) = hour.as_mut() {
+                h.add(&s);
+            } else if k == 120 {
+                hour = Some(Metrics::after(1.0, &s));
+            }
+        }
+        let hour = hour.expect("the second half");
+        assert_eq!(whole.stalls, 2);
+        assert_eq!(hour.stalls, 2, "the same windows, counted from the hand-over");
+        assert_eq!((whole.bumps, hour.bumps), (2, 2), "bumps stay cumulated");
+        assert_eq!(hour.bump_points, vec![(200.0, 200.0, 0.0)], "only the later contact");
+        assert!((hour.driving_s["wallfollow"] - 120.0).abs() < 1e-12);
+        assert_eq!(hour.clearance.n, 120);
+        assert!(hour.trajectory.is_empty() && hour.clearance_series.is_empty(), "no series");
+        assert_eq!(whole.trajectory.len(), 240);
+        let status = "Name:\torsa\nVmHWM:\t   20480 kB\nVmRSS:\t   18000 kB\nThreads:\t3\n";
+        assert_eq!(parse_status(status), (Some(18000), Some(20480)));
+        assert_eq!(parse_status("Name: x\n"), (None, None));
     }
 }

@@ -45,6 +45,13 @@ pub struct RunOptions {
     pub duration_s: f64,
     /// How often the truth is sampled for metrics, s.
     pub sample_period_s: f64,
+    /// How often the figures are sampled into the report's `hours` (memory, restarts, the
+    /// span's measures, sizes), simulated s; a run that ends between two takes one more
+    /// sample at its end (a run shorter than this has just that one).
+    pub figures_every_s: f64,
+    /// Whether the series for the plot are kept (`RunOutcome::metrics`'s trajectory, offset
+    /// and clearance over time): they take memory in proportion to the run's length.
+    pub keep_series: bool,
     /// Called with the simulated time every `progress_every_s`.
     pub progress: Option<Arc<dyn Fn(f64) + Send + Sync>>,
     /// How often to call `progress`, simulated s.
@@ -66,7 +73,8 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
-    /// Options with the defaults: 10 Hz sampling, no progress reports.
+    /// Options with the defaults: 10 Hz sampling, figures every simulated hour, the plot's
+    /// series kept, no progress reports.
     pub fn new(
         world: World,
         world_label: impl Into<String>,
@@ -81,6 +89,8 @@ impl RunOptions {
             seed,
             duration_s,
             sample_period_s: 0.1,
+            figures_every_s: 3600.0,
+            keep_series: true,
             progress: None,
             progress_every_s: 10.0,
             record: None,
@@ -147,6 +157,12 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
             opts.duration_s
         )));
     }
+    if !(opts.figures_every_s.is_finite() && opts.figures_every_s > 0.0) {
+        return Err(MissionError::Invalid(format!(
+            "the figures' period must be a positive number of seconds, not {}",
+            opts.figures_every_s
+        )));
+    }
     let recording = match &opts.record {
         Some(path) => Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata())?)),
         None => None,
@@ -196,7 +212,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let period = Duration::from_secs_f64(opts.sample_period_s);
     let samples = (opts.duration_s / opts.sample_period_s).round() as u64;
     let progress_every = ((opts.progress_every_s / opts.sample_period_s).round() as u64).max(1);
-    let mut metrics = Metrics::new(opts.sample_period_s);
+    let mut metrics = Metrics::new(opts.sample_period_s).keeping_series(opts.keep_series);
+    let mut hours = Hours::new(opts.figures_every_s, opts.sample_period_s, &stack.registry);
+    let mut events = Vec::new();
     let mut driving: Option<String> = None;
     let start = tokio::time::Instant::now();
     let mut ticks = tokio::time::interval_at(start + period, period);
@@ -249,7 +267,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         }
         let following = driving.is_some();
         let center = driving.as_deref() == Some("centerfollow");
-        metrics.add(&Sample {
+        let sample = Sample {
             t_s: k as f64 * opts.sample_period_s,
             x_m: t.x_m,
             y_m: t.y_m,
@@ -258,7 +276,15 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
             left_m: following.then(|| stack.truth.side_nearest(Side::Left)).flatten(),
             right_m: center.then(|| stack.truth.side_nearest(Side::Right)).flatten(),
             bumps: t.contact_onsets,
-        });
+        };
+        metrics.add(&sample);
+        hours.span.add(&sample);
+        if k % hours.every == 0 {
+            while let Ok(e) = ev_rx.try_recv() {
+                events.push(e);
+            }
+            hours.take(sample.t_s, &stack.registry, &metrics, &events, Some(&sample));
+        }
         if k % progress_every == 0
             && let Some(p) = &opts.progress
         {
@@ -267,6 +293,14 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     }
     if let Some(p) = plan {
         p.abort();
+    }
+    // The span since the last row, if any (a run that is not a whole number of periods, or
+    // that ended early).
+    if hours.rows.last().is_none_or(|h| h.end_s < simulated_s - 1e-6) {
+        while let Ok(e) = ev_rx.try_recv() {
+            events.push(e);
+        }
+        hours.take(simulated_s, &stack.registry, &metrics, &events, None);
     }
     let robot = opts.config.robot.name.as_str();
     // A robot server the supervisor gave up on has no counters to give: the report says how
@@ -294,7 +328,6 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let held = watch.finish(&stack.registry, &behaviours, driving.as_deref()).await;
     drop(wiring);
     stack.shutdown().await;
-    let mut events = Vec::new();
     while let Ok(e) = ev_rx.try_recv() {
         events.push(e);
     }
@@ -309,6 +342,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     report.ended = ended;
     report.delivery = delivery;
     report.integrity = held;
+    report.hours = hours.rows;
     if let Some(plan) = &opts.faults {
         let (by_child, restart_ms) = crate::faults::restarts_of(&events);
         report.faults = Some(crate::faults::FaultsReport::new(
@@ -344,6 +378,76 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
 }
 
+/// The report's hourly rows, as a run takes them.
+struct Hours {
+    /// Metric samples between two rows.
+    every: u64,
+    sample_period_s: f64,
+    /// The current span's measures.
+    span: Metrics,
+    /// Where the current span started, s, and the distance travelled then, m.
+    start: (f64, f64),
+    /// The ledger's totals at the start of the span: (lost that must arrive, all).
+    ledger_before: (u64, orsa_actors::ledger::DeliveryCounts),
+    rows: Vec<report::HourFigures>,
+}
+
+impl Hours {
+    fn new(every_s: f64, sample_period_s: f64, registry: &orsa_actors::Registry) -> Self {
+        let every = ((every_s / sample_period_s).round() as u64).max(1);
+        let d = integrity::DeliveryReport::from_ledger(registry);
+        Hours {
+            every,
+            sample_period_s,
+            span: Metrics::new(sample_period_s).keeping_series(false),
+            start: (0.0, 0.0),
+            ledger_before: (d.lost_must_arrive, d.total),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Takes the row of the span ending now, at `end_s`, and starts the next one after `last`
+    /// (the sample that ended it; `None` at the end of the run).
+    fn take(
+        &mut self,
+        end_s: f64,
+        registry: &orsa_actors::Registry,
+        whole: &Metrics,
+        events: &[SupervisorEvent],
+        last: Option<&Sample>,
+    ) {
+        let (start_s, start_m) = self.start;
+        let mut row =
+            report::HourFigures::measures(end_s, end_s - start_s, &self.span, whole.distance_m - start_m);
+        (row.rss_kib, row.hwm_kib) = metrics::process_memory();
+        row.restarts = events.iter().filter(|e| e.kind == SupervisorEventKind::Restarted).count() as u64;
+        row.bumps = whole.bumps;
+        row.stalls = whole.stalls;
+        let d = integrity::DeliveryReport::from_ledger(registry);
+        let (must_before, before) = self.ledger_before;
+        row.lost_must_arrive = d.lost_must_arrive.saturating_sub(must_before);
+        row.lost = d.total.lost.saturating_sub(before.lost);
+        row.failed = d.total.failed.saturating_sub(before.failed);
+        row.duplicates = d.total.duplicates.saturating_sub(before.duplicates);
+        row.sizes = report::Sizes {
+            components: registry.components().len(),
+            services: registry.services().len(),
+            subscriptions: registry.clients().values().sum(),
+            ledger_services: registry.ledger().counts().len(),
+            tasks: tokio::runtime::Handle::current().metrics().num_alive_tasks(),
+            supervisor_events: events.len(),
+            fault_log: registry.faults().event_count(),
+            trajectory: whole.trajectory.len(),
+        };
+        self.rows.push(row);
+        self.ledger_before = (d.lost_must_arrive, d.total);
+        if let Some(last) = last {
+            self.span = Metrics::after(self.sample_period_s, last);
+            self.start = (last.t_s, last.travelled_m);
+        }
+    }
+}
+
 /// What ended a run before its time.
 enum Early {
     /// A signal, by name.
@@ -352,35 +456,18 @@ enum Early {
     GaveUp(SupervisorEvent),
 }
 
-/// How long a run that ends early waits for the robot to come to rest.
-const STOP_WAIT: Duration = Duration::from_secs(2);
-
 /// Ends a run before its time at `at_s`. Interrupted, the stack is shut down as at the end of
 /// a run (the robot server stops the motors). Given up, the robot server is gone with its
-/// watchdog: the motors are stopped straight on the board, and the robot is given `STOP_WAIT`
-/// to come to rest.
+/// watchdog: the motors are stopped straight on the board, and the robot is given
+/// [`STOP_WAIT`](crate::ending::STOP_WAIT) to come to rest.
 async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
-    use orsa_hardware::board::MotorBoard as _;
     match why {
         Early::Interrupted(signal) => {
             tracing::warn!("interrupted by {signal} at {at_s:.1} s: writing the report");
             Ended::Interrupted { at_s, signal }
         }
         Early::GaveUp(e) => {
-            let board = stack.sim.motor_board();
-            let t0 = tokio::time::Instant::now();
-            if let Err(e) = board.stop().await {
-                tracing::error!("cannot stop the motors: {e}");
-            }
-            let stopped_in_s = match board.wait_stop(STOP_WAIT).await {
-                Ok(()) => Some(t0.elapsed().as_secs_f64()),
-                Err(e) => {
-                    tracing::error!(
-                        "the robot is still moving {STOP_WAIT:?} after the motors were stopped: {e}"
-                    );
-                    None
-                }
-            };
+            let stopped_in_s = crate::ending::stop_on_board(&stack.sim.motor_board()).await;
             let ended = Ended::GaveUp {
                 at_s,
                 supervisor: e.supervisor,

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 /// The wall-following figures.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct WallFollowFigures {
     /// Mean clearance to the followed wall while wall following, m.
     pub mean_clearance_m: Option<f64>,
@@ -14,13 +14,108 @@ pub struct WallFollowFigures {
     pub std_clearance_m: Option<f64>,
 }
 
+impl WallFollowFigures {
+    /// The figures of `m`.
+    pub fn of(m: &Metrics) -> Self {
+        WallFollowFigures { mean_clearance_m: m.clearance.mean(), std_clearance_m: m.clearance.std() }
+    }
+}
+
 /// The center-following figures.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct CenterFollowFigures {
     /// Mean |offset| from the corridor centre while center following, m.
     pub mean_abs_offset_m: Option<f64>,
     /// Standard deviation of the signed offset, m.
     pub std_offset_m: Option<f64>,
+}
+
+impl CenterFollowFigures {
+    /// The figures of `m`.
+    pub fn of(m: &Metrics) -> Self {
+        CenterFollowFigures { mean_abs_offset_m: m.abs_offset.mean(), std_offset_m: m.offset.std() }
+    }
+}
+
+/// The sizes of what a long run could pile up, at one moment.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Sizes {
+    /// Components registered.
+    pub components: usize,
+    /// Services registered.
+    pub services: usize,
+    /// Subscriptions and activations held on push and event services, all together.
+    pub subscriptions: usize,
+    /// Services the delivery ledger keeps figures for.
+    pub ledger_services: usize,
+    /// Tasks alive on the run's tokio runtime (each actor is one).
+    pub tasks: usize,
+    /// Supervisor events kept for the report: grows with the restarts, by design.
+    pub supervisor_events: usize,
+    /// Entries of the fault switchboard's log: grows with the faults, by design.
+    pub fault_log: usize,
+    /// Samples kept for the plot (`Metrics::trajectory`): grows with the run, by design.
+    pub trajectory: usize,
+}
+
+/// The figures of one sampled span of a run (an hour by default, see
+/// `RunOptions::figures_every_s`): what the process holds, what was counted so far, and the
+/// span's own measures, computed as the whole run's are.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct HourFigures {
+    /// End of the span, simulated s.
+    pub end_s: f64,
+    /// Its length, s (shorter than the period for the last span of a run that is not a whole
+    /// number of periods long).
+    pub span_s: f64,
+    /// The process's resident memory at the end of the span, KiB (`VmRSS`; `None` off Linux).
+    pub rss_kib: Option<u64>,
+    /// The process's peak resident memory so far, KiB (`VmHWM`; `None` off Linux).
+    pub hwm_kib: Option<u64>,
+    /// Component restarts since the start.
+    pub restarts: u64,
+    /// Contact onsets since the start.
+    pub bumps: u64,
+    /// Stalls since the start.
+    pub stalls: u64,
+    /// Distance driven in the span, m.
+    pub distance_m: f64,
+    /// Fraction of the span each behaviour drove.
+    pub behaviour_share: BTreeMap<String, f64>,
+    /// Wall following in the span.
+    pub wallfollow: WallFollowFigures,
+    /// Center following in the span.
+    pub centerfollow: CenterFollowFigures,
+    /// Messages that must arrive (Send, Query, Event) lost in the span.
+    pub lost_must_arrive: u64,
+    /// Messages lost in the span, push updates included.
+    pub lost: u64,
+    /// Messages whose sender was told they failed, in the span.
+    pub failed: u64,
+    /// Arrivals a receiver had already seen, in the span.
+    pub duplicates: u64,
+    /// Sizes at the end of the span.
+    pub sizes: Sizes,
+}
+
+impl HourFigures {
+    /// The span's measures from `span` (an accumulator that started with the span, see
+    /// `Metrics::after`); the counts since the start, memory and sizes are left for the caller.
+    pub fn measures(end_s: f64, span_s: f64, span: &Metrics, distance_m: f64) -> Self {
+        HourFigures {
+            end_s,
+            span_s,
+            distance_m,
+            behaviour_share: span.shares(),
+            wallfollow: WallFollowFigures::of(span),
+            centerfollow: CenterFollowFigures::of(span),
+            ..Default::default()
+        }
+    }
+
+    fn share(&self, who: &str) -> f64 {
+        self.behaviour_share.get(who).copied().unwrap_or(0.0)
+    }
 }
 
 /// What the robot server did with velocity commands.
@@ -118,7 +213,8 @@ pub struct Report {
     pub seed: u64,
     /// Simulated duration, s.
     pub sim_seconds: f64,
-    /// Wall-clock duration, s (the only figure that differs between two runs of one seed).
+    /// Wall-clock duration, s (with the memory in `hours`, the only figures that differ between
+    /// two runs of one seed: see [`Report::of_the_run`]).
     pub wall_seconds: f64,
     /// Distance driven, m.
     pub distance_m: f64,
@@ -149,6 +245,10 @@ pub struct Report {
     /// and wiring.
     #[serde(default)]
     pub integrity: super::integrity::IntegrityReport,
+    /// The figures sampled every hour (`RunOptions::figures_every_s`), and at the end: memory,
+    /// restarts, each hour's measures and the sizes of what could pile up.
+    #[serde(default)]
+    pub hours: Vec<HourFigures>,
 }
 
 impl Report {
@@ -177,24 +277,30 @@ impl Report {
                 .collect(),
             stalls: m.stalls,
             behaviour_share: m.shares(),
-            wallfollow: WallFollowFigures {
-                mean_clearance_m: m.clearance.mean(),
-                std_clearance_m: m.clearance.std(),
-            },
-            centerfollow: CenterFollowFigures {
-                mean_abs_offset_m: m.abs_offset.mean(),
-                std_offset_m: m.offset.std(),
-            },
+            wallfollow: WallFollowFigures::of(m),
+            centerfollow: CenterFollowFigures::of(m),
             restarts,
             faults: None,
             safety,
             delivery: Default::default(),
             integrity: Default::default(),
+            hours: Vec::new(),
         }
     }
 
     fn share(&self, who: &str) -> f64 {
         self.behaviour_share.get(who).copied().unwrap_or(0.0)
+    }
+
+    /// This report without what the process measured rather than the run: the wall-clock
+    /// duration and the memory of each row of `hours`. Two runs of one seed give the same.
+    pub fn of_the_run(&self) -> Report {
+        let mut r = self.clone();
+        r.wall_seconds = 0.0;
+        for h in &mut r.hours {
+            (h.rss_kib, h.hwm_kib) = (None, None);
+        }
+        r
     }
 
     /// The original experiment's table beside this run's.
@@ -240,6 +346,46 @@ impl Report {
         if self.ended != Ended::Completed {
             let _ = write!(out, "\nthe run {}", self.ended.describe());
         }
+        if self.hours.len() > 1 {
+            let _ = write!(out, "\n\n{}", self.hours_table());
+        }
+        out
+    }
+
+    /// The hourly rows, one line each (restarts, bumps and stalls since the start; the
+    /// shares, clearance, offset, distance and losses of the hour; memory and sizes at its end).
+    pub fn hours_table(&self) -> String {
+        let mib = |v: Option<u64>| v.map_or("-".to_string(), |v| format!("{:.1}", v as f64 / 1024.0));
+        let cm = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", v * 100.0));
+        let mut out = String::from(
+            "   hour  RSS MiB  HWM MiB  restarts  bumps  stalls  center %  wall %  clear cm  |off| cm  \
+             dist m  lost    dup  tasks  subs  sup ev  fault log\n",
+        );
+        for h in &self.hours {
+            let _ = writeln!(
+                out,
+                "{:>7.2}  {:>7}  {:>7}  {:>8}  {:>5}  {:>6}  {:>8.1}  {:>6.1}  {:>8}  {:>8}  {:>6.0}  {:>4}  {:>5}  \
+                 {:>5}  {:>4}  {:>6}  {:>9}",
+                h.end_s / 3600.0,
+                mib(h.rss_kib),
+                mib(h.hwm_kib),
+                h.restarts,
+                h.bumps,
+                h.stalls,
+                h.share("centerfollow") * 100.0,
+                h.share("wallfollow") * 100.0,
+                cm(h.wallfollow.mean_clearance_m),
+                cm(h.centerfollow.mean_abs_offset_m),
+                h.distance_m,
+                h.lost,
+                h.duplicates,
+                h.sizes.tasks,
+                h.sizes.subscriptions,
+                h.sizes.supervisor_events,
+                h.sizes.fault_log,
+            );
+        }
+        out.pop();
         out
     }
 }
