@@ -104,6 +104,7 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     assert!(causes[1].ends_with("its process token disappeared"), "the kill: {causes:?}");
     assert!(causes[2].ends_with("its process token disappeared"), "the end: {causes:?}");
     for s in &r.stops {
+        eprintln!("stop: {s:?}");
         let reaction = s.zero_at_s - s.detected_at_s;
         assert!((0.0..=0.1).contains(&reaction), "zero {reaction} s after the loss: {s:?}");
         assert!(s.at_rest_at_s.is_some(), "came to rest: {s:?}");
