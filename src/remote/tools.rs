@@ -206,7 +206,12 @@ fn render_listing(l: &Listing) -> String {
     let mut out = String::from("processes:\n");
     for p in &l.processes {
         let figures = p.stats.map_or(String::new(), |s| {
-            format!("  published {} received {} undecodable {}", s.published, s.received, s.decode_errors)
+            let busy =
+                if s.refused_busy > 0 { format!(" refused-busy {}", s.refused_busy) } else { String::new() };
+            format!(
+                "  published {} received {} undecodable {}{busy}",
+                s.published, s.received, s.decode_errors
+            )
         });
         out.push_str(&format!("  {:<10} {}  live{figures}\n", p.role, p.zid));
     }
