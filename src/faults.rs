@@ -147,6 +147,8 @@ pub struct PlanTargets {
     /// The roles of the other processes this one may cut its link to (`link_cut`); empty in a
     /// single-process run.
     pub roles: Vec<String>,
+    /// Whether the robot's boards are here (sensor and motor faults).
+    pub boards: bool,
 }
 
 impl PlanTargets {
@@ -162,7 +164,7 @@ impl PlanTargets {
         ];
         let mut services = robot_and_behaviour_services(robot);
         services.push(ServiceAddr::new("master", "driving"));
-        PlanTargets { components, services, roles: Vec::new() }
+        PlanTargets { components, services, roles: Vec::new(), boards: true }
     }
 
     /// What `orsa robot`'s process offers to a plan: the robot server and the behaviours, their
@@ -172,7 +174,7 @@ impl PlanTargets {
         let components = vec![robot.to_string(), "wallfollow".into(), "centerfollow".into()];
         let services = robot_and_behaviour_services(robot);
         let roles = ["executive", "teleop", "tool"].map(String::from).to_vec();
-        PlanTargets { components, services, roles }
+        PlanTargets { components, services, roles, boards: true }
     }
 
     /// What `orsa executive`'s process offers to a plan: the master and the planner, the
@@ -181,7 +183,7 @@ impl PlanTargets {
         let components = vec!["master".to_string(), "planner".to_string()];
         let services = vec![ServiceAddr::new("master", "driving")];
         let roles = ["robot", "teleop", "tool"].map(String::from).to_vec();
-        PlanTargets { components, services, roles }
+        PlanTargets { components, services, roles, boards: false }
     }
 }
 
@@ -327,6 +329,12 @@ fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> 
                 }
             };
             Action::Message { service, fault }
+        }
+        k @ ("sensor_stuck" | "sensor_dropout" | "sensor_noise" | "motor_stall") if !targets.boards => {
+            return Err(format!(
+                "a '{k}' fault breaks the robot's boards, which are not in this process: use it with \
+                 `orsa run` or `orsa robot --faults`"
+            ));
         }
         k @ ("sensor_stuck" | "sensor_dropout" | "sensor_noise") => {
             needs_duration(k)?;
@@ -625,6 +633,7 @@ mod tests {
             components: vec!["nomad200".into(), "centerfollow".into()],
             services: vec!["nomad200/navigationvelocity".parse().expect("addr")],
             roles: Vec::new(),
+            boards: true,
         }
     }
 
@@ -714,6 +723,10 @@ sigma_m = 0.02
             (
                 "[[fault]]\nat = 1\nkind = \"link_cut\"\ntarget = \"executive\"\nduration = 1\n",
                 "unknown process role 'executive' (known here: robot, teleop, tool)",
+            ),
+            (
+                "[[fault]]\nat = 1\nkind = \"motor_stall\"\ntarget = \"motors\"\nduration = 1\n",
+                "which are not in this process",
             ),
         ] {
             let e = FaultPlan::parse(text, "exec.toml", &targets).expect_err(text).to_string();

@@ -467,6 +467,9 @@ async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
             Ended::Interrupted { at_s, signal }
         }
         Early::GaveUp(e) => {
+            // Once every component has stopped (the top stops its children after it reports
+            // giving up): none may drive after the board's stop.
+            stack.supervisor.shutdown().await;
             let stopped_in_s = crate::ending::stop_on_board(&stack.sim.motor_board()).await;
             let ended = Ended::GaveUp {
                 at_s,

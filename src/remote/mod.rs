@@ -326,12 +326,18 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                 tokio::spawn(crate::faults::run_plan(plan, targets, duration.as_secs_f64()))
             });
             anyhow::Ok(crate::ending::until_end(Some(duration), &top).await)
-        }
-        .await;
+        };
+        // A signal while the executive waits for its robot or starts ends it too, with its
+        // report.
+        let run = tokio::select! {
+            r = run => r,
+            signal = crate::cli::interrupted() => Ok(crate::ending::Stop::Signal(signal)),
+        };
         if let Some(p) = plan_task {
             p.abort();
         }
         let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
+        let mut unwired_all = true;
         let ended = match run {
             Ok(crate::ending::Stop::GaveUp(e)) => {
                 // The master is gone: no behaviour may go on driving without it. The robot
@@ -341,6 +347,7 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                     e.supervisor, e.reason
                 );
                 let wiring = orsa_actors::wiring::WiringMaster::new(&registry);
+                let mut all_unwired = true;
                 for b in config.executive.behaviours() {
                     let unwired = tokio::time::timeout(
                         Duration::from_secs(1),
@@ -348,9 +355,11 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                     )
                     .await;
                     if !matches!(unwired, Ok(Ok(()))) {
+                        all_unwired = false;
                         eprintln!("executive: cannot unwire {b}: the robot stops when this process leaves");
                     }
                 }
+                unwired_all = all_unwired;
                 crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, None)
             }
             Ok(stop) => crate::ending::ended(stop, at_s, None),
@@ -358,10 +367,16 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
         };
         match &ended {
             Ended::Completed => {}
-            // The executive stops no motors itself: the robot does, when it sees it go.
+            // The executive stops no motors itself (its report's `stopped_in_s` stays empty):
+            // the robot does, when it sees it go.
             Ended::GaveUp { at_s, supervisor, child, reason, .. } => eprintln!(
                 "executive: gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed \
-                 once too often ({reason}); the behaviours were unwired and the robot stops as this process leaves"
+                 once too often ({reason}); {}the robot stops as this process leaves",
+                if unwired_all {
+                    "the behaviours were unwired and "
+                } else {
+                    "not every behaviour could be unwired; "
+                }
             ),
             other => eprintln!("executive: {}", other.describe()),
         }

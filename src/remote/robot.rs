@@ -103,6 +103,10 @@ pub struct StopReport {
     pub at_rest_at_s: Option<f64>,
     /// How far it went from the detection to rest, by odometry, m.
     pub distance_m: f64,
+    /// When something drove it again before it came to rest (the executive back, the
+    /// fallback): the stop ended there, and `distance_m` counts up to then.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub driven_again_at_s: Option<f64>,
     /// Where it was at the last base state seen (odometry), for the distance.
     #[serde(skip)]
     last: Option<(f64, f64)>,
@@ -124,13 +128,14 @@ impl StopReport {
             v_m_s: base.map_or(0.0, |b| b.v_m_s),
             at_rest_at_s: None,
             distance_m: 0.0,
+            driven_again_at_s: None,
             last: base.map(|b| (b.x_m, b.y_m)),
         }
     }
 
-    /// A base state at `t_s`: the distance grows until the robot is at rest.
+    /// A base state at `t_s`: the distance grows until the robot is at rest (or driven again).
     fn see(&mut self, t_s: f64, b: &orsa_interfaces::nomad200::BaseState) {
-        if self.at_rest_at_s.is_some() || t_s < self.detected_at_s {
+        if self.at_rest_at_s.is_some() || self.driven_again_at_s.is_some() || t_s < self.detected_at_s {
             return;
         }
         if let Some((x, y)) = self.last {
@@ -139,6 +144,16 @@ impl StopReport {
         self.last = Some((b.x_m, b.y_m));
         if b.v_m_s == 0.0 && b.omega_rad_s == 0.0 {
             self.at_rest_at_s = Some(t_s);
+        }
+    }
+}
+
+impl StopReport {
+    /// Something drives the robot again: the stops still open end now.
+    fn driven_again(registry: &Registry, stops: &mut [StopReport]) {
+        let t = registry.clock().since_start(registry.now()).as_secs_f64();
+        for s in stops.iter_mut().filter(|s| s.at_rest_at_s.is_none() && s.driven_again_at_s.is_none()) {
+            s.driven_again_at_s = Some(t);
         }
     }
 }
@@ -240,7 +255,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         let events_tap = recording.clone();
         let top = crate::ending::TopWatch::new(ROBOT_TOP);
         let top_sink = top.clone();
-        let system = builder
+        let start_system = builder
             .robot(RobotBoards::simulated(&sim, &config, &boards))
             .supervisor(ROBOT_TOP)
             .on_event(move |e| {
@@ -250,10 +265,8 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                 top_sink.see(&e);
                 sink.lock().push(e)
             })
-            .start(&registry)
-            .await
-            .context("starting the robot")?;
-        let supervisor = system.supervisor;
+            .start(&registry);
+        let mut supervisor: Option<orsa_actors::supervision::SupervisorRef> = None;
         // From here on, every way out writes the report: what the loop leaves is kept here.
         let mut transport: Option<orsa_net::ZenohTransport> = None;
         let mut plan_task = None;
@@ -264,6 +277,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         let mut base = None;
         let mut stops: Vec<StopReport> = Vec::new();
         let run = async {
+            supervisor = Some(start_system.await.context("starting the robot")?.supervisor);
             let t = open(&registry, &args.net, "robot", None).await?;
             eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
             let transport = &*transport.insert(t);
@@ -320,6 +334,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors_addr)?;
             let mut executives: std::collections::BTreeMap<String, Executive> = std::collections::BTreeMap::new();
             let mut last_base: Option<orsa_interfaces::nomad200::BaseState> = None;
+            let mut departed: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
             let far = Duration::from_secs(86_400);
             let stop = crate::ending::until_end(duration, &top);
             tokio::pin!(stop);
@@ -344,11 +359,14 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                                 e.restore = restore;
                             }
                             note_loss(&registry, &mut links, &mut link_log, &zid, &why);
-                            start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
+                            if start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await {
+                                StopReport::driven_again(&registry, &mut stops);
+                            }
                         }
                     }
                     Some(ev) = ev_rx.recv() => match ev {
                         RobotEvent::ExecutiveFound(zid) => {
+                            departed.remove(&zid);
                             // A new executive takes over: the fallback master goes first (the
                             // executive waits for its services to disappear before it starts).
                             if let Some(f) = fallback.take() {
@@ -366,9 +384,13 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                                 e.deadline = tokio::time::Instant::now() + lease;
                                 let restore = e.restore.take();
                                 executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
+                                StopReport::driven_again(&registry, &mut stops);
                             }
                         }
                         RobotEvent::ExecutiveGone(zid) => {
+                            // A heartbeat it sent before it left may still arrive: it must not
+                            // bring it back (zenoh ids are never reused).
+                            departed.insert(zid.clone());
                             let was_lost = executives.remove(&zid).is_some_and(|e| e.lost);
                             if !was_lost {
                                 let why = "its process token disappeared";
@@ -377,8 +399,11 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                                 stops.push(StopReport::new(&registry, format!("executive lost: {why}"), detected, commanded, last_base.as_ref()));
                                 note_loss(&registry, &mut links, &mut link_log, &zid, why);
                             }
-                            start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await;
+                            if start_fallback_if(&registry, &config, &args.fallback, &mut fallback).await {
+                                StopReport::driven_again(&registry, &mut stops);
+                            }
                         }
+                        RobotEvent::Beat(zid, _) if departed.contains(&zid) => {}
                         RobotEvent::Beat(zid, period_ms) => {
                             let e = executives.entry(zid.clone()).or_insert(Executive {
                                 deadline: tokio::time::Instant::now() + lease,
@@ -403,6 +428,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                                     f.stop().await;
                                 }
                                 executive_back(&registry, &behaviours, &motors_addr, &zid, restore, &mut links, &recording).await;
+                                StopReport::driven_again(&registry, &mut stops);
                             }
                         }
                         RobotEvent::Link(role, cut) => {
@@ -441,8 +467,12 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                 }
             };
             anyhow::Ok(why)
-        }
-        .await;
+        };
+        // A signal while the robot starts ends it too, with its report.
+        let run = tokio::select! {
+            r = run => r,
+            signal = crate::cli::interrupted() => Ok(crate::ending::Stop::Signal(signal)),
+        };
         if let Some(p) = plan_task {
             p.abort();
         }
@@ -451,6 +481,10 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             Ok(crate::ending::Stop::GaveUp(e)) => {
                 // The robot server is gone with its watchdog: the motors are stopped on the board.
                 eprintln!("robot: [{at_s:.3} s] supervisor '{}' gave up ({}): stopping the motors", e.supervisor, e.reason);
+                // Once every component has stopped: none may drive after the board's stop.
+                if let Some(s) = &supervisor {
+                    s.shutdown().await;
+                }
                 let stopped_in = crate::ending::stop_on_board(&sim.motor_board()).await;
                 crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, stopped_in)
             }
@@ -460,17 +494,19 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         if ended != Ended::Completed {
             eprintln!("robot: {}", ended.describe());
         }
-        let safety = if matches!(ended, Ended::GaveUp { .. }) {
-            // Its server is gone: what it counted went with it.
+        let safety = if matches!(ended, Ended::GaveUp { .. }) || supervisor.is_none() {
+            // Its server is gone (or never started): what it counted went with it.
             Default::default()
         } else {
-            orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_interfaces::nomad200::SafetyCounters>::connect(
-                &registry,
-                orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
-            )?
-            .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
-            .await
-            .unwrap_or_else(|e| {
+            let counters = async {
+                orsa_actors::query::QueryClient::<orsa_actors::Empty, orsa_interfaces::nomad200::SafetyCounters>::connect(
+                    &registry,
+                    orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
+                )?
+                .query(orsa_actors::Empty {}, Some(Duration::from_secs(1)))
+                .await
+            };
+            counters.await.unwrap_or_else(|e: orsa_actors::PatternError| {
                 eprintln!("robot: cannot read the safety counters: {e}");
                 Default::default()
             })
@@ -480,7 +516,9 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         }
         drop(base);
         let faults_switch = registry.faults();
-        supervisor.shutdown().await;
+        if let Some(s) = supervisor {
+            s.shutdown().await;
+        }
         let _ = sim.shutdown().await;
         registry.set_tap(None);
         let recorded = recording.map(|r| r.finish());
@@ -668,22 +706,24 @@ async fn executive_back(
     }
 }
 
-/// Starts the fallback master if one is asked for and none runs.
+/// Starts the fallback master if one is asked for and none runs; whether it started one.
 async fn start_fallback_if(
     registry: &Registry,
     config: &Config,
     mode: &Option<String>,
     fallback: &mut Option<ComponentHandle<Master>>,
-) {
+) -> bool {
     if let (Some(mode), None) = (mode, &*fallback) {
         match start_fallback(registry, config, mode).await {
             Ok(f) => {
                 eprintln!("robot: driving fallback mode '{mode}'");
                 *fallback = Some(f);
+                return true;
             }
             Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
         }
     }
+    false
 }
 
 /// The component name of the robot's fallback master.
