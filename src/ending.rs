@@ -101,3 +101,31 @@ pub fn ended(stop: Stop, at_s: f64, stopped_in_s: Option<f64>) -> Ended {
         }
     }
 }
+
+/// Runs `run` (a process's start-up and main loop), ending it early with
+/// [`Stop::Signal`] on Ctrl-C or SIGTERM, start-up included.
+pub async fn or_signal(run: impl std::future::Future<Output = anyhow::Result<Stop>>) -> anyhow::Result<Stop> {
+    tokio::select! {
+        r = run => r,
+        signal = crate::cli::interrupted() => Ok(Stop::Signal(signal)),
+    }
+}
+
+/// Makes the panics a fault plan injects print one debug line instead of a message and a
+/// backtrace (the fault log and the supervisor report them); any other panic prints as usual.
+pub fn quiet_injected_panics() {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("injected fault") {
+            tracing::debug!("{message}");
+        } else {
+            default_hook(info);
+        }
+    }));
+}

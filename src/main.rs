@@ -4,22 +4,8 @@ use clap::Parser;
 use tracing_subscriber::EnvFilter;
 
 fn main() -> std::process::ExitCode {
-    // Panics a fault plan injects are expected: the fault log and the supervisor report them,
-    // so they print one line instead of a backtrace. Any other panic prints as usual.
-    let default_hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let message = info
-            .payload()
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| info.payload().downcast_ref::<&str>().copied())
-            .unwrap_or("");
-        if message.starts_with("injected fault") {
-            tracing::debug!("{message}");
-        } else {
-            default_hook(info);
-        }
-    }));
+    // Panics a fault plan injects are expected: they print one line, not a backtrace.
+    orsa::ending::quiet_injected_panics();
     let cli = orsa::cli::Cli::parse();
     let filter = match &cli.log {
         Some(f) => EnvFilter::try_new(f),

@@ -43,18 +43,7 @@ async fn a_day_under_the_standard_plan_piles_nothing_up_and_drives_its_last_hour
     // The plan's ~70,000 injected panics would each print a message (and a backtrace with
     // RUST_BACKTRACE set), which the test harness keeps in this process's memory under
     // `cargo test`: that would be the harness growing, not orsa. Only they are silenced.
-    let default_hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let message = info
-            .payload()
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| info.payload().downcast_ref::<&str>().copied())
-            .unwrap_or("");
-        if !message.starts_with("injected fault:") {
-            default_hook(info);
-        }
-    }));
+    orsa::ending::quiet_injected_panics();
     let config = Config::default();
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/config/faults.example.toml"));
     let plan = FaultPlan::load(path, &PlanTargets::for_stack(&config)).expect("the standard plan");

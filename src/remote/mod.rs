@@ -329,10 +329,7 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
         };
         // A signal while the executive waits for its robot or starts ends it too, with its
         // report.
-        let run = tokio::select! {
-            r = run => r,
-            signal = crate::cli::interrupted() => Ok(crate::ending::Stop::Signal(signal)),
-        };
+        let run = crate::ending::or_signal(run).await;
         if let Some(p) = plan_task {
             p.abort();
         }

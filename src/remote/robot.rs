@@ -469,10 +469,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             anyhow::Ok(why)
         };
         // A signal while the robot starts ends it too, with its report.
-        let run = tokio::select! {
-            r = run => r,
-            signal = crate::cli::interrupted() => Ok(crate::ending::Stop::Signal(signal)),
-        };
+        let run = crate::ending::or_signal(run).await;
         if let Some(p) = plan_task {
             p.abort();
         }
