@@ -816,7 +816,7 @@ fn activate_requests_decode_or_fail_naming_their_type() {
 fn net_stats_replies_decode_or_fail_naming_their_type() {
     let valid = (any::<u64>(), any::<u64>(), any::<u64>())
         .prop_map(|(published, received, decode_errors)| {
-            encode(&Reply::Ok(NetStats { published, received, decode_errors, refused_busy: 0 }))
+            encode(&Reply::Ok(NetStats { published, received, decode_errors, ..NetStats::default() }))
         })
         .boxed();
     check(1024, bytes_from(valid), |b| decodes_stably::<Reply<NetStats>>(&b, "orsa.NetStats/1"));

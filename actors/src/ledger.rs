@@ -178,6 +178,115 @@ impl Stream {
     }
 }
 
+/// What a receiver saw of one sender's numbered stream of messages from another process,
+/// whose numbers count every message the sender put on the link (1, 2, 3, ...): which arrived,
+/// which arrived twice, and which never came.
+///
+/// A receiver sees only what arrives, so it counts from the first number it receives (what the
+/// sender put before, while this receiver was not there, is not its loss) up to the newest; a
+/// number skipped is **missing** until it arrives **late** (out of order). Always:
+/// `newest - first + 1 == arrived + missing`, where `arrived` counts each number once and
+/// `duplicates` counts the extra arrivals. What the sender put after the newest is in flight,
+/// or was lost when the link ended: only the sender's count tells (see the net crate).
+#[derive(Debug, Default)]
+pub struct Sequence {
+    state: Mutex<SequenceState>,
+}
+
+#[derive(Debug, Default)]
+struct SequenceState {
+    window: Window,
+    counts: SequenceCounts,
+}
+
+/// The figures of a [`Sequence`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SequenceCounts {
+    /// The first number received (0: none yet).
+    pub first: u64,
+    /// The highest number received.
+    pub newest: u64,
+    /// Numbers received, each once.
+    pub arrived: u64,
+    /// Arrivals of a number already received.
+    pub duplicates: u64,
+    /// Numbers between the first and the newest never received.
+    pub missing: u64,
+    /// Numbers received after a higher one (counted missing until then).
+    pub late: u64,
+}
+
+/// What an arrival was, by its number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arrival {
+    /// Its first arrival.
+    New,
+    /// It had arrived before.
+    Again,
+    /// 0 is not a message number: not counted.
+    Invalid,
+}
+
+impl Sequence {
+    /// Records that number `n` arrived.
+    pub fn arrive(&self, n: u64) -> Arrival {
+        if n == 0 {
+            return Arrival::Invalid;
+        }
+        let mut s = self.state.lock();
+        let SequenceState { window, counts: c } = &mut *s;
+        if c.arrived == 0 {
+            c.first = n;
+            c.newest = n;
+            c.arrived = 1;
+            window.newest = n;
+            let (word, bit) = Window::slot(n);
+            window.bits[word] |= bit;
+            return Arrival::New;
+        }
+        if n > c.newest {
+            c.missing = c.missing.saturating_add(n - c.newest - 1);
+            c.newest = n;
+        } else if n < c.first {
+            // Sent before the first one received, and overtaken by it.
+            c.missing = c.missing.saturating_add(c.first - n - 1);
+            c.first = n;
+            c.late += 1;
+        } else if c.newest - n >= WINDOW {
+            // Too old to tell: taken as a late first arrival.
+            c.missing = c.missing.saturating_sub(1);
+            c.late += 1;
+            c.arrived += 1;
+            return Arrival::New;
+        } else {
+            let (word, bit) = Window::slot(n);
+            if window.bits[word] & bit != 0 {
+                c.duplicates += 1;
+                return Arrival::Again;
+            }
+            c.missing = c.missing.saturating_sub(1);
+            c.late += 1;
+        }
+        c.arrived += 1;
+        // The window remembers the numbers up to `newest` (this one included).
+        let from = window.newest + 1;
+        if c.newest > window.newest {
+            window.clear(from, c.newest);
+            window.newest = c.newest;
+        }
+        if c.newest - n < WINDOW {
+            let (word, bit) = Window::slot(n);
+            window.bits[word] |= bit;
+        }
+        Arrival::New
+    }
+
+    /// The figures so far.
+    pub fn counts(&self) -> SequenceCounts {
+        self.state.lock().counts
+    }
+}
+
 /// A message's claim on its service's figures, settled once (see the module docs).
 #[derive(Debug)]
 pub struct Receipt {
@@ -433,6 +542,47 @@ mod tests {
             newest = newest.max(n);
             seen.insert(n);
             assert_eq!(s.arrived(n), model, "step {i}: number {n}, newest {newest}");
+        }
+    }
+
+    /// A sequence against a model that keeps every number: arrived + missing always spans
+    /// first..=newest, a number twice is a duplicate, a gap filled later is late.
+    #[test]
+    fn a_sequence_counts_what_arrived_what_arrived_twice_and_what_never_came() {
+        let s = Sequence::default();
+        assert_eq!(s.arrive(0), Arrival::Invalid);
+        for n in [5, 6, 9, 7, 7, 12, 3] {
+            s.arrive(n);
+        }
+        let c = s.counts();
+        // Received 3, 5, 6, 7, 9, 12 of 3..=12; 7 twice; 7 and 3 came after higher ones.
+        assert_eq!((c.first, c.newest, c.arrived, c.duplicates, c.late), (3, 12, 6, 1, 2));
+        assert_eq!(c.missing, 4, "4, 8, 10, 11");
+
+        let s = Sequence::default();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut n = 1000u64;
+        for i in 0..100_000u64 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            n = match x % 10 {
+                // Forward on the whole, back at most 30: always inside the window.
+                0..=6 => n + 1,
+                7 => n + 1 + x % 50,
+                8 => n.saturating_sub(x % 30).max(1),
+                _ => n,
+            };
+            let again = seen.contains(&n);
+            seen.insert(n);
+            let got = s.arrive(n);
+            assert_eq!(got == Arrival::Again, again, "step {i}: {n}");
+            let c = s.counts();
+            let (first, newest) = (*seen.first().expect("one"), *seen.last().expect("one"));
+            assert_eq!((c.first, c.newest), (first, newest));
+            assert_eq!(c.arrived, seen.len() as u64);
+            assert_eq!(c.arrived + c.missing, newest - first + 1, "step {i}");
         }
     }
 

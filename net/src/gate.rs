@@ -186,7 +186,7 @@ impl Inner {
             return None;
         }
         let bytes = attachment?.to_bytes();
-        self.cut_role_of(std::str::from_utf8(&bytes).ok()?)
+        self.cut_role_of(crate::links::sender(&bytes)?.0)
     }
 
     /// Whether a message with this attachment may be delivered (its sender is not cut off);

@@ -66,6 +66,7 @@ impl ZenohTransport {
                     tracing::warn!("ignoring a heartbeat on a malformed key '{key}'");
                     return;
                 };
+                inner.arrived(key, sample.attachment());
                 if !inner.admit_from(&zid) {
                     return;
                 }
@@ -101,6 +102,7 @@ impl Inner {
             .congestion_control(CongestionControl::Drop)
             .await
             .map_err(|e| NetError::Open(e.to_string()))?;
+        let (outlet, counts) = self.links.outlet(publisher.key_expr().as_str());
         let publisher = Arc::new(publisher);
         let weak = Arc::downgrade(self);
         let beat = Arc::clone(&publisher);
@@ -112,7 +114,9 @@ impl Inner {
                 tick.tick().await;
                 let Some(inner) = weak.upgrade() else { return };
                 let bytes = encode(&Heartbeat { seq, period_ms });
-                if let Err(e) = beat.put(bytes).attachment(inner.me.clone()).await {
+                let from = crate::links::attachment(&inner.zid, outlet, counts.next());
+                if let Err(e) = beat.put(bytes).attachment(from).await {
+                    counts.failed();
                     tracing::debug!("heartbeat: {e}");
                     if inner.session.is_closed() {
                         return;

@@ -24,7 +24,9 @@
 //! share one stream. The wire format is documented in `docs/wire-format.md`.
 //!
 //! Every message orsa sends carries its sender's zenoh id as the zenoh attachment, so a
-//! receiver knows which process (and so which role) it comes from. That is what
+//! receiver knows which process (and so which role) it comes from; one-way messages also carry
+//! their outlet's number and their own, so a receiver counts what was lost or duplicated on the
+//! way ([`LinkLedger`]). That is what
 //! [`ZenohTransport::cut_link`] uses to cut this process off from the processes of a role
 //! while the zenoh session stays up (fault injection, see [`gate`](ZenohTransport::cut_link)).
 //! A process may also publish a heartbeat ([`NetOptions::heartbeat`], [`ZenohTransport::on_heartbeat`])
@@ -38,6 +40,8 @@
 //! - `serve`: offering this process's services to peers (queryables, push streams, activations, outlets).
 //! - `transport`: the client side, orsa's `Transport` seam over zenoh (send, request, subscribe, activate).
 //! - `gate`: cutting links on purpose ([`ZenohTransport::cut_link`], [`LinkCutStats`]).
+//! - `links`: the delivery ledger across processes: numbered messages, counted where they
+//!   arrive ([`ZenohTransport::link_ledger`], [`LinkLedger`]).
 //! - `heartbeat`: the heartbeat a process publishes and peers watch ([`ZenohTransport::on_heartbeat`]).
 //! - `keys`: the key expressions every pattern travels on ([`Keys`]).
 //! - `options`: how a process joins the zenoh network ([`NetOptions`], [`NetError`]).
@@ -46,6 +50,7 @@ mod control;
 mod gate;
 mod heartbeat;
 mod keys;
+mod links;
 mod options;
 mod serve;
 mod session;
@@ -55,5 +60,6 @@ pub use control::{ActivateRequest, SubscribeRequest};
 pub use gate::LinkCutStats;
 pub use heartbeat::{Heartbeat, HeartbeatWatch};
 pub use keys::{Announced, Keys, Process, pattern_name};
+pub use links::{Incoming, LinkLedger, MAX_LINK_STREAMS, Outgoing};
 pub use options::{NetError, NetOptions};
 pub use session::{NetStats, ZenohTransport};

@@ -73,6 +73,7 @@ impl Inner {
                     .declare_subscriber(self.keys.send(addr))
                     .callback(move |sample| {
                         let (Some(inner), Some(export)) = (wi.upgrade(), we.upgrade()) else { return };
+                        inner.arrived(sample.key_expr().as_str(), sample.attachment());
                         if !inner.admit(sample.attachment()) {
                             return;
                         }
@@ -196,7 +197,14 @@ impl Inner {
             .congestion_control(congestion)
             .wait()
             .map_err(link)?;
-        Ok(Arc::new(Outlet { publisher, congestion, matched: std::sync::atomic::AtomicBool::new(false) }))
+        let (id, counts) = self.links.outlet(publisher.key_expr().as_str());
+        Ok(Arc::new(Outlet {
+            publisher,
+            congestion,
+            matched: std::sync::atomic::AtomicBool::new(false),
+            id,
+            counts,
+        }))
     }
 
     pub(crate) fn publishing_sink(self: &Arc<Self>, publisher: Arc<Outlet>, audience: Audience) -> ByteSink {
@@ -204,9 +212,10 @@ impl Inner {
         Arc::new(move |bytes: &[u8]| {
             let Some(inner) = weak.upgrade() else { return false };
             if inner.withhold_to_audience(&audience) {
+                publisher.counts.withheld();
                 return true;
             }
-            match publisher.put(&inner.session, bytes.to_vec(), &inner.me) {
+            match publisher.put(&inner.session, bytes.to_vec(), &inner.zid) {
                 Ok(()) => {
                     inner.published.fetch_add(1, Ordering::Relaxed);
                     true
@@ -307,14 +316,26 @@ pub(crate) struct Outlet {
     pub(crate) publisher: zenoh::pubsub::Publisher<'static>,
     pub(crate) congestion: CongestionControl,
     pub(crate) matched: std::sync::atomic::AtomicBool,
+    /// Its number in this process, and its figures in the ledger across processes.
+    pub(crate) id: u64,
+    pub(crate) counts: Arc<crate::links::OutletCounts>,
 }
 
 impl Outlet {
-    pub(crate) fn put(
+    pub(crate) fn put(&self, session: &zenoh::Session, payload: Vec<u8>, zid: &str) -> zenoh::Result<()> {
+        let from = crate::links::attachment(zid, self.id, self.counts.next());
+        let result = self.put_as(session, payload, from);
+        if result.is_err() {
+            self.counts.failed();
+        }
+        result
+    }
+
+    fn put_as(
         &self,
         session: &zenoh::Session,
         payload: Vec<u8>,
-        from: &zenoh::bytes::ZBytes,
+        from: zenoh::bytes::ZBytes,
     ) -> zenoh::Result<()> {
         if !self.matched.load(Ordering::Acquire) {
             if self.publisher.matching_status().wait().is_ok_and(|m| m.matching()) {
@@ -322,13 +343,13 @@ impl Outlet {
             } else {
                 return session
                     .put(self.publisher.key_expr().clone(), payload)
-                    .attachment(from.clone())
+                    .attachment(from)
                     .express(true)
                     .congestion_control(self.congestion)
                     .wait();
             }
         }
-        self.publisher.put(payload).attachment(from.clone()).wait()
+        self.publisher.put(payload).attachment(from).wait()
     }
 
     pub(crate) fn key_expr(&self) -> &zenoh::key_expr::KeyExpr<'static> {

@@ -31,6 +31,13 @@ pub struct NetStats {
     /// waiting for an answer already (absent from older peers' figures: 0).
     #[serde(default)]
     pub refused_busy: u64,
+    /// Numbered messages from peers that never arrived, as far as this process can tell (the
+    /// sum of [`LinkLedger`](crate::LinkLedger)'s `missing`; absent from older peers: 0).
+    #[serde(default)]
+    pub missing: u64,
+    /// Numbered messages from peers that arrived more than once (absent from older peers: 0).
+    #[serde(default)]
+    pub duplicated: u64,
 }
 
 /// A subscription or activation this process holds at a peer, kept to renew it when the
@@ -50,6 +57,8 @@ pub(crate) struct Inner {
     /// This process's zenoh id as the attachment of everything it sends.
     pub(crate) me: zenoh::bytes::ZBytes,
     pub(crate) gate: Gate,
+    /// The delivery ledger across processes.
+    pub(crate) links: crate::links::Links,
     pub(crate) registry: Registry,
     pub(crate) runtime: tokio::runtime::Handle,
     /// Services announced by peers.
@@ -107,6 +116,7 @@ impl ZenohTransport {
             me: zenoh::bytes::ZBytes::from(zid.clone()),
             zid,
             gate: Gate::default(),
+            links: crate::links::Links::default(),
             registry: registry.clone(),
             runtime,
             remote: RwLock::new(BTreeMap::new()),
@@ -175,13 +185,7 @@ impl ZenohTransport {
             .callback(move |query| {
                 let Some(inner) = weak.upgrade() else { return };
                 let Some(query) = inner.admit_query(query) else { return };
-                let figures = NetStats {
-                    published: inner.published.load(Ordering::Relaxed),
-                    received: inner.received.load(Ordering::Relaxed),
-                    decode_errors: inner.decode_errors.load(Ordering::Relaxed)
-                        + inner.registry.decode_errors(),
-                    refused_busy: inner.refused_busy.load(Ordering::Relaxed),
-                };
+                let figures = inner.stats();
                 // Reply on this process's own key, so a wildcard query tells the processes apart.
                 let key = inner.keys.stats(&inner.zid);
                 let bytes = encode(&Reply::from_result(Ok::<_, PatternError>(figures)));
@@ -230,13 +234,7 @@ impl ZenohTransport {
 
     /// Traffic figures.
     pub fn stats(&self) -> NetStats {
-        NetStats {
-            published: self.inner.published.load(Ordering::Relaxed),
-            received: self.inner.received.load(Ordering::Relaxed),
-            decode_errors: self.inner.decode_errors.load(Ordering::Relaxed)
-                + self.inner.registry.decode_errors(),
-            refused_busy: self.inner.refused_busy.load(Ordering::Relaxed),
-        }
+        self.inner.stats()
     }
 
     /// The traffic figures of every live process (this one included), by zenoh id.
@@ -346,6 +344,18 @@ impl ZenohTransport {
 }
 
 impl Inner {
+    pub(crate) fn stats(&self) -> NetStats {
+        let links = self.link_ledger();
+        NetStats {
+            published: self.published.load(Ordering::Relaxed),
+            received: self.received.load(Ordering::Relaxed),
+            decode_errors: self.decode_errors.load(Ordering::Relaxed) + self.registry.decode_errors(),
+            refused_busy: self.refused_busy.load(Ordering::Relaxed),
+            missing: links.missing(),
+            duplicated: links.duplicates(),
+        }
+    }
+
     pub(crate) fn bad(&self, from: &str, e: &dyn std::fmt::Display) {
         self.decode_errors.fetch_add(1, Ordering::Relaxed);
         self.bad_log.warn(|| format!("dropped an undecodable message on {from}: {e}"));

@@ -47,10 +47,6 @@ impl Transport for ZenohTransport {
     }
 
     fn send(&self, addr: &ServiceAddr, payload: Vec<u8>) -> PatternResult<()> {
-        // To a cut-off process: lost on the way, as a one-way message is.
-        if self.inner.withhold_to(addr) {
-            return Ok(());
-        }
         let publisher = {
             let mut senders = self.inner.senders.lock();
             match senders.get(addr) {
@@ -62,7 +58,12 @@ impl Transport for ZenohTransport {
                 }
             }
         };
-        publisher.put(&self.inner.session, payload, &self.inner.me).map_err(link)?;
+        // To a cut-off process: lost on the way, as a one-way message is.
+        if self.inner.withhold_to(addr) {
+            publisher.counts.withheld();
+            return Ok(());
+        }
+        publisher.put(&self.inner.session, payload, &self.inner.zid).map_err(link)?;
         self.inner.published.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
@@ -104,6 +105,7 @@ impl Transport for ZenohTransport {
             .declare_subscriber(inner.keys.stream(addr, every))
             .callback(move |sample| {
                 let Some(inner) = weak.upgrade() else { return };
+                inner.arrived(sample.key_expr().as_str(), sample.attachment());
                 if !inner.admit(sample.attachment()) {
                     return;
                 }
@@ -141,6 +143,7 @@ impl Transport for ZenohTransport {
             .declare_subscriber(inner.keys.firings(&inner.zid, id))
             .callback(move |sample| {
                 let Some(inner) = weak.upgrade() else { return };
+                inner.arrived(sample.key_expr().as_str(), sample.attachment());
                 if !inner.admit(sample.attachment()) {
                     return;
                 }

@@ -204,6 +204,9 @@ pub struct ExecutiveReport {
     pub restarts: u64,
     /// What link cuts kept from crossing.
     pub link: orsa_net::LinkCutStats,
+    /// The delivery ledger across processes (see [`RobotReport::links`]).
+    #[serde(default)]
+    pub links: orsa_net::LinkLedger,
     /// What the fault plan broke and how the executive came back (with `--faults`).
     pub faults: Option<crate::faults::FaultsReport>,
 }
@@ -382,6 +385,7 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
         }
         registry.set_tap(None);
         let link = transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default();
+        let links = transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default();
         if let Some(t) = transport {
             t.close().await;
         }
@@ -409,6 +413,7 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
             duration_s: end_s,
             restarts: total_restarts,
             link,
+            links,
             faults,
         };
         if let Some(p) = &args.report {

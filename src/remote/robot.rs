@@ -79,6 +79,10 @@ pub struct RobotReport {
     pub restarts: u64,
     /// What link cuts kept from crossing.
     pub link: orsa_net::LinkCutStats,
+    /// The delivery ledger across processes: what the robot put on its links, and what
+    /// arrived from each peer (lost and duplicated on the way counted here).
+    #[serde(default)]
+    pub links: orsa_net::LinkLedger,
     /// Every time the robot stopped itself because it lost its executive: how fast it reacted
     /// and how far it went.
     #[serde(default)]
@@ -543,6 +547,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             safety,
             restarts: restarts.values().sum(),
             link: transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default(),
+            links: transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default(),
             stops,
             faults,
         };

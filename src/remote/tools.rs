@@ -208,8 +208,13 @@ fn render_listing(l: &Listing) -> String {
         let figures = p.stats.map_or(String::new(), |s| {
             let busy =
                 if s.refused_busy > 0 { format!(" refused-busy {}", s.refused_busy) } else { String::new() };
+            let lost = if s.missing + s.duplicated > 0 {
+                format!(" missing {} duplicated {}", s.missing, s.duplicated)
+            } else {
+                String::new()
+            };
             format!(
-                "  published {} received {} undecodable {}{busy}",
+                "  published {} received {} undecodable {}{busy}{lost}",
                 s.published, s.received, s.decode_errors
             )
         });

@@ -111,5 +111,13 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     }
     assert_eq!(r.safety.stale_applied, 0, "no stale command applied: {:?}", r.safety);
     assert_eq!(r.restarts, 0, "nothing in the robot failed");
+    // The ledger across processes, between the two that reported: what one put on the link
+    // and what the other counted add up, both ways.
+    let exec_zid = heartbeat_zid(&e.links);
+    let robot_zid =
+        e.links.incoming.iter().find(|i| i.role.as_deref() == Some("robot")).map(|i| i.from.clone());
+    let robot_zid = robot_zid.expect("the executive heard the robot");
+    assert!(add_up(&exec_zid, &e.links, &r.links, "executive -> robot") >= 1);
+    assert!(add_up(&robot_zid, &r.links, &e.links, "robot -> executive") >= 1);
     assert!(r.safety.applied > 0);
 }

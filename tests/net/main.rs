@@ -10,6 +10,8 @@ mod ending;
 mod examples;
 mod links;
 #[cfg(target_os = "linux")]
+mod lossy;
+#[cfg(target_os = "linux")]
 mod memory;
 mod processes;
 mod replay;
@@ -171,4 +173,45 @@ pub(crate) async fn until_base(
     })
     .await;
     found.unwrap_or_else(|_| panic!("{what}: not within {within:?}"))
+}
+
+/// Every stream from `sender` that `receiver` followed: the receiver saw no number the sender
+/// did not use, and what it counts (first, arrived, missing) adds up to the sender's count with
+/// what was still in flight at the end. The streams checked.
+pub(crate) fn add_up(
+    sender_zid: &str,
+    sender: &orsa_net::LinkLedger,
+    receiver: &orsa_net::LinkLedger,
+    what: &str,
+) -> usize {
+    let mut checked = 0;
+    for i in receiver.incoming.iter().filter(|i| i.from == sender_zid) {
+        let o = sender.outgoing(i.outlet).unwrap_or_else(|| panic!("{what}: the sender's outlet {i:?}"));
+        assert_eq!(o.key, i.key, "{what}: one outlet, one key");
+        let c = i.counts;
+        assert!(c.newest <= o.sent, "{what}: received a number never sent: {i:?} {o:?}");
+        let in_flight = o.sent - c.newest;
+        assert_eq!((c.first - 1) + c.arrived + c.missing + in_flight, o.sent, "{what}: {i:?} {o:?}");
+        assert_eq!(c.duplicates, 0, "{what}: {i:?}");
+        eprintln!(
+            "{what} {}: sent {} arrived {} missing {} late {} before-first {} in-flight {in_flight}",
+            i.key,
+            o.sent,
+            c.arrived,
+            c.missing,
+            c.late,
+            c.first - 1
+        );
+        checked += 1;
+    }
+    checked
+}
+
+/// The zid of the executive whose ledger this is, from the key its heartbeat is published on
+/// (`<prefix>/v1/heartbeat/<zid>/executive`).
+pub(crate) fn heartbeat_zid(ledger: &orsa_net::LinkLedger) -> String {
+    let key = ledger.outgoing.iter().map(|o| o.key.as_str()).find(|k| k.contains("/heartbeat/"));
+    let key = key.unwrap_or_else(|| panic!("an executive publishes its heartbeat: {ledger:#?}"));
+    let mut parts = key.split('/').skip_while(|p| *p != "heartbeat");
+    parts.nth(1).expect("a zid after heartbeat/").to_string()
 }
