@@ -1,5 +1,6 @@
 //! Process chaos: the robot and the executive as real processes on loopback, killed
-//! (SIGKILL), frozen (SIGSTOP, SIGCONT) and started again, one fault after the other. After
+//! (SIGKILL), frozen (SIGSTOP, SIGCONT; the executive for longer than zenoh's lease) and
+//! started again, one fault after the other. After
 //! each the system comes back by itself: the robot stops when it loses its executive and
 //! patrols again when an executive is back (a restarted robot is wired again by the
 //! executive's master); no stale command is ever applied; and the robot's report counts every
@@ -15,6 +16,8 @@ const BACK: Duration = Duration::from_secs(20);
 /// A freeze shorter than zenoh's 1 s lease, longer than the 0.3 s heartbeat lease: only the
 /// heartbeat notices.
 const FREEZE: Duration = Duration::from_millis(700);
+/// A freeze longer than zenoh's 1 s lease: the peers' sessions to the frozen process close.
+const LONG_FREEZE: Duration = Duration::from_millis(2500);
 
 fn signal(p: &Proc, sig: &str) {
     let ok =
@@ -66,10 +69,13 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     let robot2 = sys.robot(&["--report", robot_json.to_str().expect("utf-8")]);
     driving(&mut base, "the executive drives the restarted robot").await;
 
-    // 3. The executive frozen: the robot stops on the missing heartbeat, then gives the
-    //    executive its behaviour back.
+    // 3. The executive frozen for longer than zenoh's lease: the robot stops on the missing
+    //    heartbeat, zenoh then closes the session, and the executive, once it runs again,
+    //    opens a new one and gets its behaviour back.
+    let frozen = tokio::time::Instant::now();
     signal(&exec1, "-STOP");
     stopped(&mut base, "stops while the executive is frozen").await;
+    tokio::time::sleep_until(frozen + LONG_FREEZE).await; // the fault's own length
     signal(&exec1, "-CONT");
     driving(&mut base, "patrols again after the executive's freeze").await;
 
