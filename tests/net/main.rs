@@ -8,6 +8,7 @@
 mod chaos;
 mod ending;
 mod examples;
+mod interop;
 mod links;
 #[cfg(target_os = "linux")]
 mod lossy;
