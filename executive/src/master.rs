@@ -123,6 +123,10 @@ pub struct Master {
 /// No infrared scan for this long and the master checks the robot's wiring when they come
 /// back (it may be a new robot process).
 const SILENCE: Duration = Duration::from_secs(1);
+/// After a wiring check that could not be made (a behaviour did not answer), the next waits
+/// this long by the scans' clock, doubling at each failure in a row up to 16 times, so a
+/// behaviour that never answers does not hold the master's handler at every scan.
+const CHECK_RETRY: Duration = Duration::from_millis(500);
 
 /// Messages of the [`Master`].
 #[derive(Debug)]
@@ -173,6 +177,10 @@ pub struct MasterState {
     /// The robot server started again: the wiring and states are to be checked (until the
     /// check could be made).
     check_pending: bool,
+    /// Wiring checks in a row that could not be made, and the scan time before which the
+    /// next is not tried.
+    check_failures: u32,
+    check_after: orsa_actors::Timestamp,
 }
 
 impl Component for Master {
@@ -218,6 +226,8 @@ impl Component for Master {
             ir_seq: 0,
             ir_at: orsa_actors::Timestamp(0),
             check_pending: false,
+            check_failures: 0,
+            check_after: orsa_actors::Timestamp(0),
         };
         st.next_id = st.kept.lock().next_id;
         // Nothing drives until the goal is known again: a first start has none; a restarted
@@ -260,11 +270,20 @@ impl Component for Master {
                         "master: the robot was away: checking its wiring"
                     );
                     st.check_pending = true;
+                    st.check_failures = 0;
+                    st.check_after = scan.sent_at;
                 }
                 st.ir_seq = scan.seq;
                 st.ir_at = scan.sent_at;
-                if st.check_pending {
-                    st.check_pending = !self.check_wiring(ctx, st).await;
+                if st.check_pending && scan.sent_at >= st.check_after {
+                    if self.check_wiring(ctx, st).await {
+                        st.check_pending = false;
+                        st.check_failures = 0;
+                    } else {
+                        let backoff = CHECK_RETRY * (1u32 << st.check_failures.min(4));
+                        st.check_failures = st.check_failures.saturating_add(1);
+                        st.check_after = scan.sent_at.after(backoff);
+                    }
                 }
                 fill(&mut st.readings.infrared, &scan);
                 st.readings_s = st.readings_s.max(scan.stamp.as_secs_f64());

@@ -133,6 +133,8 @@ impl SupervisorState {
                 child.cell = Some(cell.clone());
                 child.restarts = child.restarts.saturating_add(1);
                 child.retry_pending = false;
+                // As after an automatic restart: the next failed start waits the first delay.
+                child.start_failures = 0;
                 self.emit(i, SupervisorEventKind::Restarted, "restart_child");
                 Ok(cell)
             }
