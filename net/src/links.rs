@@ -136,7 +136,10 @@ struct Followed {
 pub(crate) struct Links {
     next_outlet: AtomicU64,
     outlets: Mutex<BTreeMap<u64, Arc<OutletCounts>>>,
-    incoming: Mutex<HashMap<(String, u64), Arc<Followed>>>,
+    /// By sender's zid, then outlet (looked up by `&str`: no allocation per message).
+    incoming: Mutex<HashMap<String, HashMap<u64, Arc<Followed>>>>,
+    /// How many (sender, outlet) pairs `incoming` holds.
+    followed: std::sync::atomic::AtomicUsize,
     untracked: AtomicU64,
     unnumbered: AtomicU64,
 }
@@ -190,17 +193,17 @@ impl Inner {
         };
         let followed = {
             let mut incoming = self.links.incoming.lock();
-            match incoming.get(&(zid.to_string(), outlet)) {
+            match incoming.get(zid).and_then(|o| o.get(&outlet)) {
                 Some(f) => Arc::clone(f),
                 None => {
-                    if incoming.len() >= MAX_LINK_STREAMS {
-                        // Make room by forgetting a pair of a process that is gone, if any.
+                    if self.links.followed.load(Ordering::Relaxed) >= MAX_LINK_STREAMS {
+                        // Make room by forgetting the pairs of a process that is gone, if any.
                         let procs = self.processes.read();
-                        let gone = incoming.keys().find(|(z, _)| !procs.contains_key(z)).cloned();
+                        let gone = incoming.keys().find(|z| !procs.contains_key(z.as_str())).cloned();
                         drop(procs);
-                        match gone {
-                            Some(k) => {
-                                incoming.remove(&k);
+                        match gone.and_then(|z| incoming.remove(&z)) {
+                            Some(forgotten) => {
+                                self.links.followed.fetch_sub(forgotten.len(), Ordering::Relaxed);
                             }
                             None => {
                                 self.links.untracked.fetch_add(1, Ordering::Relaxed);
@@ -214,7 +217,8 @@ impl Inner {
                         role: Mutex::new(role),
                         sequence: Sequence::default(),
                     });
-                    incoming.insert((zid.to_string(), outlet), Arc::clone(&f));
+                    incoming.entry(zid.to_string()).or_default().insert(outlet, Arc::clone(&f));
+                    self.links.followed.fetch_add(1, Ordering::Relaxed);
                     f
                 }
             }
@@ -244,7 +248,8 @@ impl Inner {
             .incoming
             .lock()
             .iter()
-            .map(|((zid, outlet), f)| Incoming {
+            .flat_map(|(zid, outlets)| outlets.iter().map(move |(outlet, f)| (zid, outlet, f)))
+            .map(|(zid, outlet, f)| Incoming {
                 from: zid.clone(),
                 role: {
                     let mut role = f.role.lock();

@@ -159,3 +159,32 @@ async fn a_message_without_a_number_is_delivered_and_counted_unnumbered() {
     assert_eq!(ledger.unnumbered, 3, "{ledger:#?}");
     assert!(ledger.incoming.is_empty(), "{ledger:#?}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_peer_that_forges_outlet_numbers_cannot_grow_the_receivers_table() {
+    let (a, ta, _b, tb) = pair("t_ledger_forged").await;
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<u64>>();
+    SendServer::<u64>::register(&a, CMD.on("robot"), Sink::channel(tx)).expect("send server");
+    tb.wait_for(&[CMD.on("robot").untyped()], WAIT).await.expect("b sees a");
+    assert!(ta.wait_for_role("executive", WAIT).await);
+    let key = tb.keys().send(&CMD.on("robot").untyped());
+    let extra = 300;
+    let total = orsa_net::MAX_LINK_STREAMS as u64 + extra;
+    for outlet in 1..=total {
+        let msg = orsa_actors::wire::encode_stamped(&Stamped {
+            seq: outlet,
+            sent_at: Default::default(),
+            value: outlet,
+        });
+        tb.session()
+            .put(key.clone(), msg)
+            .attachment(format!("{}/{outlet}/1", tb.zid()))
+            .wait()
+            .expect("put");
+    }
+    receive(&mut rx, total).await;
+    let ledger = ta.link_ledger();
+    assert_eq!(ledger.incoming.len(), orsa_net::MAX_LINK_STREAMS);
+    assert_eq!(ledger.untracked, extra, "the sender is alive: nothing of it is forgotten");
+    assert_eq!(ledger.arrived(), orsa_net::MAX_LINK_STREAMS as u64);
+}
