@@ -13,7 +13,7 @@
 //! | [`TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `odom` -> `base_link`, at every `basestate` |
 //! | [`TRUTH_TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `base_link_truth`, at every truth sample |
 //! | [`INFRARED_TOPIC`], [`SONAR_TOPIC`] | `foxglove.LaserScan` | every `distanceir` and `distanceson` scan, in `base_link` |
-//! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every second |
+//! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, supervisor and link event (named by its topic, its JSON as the message) |
 
@@ -57,10 +57,12 @@ pub const DRIVING_TOPIC: &str = "/driving";
 pub const EVENTS_TOPIC: &str = "/events";
 
 /// Poses the trajectory holds at most; past that every other one is dropped (the oldest
-/// first is kept), so an hour's message stays small.
-pub const TRAJECTORY_MAX_POSES: usize = 512;
+/// first is kept), so that a message stays under 11 kB however long the run. (The whole path
+/// is written every time, so that Foxglove shows it after a seek: its size is what the
+/// recording pays for, about 15 MB an hour before compression.)
+pub const TRAJECTORY_MAX_POSES: usize = 256;
 /// How often the trajectory gets a pose and is written, ns.
-pub const TRAJECTORY_PERIOD_NS: u64 = 1_000_000_000;
+pub const TRAJECTORY_PERIOD_NS: u64 = 2_000_000_000;
 
 /// What the views need to know of the recorded system.
 #[derive(Debug, Clone)]
