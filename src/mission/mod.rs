@@ -165,7 +165,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     }
     let recording = match &opts.record {
         Some(path) => {
-            let views = recording::view_setup(&opts.config, Some(opts.world.clone()));
+            let views = recording::view_setup(&opts.config, Some(opts.world.clone()), true);
             Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata(), Some(views))?))
         }
         None => None,

@@ -170,13 +170,18 @@ impl McapTap {
 }
 
 /// What the views of a process hosting the robot server of `config` need; `world` if it
-/// simulates one.
-pub fn view_setup(config: &crate::config::Config, world: Option<orsa_hardware::world::World>) -> ViewSetup {
+/// simulates one, `truth` if it hands the recording ground-truth samples.
+pub fn view_setup(
+    config: &crate::config::Config,
+    world: Option<orsa_hardware::world::World>,
+    truth: bool,
+) -> ViewSetup {
     ViewSetup {
         robot: config.robot.name.clone(),
         master: orsa_interfaces::executive::NAME.to_owned(),
         world,
         body_radius_m: config.sim.body.radius_m,
+        truth,
     }
 }
 

@@ -244,7 +244,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                 let tap = Arc::new(crate::mission::recording::McapTap::create(
                     path,
                     meta.to_metadata(),
-                    Some(crate::mission::recording::view_setup(&config, Some(world.clone()))),
+                    Some(crate::mission::recording::view_setup(&config, Some(world.clone()), false)),
                 )?);
                 registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
                 Some(tap)

@@ -76,6 +76,9 @@ pub struct ViewSetup {
     pub world: Option<World>,
     /// The robot's radius, which is also the radius on which its sensors sit, m.
     pub body_radius_m: f64,
+    /// Whether the process hands the views ground-truth samples ([`TruthSample`]): without
+    /// them there is no `base_link_truth`, and the robot is drawn at its odometry only.
+    pub truth: bool,
 }
 
 /// A person of the simulated world, as ground truth.
@@ -184,10 +187,14 @@ impl Views {
     fn write_robot(&mut self, rec: &mut Recorder, at: Timestamp) -> Result<(), RecordError> {
         let (driving, mode) = (self.driving.as_deref(), self.mode.as_deref());
         let r = self.setup.body_radius_m;
-        let entities = vec![
-            shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, driving, mode, 1.0),
-            shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 0.3),
-        ];
+        let entities = if self.setup.truth {
+            vec![
+                shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, driving, mode, 1.0),
+                shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 0.3),
+            ]
+        } else {
+            vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 1.0)]
+        };
         rec.write_view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
     }
 
