@@ -144,5 +144,9 @@ fn a_recording_is_read_whole_by_the_python_mcap_package() {
     let total: u64 = v["counts"].as_object().expect("counts").values().map(|n| n.as_u64().expect("n")).sum();
     assert_eq!(total, recording.messages);
     assert_eq!(v["last_log_time"].as_u64(), Some(recording.last_log_time));
+    // The views for Foxglove are there, and the replay left them alone.
+    let views: u64 = v["views"].as_object().expect("views").values().map(|n| n.as_u64().expect("n")).sum();
+    assert!(views > 0, "{v}");
+    assert_eq!(views, recording.views);
     std::fs::remove_dir_all(&d).expect("clean up");
 }

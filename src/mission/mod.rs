@@ -164,7 +164,10 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         )));
     }
     let recording = match &opts.record {
-        Some(path) => Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata())?)),
+        Some(path) => {
+            let views = recording::view_setup(&opts.config, Some(opts.world.clone()), true);
+            Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata(), Some(views))?))
+        }
         None => None,
     };
     let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
@@ -245,6 +248,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     tokio::pin!(early);
     let mut ended = Ended::Completed;
     let mut simulated_s = opts.duration_s;
+    if let Some(r) = &recording {
+        r.truth(truth_sample(stack.truth.truth(), &stack.truth));
+    }
     for k in 1..=samples {
         tokio::select! {
             biased;
@@ -260,6 +266,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         }
         let t = stack.truth.truth();
         let t_s = k as f64 * opts.sample_period_s;
+        if let Some(r) = &recording {
+            r.truth(truth_sample(t, &stack.truth));
+        }
         watch.sample(t_s, opts.sample_period_s, t.v_m_s, t.omega_rad_s, driving.is_some());
         if k % check_every == 0 {
             watch.check_clients(&stack.registry, t_s);
@@ -376,6 +385,30 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     }
     let recording = recording.and_then(|r| r.finish().transpose());
     Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
+}
+
+/// The truth `t` and the people `truth` knows of, for the recording's views.
+fn truth_sample(
+    t: orsa_hardware::sim::Truth,
+    truth: &orsa_hardware::sim::SimTruth,
+) -> crate::record::views::TruthSample {
+    let people = truth
+        .movers()
+        .into_iter()
+        .map(|m| crate::record::views::Person {
+            x_m: m.x_m,
+            y_m: m.y_m,
+            radius_m: m.radius_m,
+            yielding: m.yielding,
+        })
+        .collect();
+    crate::record::views::TruthSample {
+        at: t.stamp,
+        x_m: t.x_m,
+        y_m: t.y_m,
+        heading_rad: t.heading_rad,
+        people,
+    }
 }
 
 /// The report's hourly rows, as a run takes them.

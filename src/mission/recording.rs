@@ -8,7 +8,12 @@
 //! slower than the run slows the run rather than filling memory. A write error stops the
 //! recording (the writer drains the queue from then on, so the run never waits on a dead file)
 //! and is reported by [`McapTap::finish`].
+//!
+//! Given a [`ViewSetup`], the writer thread also makes the recording's views (channels that
+//! Foxglove draws, see [`crate::record::views`]) from the messages it writes and from the
+//! ground-truth samples the run hands it ([`McapTap::truth`]).
 
+use crate::record::views::{Input, TruthSample, ViewSetup, Views};
 use crate::record::{RecordError, RecordSummary, Recorder};
 use orsa_actors::Timestamp;
 use orsa_actors::supervision::SupervisorEvent;
@@ -39,6 +44,8 @@ struct Batch {
     items: Vec<Item>,
     /// Every message's JSON, one after the other.
     json: Vec<u8>,
+    /// Ground-truth samples for the views, each with the number of items before it.
+    truth: Vec<(usize, TruthSample)>,
 }
 
 /// The control loop's side: topic numbers and the batch being filled.
@@ -69,7 +76,7 @@ impl Producer {
     }
 
     fn flush(&mut self) {
-        if self.batch.items.is_empty() && self.batch.new_topics.is_empty() {
+        if self.batch.items.is_empty() && self.batch.new_topics.is_empty() && self.batch.truth.is_empty() {
             return;
         }
         let capacity = self.batch.json.capacity();
@@ -79,6 +86,7 @@ impl Producer {
                 new_topics: Vec::new(),
                 items: Vec::with_capacity(BATCH),
                 json: Vec::with_capacity(capacity),
+                truth: Vec::new(),
             },
         );
         if let Some(queue) = &self.queue {
@@ -96,14 +104,20 @@ pub struct McapTap {
 }
 
 impl McapTap {
-    /// A recording to `path`, with the run's description as metadata named `run`.
-    pub fn create(path: &Path, metadata: BTreeMap<String, String>) -> Result<McapTap, RecordError> {
+    /// A recording to `path`, with the run's description as metadata named `run`, and with
+    /// views (channels that Foxglove draws) if `views` says what they need.
+    pub fn create(
+        path: &Path,
+        metadata: BTreeMap<String, String>,
+        views: Option<ViewSetup>,
+    ) -> Result<McapTap, RecordError> {
         let mut recorder = Recorder::create(path)?;
         recorder.write_metadata(crate::record::meta::RUN_METADATA, metadata)?;
         let (tx, rx) = mpsc::sync_channel::<Batch>(QUEUED);
+        let views = views.map(Views::new);
         let writer = std::thread::Builder::new()
             .name("orsa-recorder".into())
-            .spawn(move || write_all(recorder, rx))
+            .spawn(move || write_all(recorder, views, rx))
             .map_err(|source| RecordError::Create { path: path.to_path_buf(), source })?;
         let producer = Producer { topics: Default::default(), batch: Batch::default(), queue: Some(tx) };
         Ok(McapTap {
@@ -127,6 +141,13 @@ impl McapTap {
         }
     }
 
+    /// Hands the views a ground-truth sample (ignored by a recording without views).
+    pub fn truth(&self, sample: TruthSample) {
+        let mut p = self.producer.lock();
+        let before = p.batch.items.len();
+        p.batch.truth.push((before, sample));
+    }
+
     /// Closes the file once everything recorded is written: its summary, or the first error
     /// met while writing. Later messages are not recorded.
     pub fn finish(&self) -> Result<Option<RecordSummary>, RecordError> {
@@ -148,30 +169,83 @@ impl McapTap {
     }
 }
 
+/// What the views of a process hosting the robot server of `config` need; `world` if it
+/// simulates one, `truth` if it hands the recording ground-truth samples.
+pub fn view_setup(
+    config: &crate::config::Config,
+    world: Option<orsa_hardware::world::World>,
+    truth: bool,
+) -> ViewSetup {
+    ViewSetup {
+        robot: config.robot.name.clone(),
+        master: orsa_interfaces::executive::NAME.to_owned(),
+        world,
+        body_radius_m: config.sim.body.radius_m,
+        truth,
+    }
+}
+
+/// One topic as the writer knows it.
+struct Topic {
+    topic: String,
+    type_id: String,
+    remote: bool,
+    /// What its messages are to the views, if anything.
+    view: Option<Input>,
+}
+
 /// The writer thread: every batch, in order, until the queue closes.
-fn write_all(mut recorder: Recorder, queue: mpsc::Receiver<Batch>) -> Result<RecordSummary, RecordError> {
-    let mut topics: Vec<(String, String, bool)> = Vec::new();
+fn write_all(
+    mut recorder: Recorder,
+    mut views: Option<Views>,
+    queue: mpsc::Receiver<Batch>,
+) -> Result<RecordSummary, RecordError> {
+    let mut topics: Vec<Topic> = Vec::new();
     for batch in queue.iter() {
-        for (id, topic, type_id, remote) in batch.new_topics {
-            debug_assert_eq!(id as usize, topics.len());
-            topics.push((topic, type_id, remote));
-        }
-        let mut start = 0;
-        for item in &batch.items {
-            let (topic, type_id, remote) = &topics[item.topic as usize];
-            let json = &batch.json[start..item.end];
-            start = item.end;
-            if let Err(error) =
-                recorder.write_json_from(topic, type_id, item.stamp, item.stamp, json, *remote)
-            {
-                tracing::error!("recording stopped: {error}");
-                // Drain what is still coming, so the run never waits on a dead file.
-                for _ in queue.iter() {}
-                return Err(error);
-            }
+        if let Err(error) = write_batch(&mut recorder, views.as_mut(), &mut topics, batch) {
+            tracing::error!("recording stopped: {error}");
+            // Drain what is still coming, so the run never waits on a dead file.
+            for _ in queue.iter() {}
+            return Err(error);
         }
     }
     recorder.finish()
+}
+
+/// Writes one batch's messages, and their views with the truth samples among them.
+fn write_batch(
+    recorder: &mut Recorder,
+    mut views: Option<&mut Views>,
+    topics: &mut Vec<Topic>,
+    batch: Batch,
+) -> Result<(), RecordError> {
+    for (id, topic, type_id, remote) in batch.new_topics {
+        debug_assert_eq!(id as usize, topics.len());
+        let view = if remote { None } else { views.as_ref().and_then(|v| v.input_of(&topic)) };
+        topics.push(Topic { topic, type_id, remote, view });
+    }
+    let mut truth = batch.truth.iter().peekable();
+    let mut start = 0;
+    for (i, item) in batch.items.iter().enumerate() {
+        if let Some(views) = views.as_deref_mut() {
+            while let Some((_, sample)) = truth.next_if(|(before, _)| *before <= i) {
+                views.truth(recorder, sample)?;
+            }
+        }
+        let t = &topics[item.topic as usize];
+        let json = &batch.json[start..item.end];
+        start = item.end;
+        recorder.write_json_from(&t.topic, &t.type_id, item.stamp, item.stamp, json, t.remote)?;
+        if let (Some(views), Some(input)) = (views.as_deref_mut(), t.view) {
+            views.message(recorder, input, &t.topic, item.stamp, json)?;
+        }
+    }
+    if let Some(views) = views {
+        for (_, sample) in truth {
+            views.truth(recorder, sample)?;
+        }
+    }
+    Ok(())
 }
 
 impl Tap for McapTap {

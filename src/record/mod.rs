@@ -10,6 +10,9 @@
 //! the message's `log_time` and `publish_time`, so a recording of a paused-clock simulation starts
 //! at zero, not at the wall-clock date.
 //!
+//! Beside them, [`views`] writes channels in Foxglove's well-known schemas (protobuf, schema
+//! encoding `protobuf`) that Foxglove draws: the world, the robot, its scans and frames.
+//!
 //! The hot path (an hour of simulated time is about 300 000 messages) serialises each message
 //! into one reused buffer and looks its channel up by `&str`; a topic's first message also
 //! builds its schema.
@@ -17,6 +20,7 @@
 pub mod events;
 pub mod meta;
 mod schema;
+pub mod views;
 
 pub use meta::RunMeta;
 
@@ -30,8 +34,10 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-/// The MCAP message encoding of every channel.
+/// The MCAP message encoding of every channel but the views'.
 pub const MESSAGE_ENCODING: &str = "json";
+/// The MCAP message and schema encoding of the views' channels (see [`views`]).
+pub const VIEW_ENCODING: &str = "protobuf";
 /// Channel metadata key that says where a channel's messages came from.
 pub const FROM_KEY: &str = "orsa.from";
 /// [`FROM_KEY`]'s value on a channel of messages from another process (through the transport).
@@ -74,6 +80,26 @@ pub enum RecordError {
         /// serde_json's error.
         source: serde_json::Error,
     },
+    /// A view (a message in one of Foxglove's schemas) could not be encoded.
+    #[error("cannot record a message on topic {topic} in {path}: {problem}")]
+    Encode {
+        /// The recording's path.
+        path: PathBuf,
+        /// The topic of the message.
+        topic: String,
+        /// What went wrong.
+        problem: String,
+    },
+}
+
+impl RecordError {
+    fn encode(path: &Path, topic: &str, problem: impl std::fmt::Display) -> RecordError {
+        RecordError::Encode {
+            path: path.to_path_buf(),
+            topic: topic.to_owned(),
+            problem: problem.to_string(),
+        }
+    }
 }
 
 /// What a finished recording holds.
@@ -225,6 +251,55 @@ impl Recorder {
             publish_time: publish_time.as_nanos(),
         };
         writer.write_to_known_channel(&header, json).map_err(|source| RecordError::Write {
+            path: self.path.clone(),
+            what: format!("a message on topic {topic}"),
+            source,
+        })?;
+        channel.sequence = channel.sequence.wrapping_add(1);
+        channel.count += 1;
+        Ok(())
+    }
+
+    /// Records `msg`, a message of one of Foxglove's well-known schemas (or anything else the
+    /// `foxglove` crate can encode), on `topic` at `log_time`. A topic's first message creates
+    /// its channel, with the message's own schema and encoding (`protobuf`).
+    pub fn write_view<T: foxglove::Encode>(
+        &mut self,
+        topic: &str,
+        log_time: Timestamp,
+        msg: &T,
+    ) -> Result<(), RecordError> {
+        let Some(writer) = self.writer.as_mut() else {
+            return Ok(());
+        };
+        self.buf.clear();
+        msg.encode(&mut self.buf).map_err(|e| RecordError::encode(&self.path, topic, e))?;
+        let key = (topic.to_owned(), false);
+        let channel = match self.channels.get_mut(&key) {
+            Some(channel) => channel,
+            None => {
+                let Some(schema) = T::get_schema() else {
+                    return Err(RecordError::encode(&self.path, topic, "its message type has no schema"));
+                };
+                let write_error =
+                    |what: String, source| RecordError::Write { path: self.path.clone(), what, source };
+                let schema_id =
+                    writer.add_schema(&schema.name, &schema.encoding, &schema.data).map_err(|source| {
+                        write_error(format!("the schema {} of topic {topic}", schema.name), source)
+                    })?;
+                let id = writer
+                    .add_channel(schema_id, topic, &T::get_message_encoding(), &BTreeMap::new())
+                    .map_err(|source| write_error(format!("the channel of topic {topic}"), source))?;
+                self.channels.entry(key).or_insert(Channel { id, sequence: 0, count: 0 })
+            }
+        };
+        let header = mcap::records::MessageHeader {
+            channel_id: channel.id,
+            sequence: channel.sequence,
+            log_time: log_time.as_nanos(),
+            publish_time: log_time.as_nanos(),
+        };
+        writer.write_to_known_channel(&header, &self.buf).map_err(|source| RecordError::Write {
             path: self.path.clone(),
             what: format!("a message on topic {topic}"),
             source,

@@ -247,7 +247,8 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                     plan.as_ref(),
                 )
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-                let tap = Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata())?);
+                let tap =
+                    Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata(), None)?);
                 registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
                 Some(tap)
             }

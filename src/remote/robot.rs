@@ -245,7 +245,11 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                     plan.as_ref(),
                 )
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-                let tap = Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata())?);
+                let tap = Arc::new(crate::mission::recording::McapTap::create(
+                    path,
+                    meta.to_metadata(),
+                    Some(crate::mission::recording::view_setup(&config, Some(world.clone()), false)),
+                )?);
                 registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
                 Some(tap)
             }

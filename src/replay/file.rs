@@ -141,6 +141,8 @@ pub struct Recording {
     /// Messages that came from outside the recording process and that nothing replayed
     /// makes (a teleop's commands, a tool's queries): neither fed nor compared.
     pub outside: u64,
+    /// Messages of the views for Foxglove (protobuf channels): neither fed nor compared.
+    pub views: u64,
     /// The schema name of each topic.
     pub schemas: BTreeMap<Arc<str>, String>,
     /// Every message's log time ends at or before this (ns).
@@ -175,6 +177,9 @@ enum Feed {
     Exchange(ExchangeKind),
     /// From another process, and made by nothing replayed.
     Outside,
+    /// A view for Foxglove (protobuf, see [`crate::record::views`]): made from what is fed
+    /// and compared, so neither fed nor compared itself.
+    View,
 }
 
 impl Feed {
@@ -206,7 +211,7 @@ impl Feed {
             Feed::PlanStart => FAULTS_STARTED_TYPE,
             Feed::SystemStarting => SYSTEM_STARTING_TYPE,
             Feed::Exchange(_) => EXCHANGED_TYPE,
-            Feed::Remade | Feed::Outside => return None,
+            Feed::Remade | Feed::Outside | Feed::View => return None,
         })
     }
 
@@ -316,6 +321,7 @@ impl Recording {
             system_starting: None,
             exchange: ExchangeLog::default(),
             outside: 0,
+            views: 0,
             schemas: BTreeMap::new(),
             last_log_time: 0,
             messages: 0,
@@ -365,7 +371,8 @@ impl Recording {
                         topic: c.topic.clone(),
                         problem,
                     };
-                    if c.message_encoding != crate::record::MESSAGE_ENCODING {
+                    let view = c.message_encoding == crate::record::VIEW_ENCODING;
+                    if !view && c.message_encoding != crate::record::MESSAGE_ENCODING {
                         return Err(mismatch(format!(
                             "its messages are encoded as '{}', not '{}'",
                             c.message_encoding,
@@ -375,7 +382,13 @@ impl Recording {
                     // What came from another process is not made again by anything replayed.
                     let remote = c.metadata.get(crate::record::FROM_KEY).map(String::as_str)
                         == Some(crate::record::FROM_REMOTE);
-                    let feed = if remote { Some(Feed::Outside) } else { Feed::classify(&rec.meta, &c.topic) };
+                    let feed = if view {
+                        Some(Feed::View)
+                    } else if remote {
+                        Some(Feed::Outside)
+                    } else {
+                        Feed::classify(&rec.meta, &c.topic)
+                    };
                     if let Some(expected) = feed.and_then(Feed::schema)
                         && schema != expected
                     {
@@ -430,6 +443,10 @@ impl Recording {
             Some(Feed::Remade) => return Ok(()),
             Some(Feed::Outside) => {
                 self.outside += 1;
+                return Ok(());
+            }
+            Some(Feed::View) => {
+                self.views += 1;
                 return Ok(());
             }
             Some(Feed::PlanStart) => {

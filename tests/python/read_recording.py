@@ -3,9 +3,10 @@
 Prints, as JSON: the `run` metadata's keys, the world and config it holds (parsed with the
 standard library's TOML reader; a process that simulates no world records none), the message
 count per topic, the count per topic of messages that came from another process (channels
-whose metadata says `orsa.from`), and the log time span. Exits
-non-zero, naming what is wrong, if the file is not a finished MCAP file, a message is not JSON,
-or the metadata is missing what a replay needs.
+whose metadata says `orsa.from`), the count per topic of the views (protobuf channels for
+Foxglove, which `read_views.py` decodes), and the log time span. Exits non-zero, naming what
+is wrong, if the file is not a finished MCAP file, a message of a JSON channel is not JSON, a
+channel is neither JSON nor protobuf, or the metadata is missing what a replay needs.
 """
 
 import json
@@ -35,14 +36,19 @@ def main(path):
         world = tomllib.loads(meta["world_toml"])
         counts = {}
         remote = {}
+        views = {}
         first, last = None, None
         for schema, channel, message in reader.iter_messages():
-            if channel.message_encoding != "json" or schema.encoding != "jsonschema":
+            encodings = (channel.message_encoding, schema.encoding)
+            if encodings == ("protobuf", "protobuf"):
+                views[channel.topic] = views.get(channel.topic, 0) + 1
+            elif encodings != ("json", "jsonschema"):
                 sys.exit(f"{path}: channel {channel.topic} is {channel.message_encoding}/{schema.encoding}")
-            try:
-                json.loads(message.data)
-            except ValueError as e:
-                sys.exit(f"{path}: channel {channel.topic}, log time {message.log_time}: not JSON: {e}")
+            else:
+                try:
+                    json.loads(message.data)
+                except ValueError as e:
+                    sys.exit(f"{path}: channel {channel.topic}, log time {message.log_time}: not JSON: {e}")
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
             if channel.metadata.get("orsa.from") == "another process":
                 remote[channel.topic] = remote.get(channel.topic, 0) + 1
@@ -59,6 +65,7 @@ def main(path):
         "hosted": meta["hosted"].split(","),
         "counts": counts,
         "from_other_processes": remote,
+        "views": views,
         "first_log_time": first,
         "last_log_time": last,
     }))

@@ -1,0 +1,323 @@
+//! The recording's views: channels in Foxglove's well-known schemas (protobuf, from the
+//! `foxglove` crate), beside the JSON channels, so that Foxglove draws the run.
+//!
+//! They are made on the recorder's thread from what is recorded anyway (the robot server's
+//! scans and odometry, the master's `driving`) and from ground-truth samples the run gives the
+//! recording ([`TruthSample`]); nothing in them is read back by `orsa replay`.
+//!
+//! | topic | schema | what |
+//! |---|---|---|
+//! | [`WORLD_TOPIC`] | `foxglove.SceneUpdate` | walls (`walls`: a line per wall of the world file), boxes, discs; once |
+//! | [`PEOPLE_TOPIC`] | `foxglove.SceneUpdate` | the people (`person/i`), at every truth sample |
+//! | [`ROBOT_TOPIC`] | `foxglove.SceneUpdate` | the robot's body at its truth and (faint) at its odometry, coloured by the behaviour driving |
+//! | [`TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `odom` -> `base_link`, at every `basestate` |
+//! | [`TRUTH_TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `base_link_truth`, at every truth sample |
+//! | [`INFRARED_TOPIC`], [`SONAR_TOPIC`] | `foxglove.LaserScan` | every `distanceir` and `distanceson` scan, in `base_link` |
+//! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
+//! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
+//! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, supervisor and link event (named by its topic, its JSON as the message) |
+
+mod shapes;
+
+use super::{RecordError, Recorder};
+use foxglove::schemas::{FrameTransforms, Log, Pose, PosesInFrame, SceneUpdate, log};
+use orsa_actors::{Stamped, Timestamp};
+use orsa_hardware::world::World;
+use orsa_interfaces::executive::WiringChange;
+use orsa_interfaces::nomad200::{BaseState, DistanceScan};
+
+/// The fixed frame: the world file's coordinates.
+pub const WORLD_FRAME: &str = "world";
+/// Odometry's frame: where the robot's odometry started (its start pose in the world).
+pub const ODOM_FRAME: &str = "odom";
+/// The robot's body as its odometry places it; +x is its front (sensor 0).
+pub const BASE_FRAME: &str = "base_link";
+/// The robot's body where it really is (the simulator's ground truth).
+pub const TRUTH_BASE_FRAME: &str = "base_link_truth";
+
+/// Walls, boxes and discs.
+pub const WORLD_TOPIC: &str = "/world";
+/// The people.
+pub const PEOPLE_TOPIC: &str = "/people";
+/// The robot's body.
+pub const ROBOT_TOPIC: &str = "/robot";
+/// The odometry chain.
+pub const TF_TOPIC: &str = "/tf";
+/// The ground truth's frame.
+pub const TRUTH_TF_TOPIC: &str = "/truth/tf";
+/// The infrared ring's scans.
+pub const INFRARED_TOPIC: &str = "/infrared";
+/// The sonar ring's scans.
+pub const SONAR_TOPIC: &str = "/sonar";
+/// The true path.
+pub const TRAJECTORY_TOPIC: &str = "/trajectory";
+/// Which behaviour drives.
+pub const DRIVING_TOPIC: &str = "/driving";
+/// Wiring and state changes, supervisor and link events.
+pub const EVENTS_TOPIC: &str = "/events";
+
+/// Poses the trajectory holds at most; past that every other one is dropped (the oldest
+/// first is kept), so that a message stays under 11 kB however long the run. (The whole path
+/// is written every time, so that Foxglove shows it after a seek: its size is what the
+/// recording pays for, about 15 MB an hour before compression.)
+pub const TRAJECTORY_MAX_POSES: usize = 256;
+/// How often the trajectory gets a pose and is written, ns.
+pub const TRAJECTORY_PERIOD_NS: u64 = 2_000_000_000;
+
+/// What the views need to know of the recorded system.
+#[derive(Debug, Clone)]
+pub struct ViewSetup {
+    /// The robot server's name: its `distanceir`, `distanceson` and `basestate` become scans
+    /// and the odometry chain.
+    pub robot: String,
+    /// The master's name: its `driving` says which behaviour drives.
+    pub master: String,
+    /// The world simulated, if any: its shapes, and the start pose that places `odom`.
+    pub world: Option<World>,
+    /// The robot's radius, which is also the radius on which its sensors sit, m.
+    pub body_radius_m: f64,
+    /// Whether the process hands the views ground-truth samples ([`TruthSample`]): without
+    /// them there is no `base_link_truth`, and the robot is drawn at its odometry only.
+    pub truth: bool,
+}
+
+/// A person of the simulated world, as ground truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Person {
+    /// Centre x in the world, m.
+    pub x_m: f64,
+    /// Centre y in the world, m.
+    pub y_m: f64,
+    /// Radius, m.
+    pub radius_m: f64,
+    /// Whether they stood still for the robot.
+    pub yielding: bool,
+}
+
+/// Where the robot and the people really are at one instant (the simulator's truth).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthSample {
+    /// When.
+    pub at: Timestamp,
+    /// The robot's centre x in the world, m.
+    pub x_m: f64,
+    /// The robot's centre y in the world, m.
+    pub y_m: f64,
+    /// Where the robot's front faces, rad counter-clockwise from the world's +x.
+    pub heading_rad: f64,
+    /// The people.
+    pub people: Vec<Person>,
+}
+
+/// A recorded topic the views are made from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Input {
+    Infrared,
+    Sonar,
+    Base,
+    Driving,
+    /// A wiring or state change, a supervisor's or the link watchdog's event.
+    Event,
+}
+
+/// The views' state on the recorder's thread.
+pub(crate) struct Views {
+    setup: ViewSetup,
+    /// The robot's start pose in the world: where `odom` is.
+    start: (f64, f64, f64),
+    /// Whether the world and the robot were written.
+    began: bool,
+    driving: Option<String>,
+    mode: Option<String>,
+    trajectory: Vec<Pose>,
+    last_pose_ns: Option<u64>,
+    /// Inputs that did not decode, warned about once each.
+    warned: [bool; 5],
+}
+
+impl Views {
+    pub(crate) fn new(setup: ViewSetup) -> Views {
+        let start =
+            setup.world.as_ref().map_or((0.0, 0.0, 0.0), |w| (w.robot.x, w.robot.y, w.robot.heading_rad()));
+        Views {
+            setup,
+            start,
+            began: false,
+            driving: None,
+            mode: None,
+            trajectory: Vec::new(),
+            last_pose_ns: None,
+            warned: [false; 5],
+        }
+    }
+
+    /// What a recorded `topic` is to the views, if anything.
+    pub(crate) fn input_of(&self, topic: &str) -> Option<Input> {
+        if topic == super::events::LINK_EVENTS || topic == "supervision/events" {
+            return Some(Input::Event);
+        }
+        let (component, service) = topic.split_once('/')?;
+        if service == "wiring" || service == "state" {
+            return Some(Input::Event);
+        }
+        if component == self.setup.robot {
+            return match service {
+                "distanceir" => Some(Input::Infrared),
+                "distanceson" => Some(Input::Sonar),
+                "basestate" => Some(Input::Base),
+                _ => None,
+            };
+        }
+        (component == self.setup.master && service == "driving").then_some(Input::Driving)
+    }
+
+    /// Writes the world and the robot, once, at `at`.
+    fn begin(&mut self, rec: &mut Recorder, at: Timestamp) -> Result<(), RecordError> {
+        if self.began {
+            return Ok(());
+        }
+        self.began = true;
+        if let Some(world) = &self.setup.world {
+            let scene = SceneUpdate { deletions: Vec::new(), entities: shapes::world_entities(world, at) };
+            rec.write_view(WORLD_TOPIC, at, &scene)?;
+        }
+        self.write_robot(rec, at)
+    }
+
+    fn write_robot(&mut self, rec: &mut Recorder, at: Timestamp) -> Result<(), RecordError> {
+        let (driving, mode) = (self.driving.as_deref(), self.mode.as_deref());
+        let r = self.setup.body_radius_m;
+        let entities = if self.setup.truth {
+            vec![
+                shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, driving, mode, 1.0),
+                shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 0.3),
+            ]
+        } else {
+            vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 1.0)]
+        };
+        rec.write_view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
+    }
+
+    /// Makes the views of one recorded message (`json`, logged at `at`) on an input topic. A
+    /// message that does not decode is left out of the views (with a warning, once per input).
+    pub(crate) fn message(
+        &mut self,
+        rec: &mut Recorder,
+        input: Input,
+        topic: &str,
+        at: Timestamp,
+        json: &[u8],
+    ) -> Result<(), RecordError> {
+        self.begin(rec, at)?;
+        let undecoded = |views: &mut Views, e: serde_json::Error| {
+            let warned = &mut views.warned[input as usize];
+            if !*warned {
+                *warned = true;
+                tracing::warn!(
+                    "recording: a message of {input:?} does not decode; its views are left out: {e}"
+                );
+            }
+            Ok(())
+        };
+        match input {
+            Input::Event => {
+                let log = Log {
+                    timestamp: Some(shapes::stamp(at)),
+                    level: log::Level::Info as i32,
+                    message: String::from_utf8_lossy(json).into_owned(),
+                    name: topic.to_owned(),
+                    file: String::new(),
+                    line: 0,
+                };
+                rec.write_view(EVENTS_TOPIC, at, &log)
+            }
+            Input::Infrared | Input::Sonar => {
+                let scan = match serde_json::from_slice::<Stamped<DistanceScan>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                let topic = if input == Input::Infrared { INFRARED_TOPIC } else { SONAR_TOPIC };
+                rec.write_view(topic, at, &shapes::laser_scan(&scan, self.setup.body_radius_m))
+            }
+            Input::Base => {
+                let b = match serde_json::from_slice::<Stamped<BaseState>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                let transforms =
+                    shapes::odometry_transforms(self.start, b.stamp, b.x_m, b.y_m, b.heading_rad);
+                rec.write_view(TF_TOPIC, at, &FrameTransforms { transforms })
+            }
+            Input::Driving => {
+                let change = match serde_json::from_slice::<Stamped<WiringChange>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                self.driving = change.driving;
+                self.mode = change.mode;
+                let message = match (&self.driving, &self.mode) {
+                    (Some(d), Some(m)) => format!("{d} drives (mode {m})"),
+                    (Some(d), None) => format!("{d} drives"),
+                    (None, Some(m)) => format!("no behaviour drives (mode {m})"),
+                    (None, None) => "no behaviour drives".to_owned(),
+                };
+                let log = Log {
+                    timestamp: Some(shapes::stamp(change.stamp)),
+                    level: log::Level::Info as i32,
+                    message,
+                    name: self.setup.master.clone(),
+                    file: String::new(),
+                    line: 0,
+                };
+                rec.write_view(DRIVING_TOPIC, at, &log)?;
+                self.write_robot(rec, at)
+            }
+        }
+    }
+
+    /// Makes the views of one ground-truth sample: the truth frame, the people and, every
+    /// [`TRAJECTORY_PERIOD_NS`], the trajectory.
+    pub(crate) fn truth(&mut self, rec: &mut Recorder, s: &TruthSample) -> Result<(), RecordError> {
+        self.begin(rec, s.at)?;
+        let transforms = vec![shapes::truth_transform(s.at, s.x_m, s.y_m, s.heading_rad)];
+        rec.write_view(TRUTH_TF_TOPIC, s.at, &FrameTransforms { transforms })?;
+        if !s.people.is_empty() {
+            let entities = s
+                .people
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let mut e = shapes::entity(&format!("person/{i}"), WORLD_FRAME, s.at);
+                    let colour = if p.yielding {
+                        shapes::rgb(0xd6, 0x27, 0x28)
+                    } else {
+                        shapes::rgb(0x8c, 0x56, 0x4b)
+                    };
+                    e.cylinders =
+                        vec![shapes::cylinder(p.x_m, p.y_m, p.radius_m, shapes::PERSON_HEIGHT_M, colour)];
+                    e
+                })
+                .collect();
+            rec.write_view(PEOPLE_TOPIC, s.at, &SceneUpdate { deletions: Vec::new(), entities })?;
+        }
+        let ns = s.at.as_nanos();
+        if self.last_pose_ns.is_some_and(|last| ns < last.saturating_add(TRAJECTORY_PERIOD_NS)) {
+            return Ok(());
+        }
+        self.last_pose_ns = Some(ns);
+        if self.trajectory.len() >= TRAJECTORY_MAX_POSES {
+            let mut keep = false;
+            self.trajectory.retain(|_| {
+                keep = !keep;
+                keep
+            });
+        }
+        self.trajectory.push(shapes::pose(s.x_m, s.y_m, 0.0, s.heading_rad));
+        let poses = PosesInFrame {
+            timestamp: Some(shapes::stamp(s.at)),
+            frame_id: WORLD_FRAME.to_owned(),
+            poses: self.trajectory.clone(),
+        };
+        rec.write_view(TRAJECTORY_TOPIC, s.at, &poses)
+    }
+}

@@ -1,0 +1,219 @@
+"""Reads the views of an orsa recording (the channels in Foxglove's well-known schemas) with
+the `mcap` package and its protobuf support alone, as Foxglove would, and checks them against
+the recording's own JSON channels and its `run` metadata.
+
+Checks, each failing with a message that names what is wrong:
+- every protobuf channel decodes with the schema it carries;
+- `/world`'s walls are the world file's walls (same points, a loop where the wall is closed),
+  its boxes and discs the world file's;
+- `/infrared` and `/sonar` hold one scan per JSON scan, at the same log time, in `base_link`,
+  with 16 ranges at the ring's angles (sensor i at i x 22.5 degrees), each the JSON reading
+  plus the mount radius (infinite where the reading is not valid), at the push periods
+  (40 ms and 64 ms);
+- `/tf` chains `world` -> `odom` -> `base_link`: `odom` at the world's start pose, `base_link`
+  at the JSON `basestate`'s odometry; `/truth/tf` places `base_link_truth`; the odometry's
+  error against the truth starts near zero and grows (drift);
+- `/trajectory` grows and ends where the truth is;
+- `/driving` says, in order, the behaviour each JSON `driving` message names, and `/robot`'s
+  metadata follows it;
+- `/people` has one entity per person of the world file.
+
+Prints, as JSON, what it found (counts, periods, drift, the behaviours seen driving).
+"""
+
+import bisect
+import json
+import math
+import statistics
+import sys
+import tomllib
+
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+
+RING = 16
+STEP = math.radians(22.5)
+
+
+def fail(path, what):
+    sys.exit(f"{path}: {what}")
+
+
+def yaw_of(q):
+    return 2.0 * math.atan2(q.z, q.w)
+
+
+def compose(a, b):
+    """The pose (x, y, yaw) b given in the frame of pose a."""
+    (ax, ay, at), (bx, by, bt) = a, b
+    return (ax + bx * math.cos(at) - by * math.sin(at), ay + bx * math.sin(at) + by * math.cos(at), at + bt)
+
+
+def planar(t):
+    return (t.translation.x, t.translation.y, yaw_of(t.rotation))
+
+
+def periods_ms(times):
+    return [(b - a) / 1e6 for a, b in zip(times, times[1:])]
+
+
+def main(path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        meta = next(m for m in reader.iter_metadata() if m.name == "run").metadata
+        world = tomllib.loads(meta["world_toml"])
+        config = tomllib.loads(meta["config_toml"])
+        robot = config["robot"]["name"]
+        protobuf = DecoderFactory()
+        views, json_msgs = {}, {}
+        for schema, channel, message in reader.iter_messages(log_time_order=True):
+            if channel.message_encoding == "protobuf":
+                decode = protobuf.decoder_for(channel.message_encoding, schema)
+                if decode is None:
+                    fail(path, f"channel {channel.topic} is protobuf without a protobuf schema")
+                decoded = decode(message.data)
+                views.setdefault(channel.topic, []).append((message.log_time, schema.name, decoded))
+            else:
+                json_msgs.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+
+    def only(topic, schema_name):
+        got = views.get(topic)
+        if not got:
+            fail(path, f"no messages on {topic}")
+        names = {s for _, s, _ in got}
+        if names != {schema_name}:
+            fail(path, f"{topic} has schemas {names}, expected {schema_name}")
+        return [(t, m) for t, _, m in got]
+
+    # The world.
+    scene = only("/world", "foxglove.SceneUpdate")
+    if len(scene) != 1:
+        fail(path, f"/world has {len(scene)} messages, expected 1")
+    entities = {e.id: e for e in scene[0][1].entities}
+    walls = world.get("walls", [])
+    lines = entities["walls"].lines
+    if len(lines) != len(walls):
+        fail(path, f"/world draws {len(lines)} walls, the world file has {len(walls)}")
+    for i, (line, wall) in enumerate(zip(lines, walls)):
+        points = [[p.x, p.y] for p in line.points]
+        if points != wall["points"]:
+            fail(path, f"/world wall {i} runs through {points}, the world file's through {wall['points']}")
+        loop = line.type == 1  # LINE_LOOP
+        if loop != wall.get("closed", False):
+            fail(path, f"/world wall {i}: loop {loop}, closed {wall.get('closed', False)} in the world file")
+    boxes = [[[c.pose.position.x, c.pose.position.y], [c.size.x, c.size.y]] for c in entities["boxes"].cubes]
+    want = [[[(b["min"][0] + b["max"][0]) / 2, (b["min"][1] + b["max"][1]) / 2],
+             [b["max"][0] - b["min"][0], b["max"][1] - b["min"][1]]] for b in world.get("boxes", [])]
+    if not all(math.isclose(a, b, abs_tol=1e-9) for g, w in zip(boxes, want) for p, q in zip(g, w) for a, b in zip(p, q)) \
+            or len(boxes) != len(want):
+        fail(path, f"/world boxes {boxes}, the world file's {want}")
+    discs = [[c.pose.position.x, c.pose.position.y, c.size.x / 2] for c in entities["discs"].cylinders]
+    want = [[d["center"][0], d["center"][1], d["radius"]] for d in world.get("discs", [])]
+    if discs != want:
+        fail(path, f"/world discs {discs}, the world file's {want}")
+
+    # The scans, against the JSON scans.
+    mount = config["sim"]["body"]["radius_m"]
+    periods = {}
+    for topic, service, expected_ms in [("/infrared", "distanceir", 40.0), ("/sonar", "distanceson", 64.0)]:
+        scans = only(topic, "foxglove.LaserScan")
+        source = json_msgs.get(f"{robot}/{service}", [])
+        if [t for t, _ in scans] != [t for t, _ in source]:
+            fail(path, f"{topic}: {len(scans)} scans, {len(source)} JSON scans on {robot}/{service}, or at other times")
+        for (t, scan), (_, js) in zip(scans, source):
+            if scan.frame_id != "base_link" or len(scan.ranges) != RING:
+                fail(path, f"{topic} at {t}: frame {scan.frame_id!r}, {len(scan.ranges)} ranges")
+            step = (scan.end_angle - scan.start_angle) / (RING - 1)
+            if abs(scan.start_angle) > 1e-12 or abs(step - STEP) > 1e-12:
+                fail(path, f"{topic} at {t}: angles from {scan.start_angle} by {step}, not 0 by 22.5 degrees")
+            for r in js["value"]["readings"]:
+                got = scan.ranges[r["sensor_id"]]
+                want = mount + r["distance_m"] if r["valid"] else math.inf
+                if not (got == want or math.isclose(got, want, abs_tol=1e-12)):
+                    fail(path, f"{topic} at {t}: sensor {r['sensor_id']} range {got}, JSON says {want}")
+        median = statistics.median(periods_ms([t for t, _ in scans]))
+        if abs(median - expected_ms) > 1e-6:
+            fail(path, f"{topic}: scans every {median} ms, not {expected_ms}")
+        periods[topic] = median
+
+    # The frames: odometry from the JSON basestate, truth from /truth/tf.
+    start = world["robot"]
+    start_pose = (start["x"], start["y"], math.radians(start["heading_deg"]))
+    base = json_msgs.get(f"{robot}/basestate", [])
+    tf = only("/tf", "foxglove.FrameTransforms")
+    if [t for t, _ in tf] != [t for t, _ in base]:
+        fail(path, f"/tf: {len(tf)} messages, {len(base)} JSON basestates, or at other times")
+    odometry = []
+    for (t, m), (_, b) in zip(tf, base):
+        chain = {(x.parent_frame_id, x.child_frame_id): x for x in m.transforms}
+        if set(chain) != {("world", "odom"), ("odom", "base_link")}:
+            fail(path, f"/tf at {t} holds {sorted(chain)}")
+        odom = planar(chain[("world", "odom")])
+        if any(abs(a - b) > 1e-9 for a, b in zip(odom, start_pose)):
+            fail(path, f"/tf at {t}: odom at {odom}, the world's start pose is {start_pose}")
+        v = b["value"]
+        link = planar(chain[("odom", "base_link")])
+        if any(abs(a - b) > 1e-9 for a, b in zip(link, (v["x_m"], v["y_m"], v["heading_rad"]))):
+            fail(path, f"/tf at {t}: base_link at {link}, the basestate says {v}")
+        odometry.append((t, compose(odom, link)))
+    truth = []
+    for t, m in only("/truth/tf", "foxglove.FrameTransforms"):
+        [x] = m.transforms
+        if (x.parent_frame_id, x.child_frame_id) != ("world", "base_link_truth"):
+            fail(path, f"/truth/tf at {t} places {x.child_frame_id} in {x.parent_frame_id}")
+        truth.append((t, planar(x)))
+    truth_at = dict(truth)
+    # The truth is sampled every 100 ms, not at the odometry's instants: it is interpolated.
+    errors = []
+    times = [t for t, _ in truth]
+    for t, p in odometry:
+        i = bisect.bisect_right(times, t)
+        if 0 < i < len(times):
+            (t0, a), (t1, b) = truth[i - 1], truth[i]
+            k = (t - t0) / (t1 - t0)
+            errors.append(math.dist(p[:2], (a[0] + k * (b[0] - a[0]), a[1] + k * (b[1] - a[1]))))
+    if len(errors) < 10:
+        fail(path, f"only {len(errors)} odometry poses fall within the truth's samples")
+    first, last = errors[0], max(errors[-10:])
+    if not (first < 0.01 and last > 2 * first and last > 0.001):
+        fail(path, f"odometry error against the truth goes from {first} m to {last} m: no drift seen")
+
+    # The trajectory.
+    trajectory = only("/trajectory", "foxglove.PosesInFrame")
+    sizes = [len(m.poses) for _, m in trajectory]
+    if sizes[-1] <= sizes[0] or any(b < a for a, b in zip(sizes, sizes[1:])):
+        fail(path, f"/trajectory does not grow: {sizes[:5]} ... {sizes[-5:]}")
+    t, last_path = trajectory[-1]
+    end = last_path.poses[-1].position
+    if last_path.frame_id != "world" or math.dist((end.x, end.y), truth_at[t][:2]) > 1e-9:
+        fail(path, f"/trajectory ends at {(end.x, end.y)} in {last_path.frame_id}, the truth is at {truth_at[t]}")
+
+    # Which behaviour drives.
+    said = [m.message.split(" drives")[0] for _, m in only("/driving", "foxglove.Log")]
+    said = [None if s == "no behaviour" else s for s in said]
+    driving = [d["value"]["driving"] for _, d in json_msgs.get("master/driving", [])]
+    if said != driving:
+        fail(path, f"/driving says {said}, master/driving says {driving}")
+    robot_said = [next(kv.value for kv in e.metadata if kv.key == "driving") or None
+                  for _, m in only("/robot", "foxglove.SceneUpdate") for e in m.entities if e.id == "robot"]
+    if robot_said[1:] != driving:
+        fail(path, f"/robot shows {robot_said}, master/driving says {driving}")
+
+    # The people.
+    people = only("/people", "foxglove.SceneUpdate")
+    movers = len(world.get("movers", []))
+    counts = {len(m.entities) for _, m in people}
+    if counts != {movers}:
+        fail(path, f"/people has {counts} entities per message, the world file {movers} people")
+
+    print(json.dumps({
+        "views": {topic: len(msgs) for topic, msgs in sorted(views.items())},
+        "scan_period_ms": periods,
+        "odometry_error_m": [first, last],
+        "trajectory_poses": [sizes[0], sizes[-1]],
+        "driving": said,
+    }))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
