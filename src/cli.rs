@@ -44,6 +44,8 @@ pub enum Command {
     State(crate::remote::StateArgs),
     /// Several wiring and state changes at once, all or nothing (a master command).
     Switch(crate::remote::SwitchArgs),
+    /// Show or set a running component's parameters (gains, targets, speeds, the master's rules).
+    Param(crate::remote::ParamArgs),
     /// Run a recording's deciding components again on its recorded inputs: bit for bit, or
     /// with another configuration (--config, --set) to see what would have changed.
     Replay(crate::replay::command::ReplayArgs),
@@ -141,6 +143,7 @@ pub fn run(cli: Cli) -> anyhow::Result<Outcome> {
         Command::Wire(args) => done(crate::remote::wire(args)),
         Command::State(args) => done(crate::remote::state(args)),
         Command::Switch(args) => done(crate::remote::switch(args)),
+        Command::Param(args) => done(crate::remote::param(args)),
         Command::Replay(args) => done(crate::replay::command::run(args)),
     }
 }

@@ -42,6 +42,21 @@ pub struct Config {
     pub system: crate::system::SystemSpec,
 }
 
+/// A hand-over leaves the motors without a driver for one switch step, two if it fails and is
+/// undone: that must fit in the robot's command timeout, or the watchdog stops the robot in the
+/// middle of every slow hand-over. (Checked for the file, and for every live set of the
+/// master's parameters.)
+pub fn switch_step_fits(executive: &ExecutiveParams, cmd_timeout_s: f64) -> Result<(), String> {
+    let step = executive.switch_step_s;
+    if 2.0 * step > cmd_timeout_s {
+        return Err(format!(
+            "executive.switch_step_s: {step} s is too long for robot.cmd_timeout_s = {cmd_timeout_s} s: a \
+             hand-over leaves the motors without a driver for up to two steps"
+        ));
+    }
+    Ok(())
+}
+
 /// How the robot watches its executive across processes: the executive publishes a heartbeat,
 /// and the robot treats it as lost when none came for the lease (as when its process token
 /// disappears), so a link that goes silent while zenoh's session stays up stops the robot
@@ -315,17 +330,7 @@ impl Config {
         self.executive.validate()?;
         self.supervision.validate()?;
         self.link.validate(self.robot.cmd_timeout_s)?;
-        // A hand-over leaves the motors without a driver for one switch step, two if it fails
-        // and is undone: that must fit in the robot's command timeout, or the watchdog stops
-        // the robot in the middle of every slow hand-over.
-        let step = self.executive.switch_step_s;
-        if 2.0 * step > self.robot.cmd_timeout_s {
-            return Err(format!(
-                "executive.switch_step_s: {step} s is too long for robot.cmd_timeout_s = {} s: a \
-                 hand-over leaves the motors without a driver for up to two steps",
-                self.robot.cmd_timeout_s
-            ));
-        }
+        switch_step_fits(&self.executive, self.robot.cmd_timeout_s)?;
         // A subtree is a child of the top supervisor beside the components in no subtree: their
         // names must differ. (Members that are not components of the system are left out: a
         // process starts the subtrees of the components it hosts.)

@@ -37,6 +37,8 @@
 //! - [`clock`]: every period, timeout and stamp runs on tokio's clock, so a paused clock drives
 //!   a whole system deterministically; its time model (UNIX time live, zero-based simulated).
 //! - [`tap`]: an observer of every message and control event (what recordings are made of).
+//! - [`param`]: live parameters, a component's tunable values read and set while it runs
+//!   (a Query service of its own, checked as the config file is).
 //! - [`fault`]: fault injection (panics, hangs, kills, lost, late and duplicated messages) and
 //!   the log of what failed and when it was back.
 //! - [`Sink`]: where patterns deliver (a component's [`Mailbox`], a channel, a function);
@@ -57,6 +59,7 @@ pub mod event;
 pub mod fault;
 pub mod ledger;
 pub mod logbudget;
+pub mod param;
 pub mod prelude;
 mod push;
 pub mod push_newest;

@@ -137,7 +137,7 @@ fn catalog(
     c.register_untimed("master", Place::Executive, |parts, _| {
         let mut params = parts.config.executive.clone();
         params.robot = parts.robot_name().into();
-        Ok(Master { params })
+        Ok(Master::new(params))
     });
     c
 }
@@ -165,12 +165,13 @@ pub(crate) trait Triggered: Component {
 impl Triggered for WallFollow {
     const NAME: &'static str = "wallfollow";
     fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
-        // Odometry and contact never make a step (no status follows them), so their stamps are
+        // Odometry, contact and parameters never make a step (no status follows them), so their stamps are
         // never used.
         match msg {
             WallFollowMsg::Ir(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
+            WallFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
         }
     }
 }
@@ -182,6 +183,7 @@ impl Triggered for CenterFollow {
             CenterFollowMsg::Ir(u) | CenterFollowMsg::Sonar(u) => (u.sent_at, u.value.stamp),
             CenterFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
             CenterFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
+            CenterFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
         }
     }
 }

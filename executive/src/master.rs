@@ -29,6 +29,7 @@
 
 use crate::rules::{Arbiter, Mode, Readings, validate_modes};
 use orsa_actors::event::EventServer;
+use orsa_actors::param::{Check, LiveParams, ParamReply, ParamRequest};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
 use orsa_actors::send::SendClient;
@@ -88,6 +89,16 @@ impl Default for ExecutiveParams {
     }
 }
 
+impl orsa_actors::param::Parameters for ExecutiveParams {
+    /// The robot, the scans the master subscribes to and which behaviours a mode uses are set
+    /// up when it starts.
+    const FIXED: &'static [&'static str] = &["robot", "subscribe_every", "modes.*.behaviours"];
+
+    fn validate(&self) -> Result<(), String> {
+        ExecutiveParams::validate(self)
+    }
+}
+
 impl ExecutiveParams {
     /// Checks every value; messages name the key.
     pub fn validate(&self) -> Result<(), String> {
@@ -114,10 +125,30 @@ impl ExecutiveParams {
 }
 
 /// The master component.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Master {
-    /// Its configuration.
+    /// Its configuration (the values it starts from: its rules are live parameters).
     pub params: ExecutiveParams,
+    /// What a set of its parameters must also pass (what the config file checks against other
+    /// tables, such as `switch_step_s` against the robot's command timeout).
+    pub check: Option<Check<ExecutiveParams>>,
+}
+
+impl std::fmt::Debug for Master {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Master").field("params", &self.params).finish_non_exhaustive()
+    }
+}
+
+impl Master {
+    /// A master configured by `params`.
+    pub fn new(params: ExecutiveParams) -> Master {
+        Master { params, check: None }
+    }
+}
+
+fn mode<'a>(p: &'a ExecutiveParams, st: &MasterState) -> Option<&'a Mode> {
+    st.goal.as_ref().and_then(|g| p.modes.get(&g.mode))
 }
 
 /// No infrared scan for this long and the master checks the robot's wiring when they come
@@ -139,6 +170,8 @@ pub enum MasterMsg {
     Goal(QueryRequest<Goal, GoalReply>),
     /// A goal's time is up.
     Deadline(u64),
+    /// A request to its `param` service.
+    Param(QueryRequest<ParamRequest, ParamReply>),
 }
 
 #[derive(Debug, Clone)]
@@ -156,6 +189,9 @@ struct Kept {
 
 /// The master's running state.
 pub struct MasterState {
+    params: LiveParams<ExecutiveParams>,
+    /// The parameters now.
+    p: Arc<ExecutiveParams>,
     readings: Readings,
     /// The newest scan's time, s: the rules' clock.
     readings_s: f64,
@@ -188,27 +224,31 @@ impl Component for Master {
     type State = MasterState;
 
     async fn setup(&self, ctx: &Ctx<MasterMsg>) -> Result<MasterState, ComponentError> {
-        self.params.validate()?;
-        let robot = self.params.robot.as_str();
+        let params = ctx.parameters(&self.params, self.check.clone(), MasterMsg::Param)?;
+        let p = Arc::new(params.current());
+        p.validate()?;
+        let robot = p.robot.as_str();
         ctx.query_server(GOAL, MasterMsg::Goal)?;
         let events = ctx.event_server(GOALS, |f: &mut GoalFilter, e: &GoalEvent| {
             f.goal.is_none_or(|g| g == e.id).then(|| e.clone())
         })?;
         let wiring_push = ctx.push_newest_server(DRIVING)?;
         let mut states = BTreeMap::new();
-        for b in self.params.behaviours() {
+        for b in p.behaviours() {
             let sm = StateMaster::connect(ctx.registry(), &b)
                 .map_err(|e| format!("master: behaviour '{b}' named in executive.modes: {e}"))?;
             states.insert(b, sm);
         }
-        let every = self.params.subscribe_every;
+        let every = p.subscribe_every;
         ctx.subscribe_timed(nomad200::DISTANCEIR.on(robot), every, MasterMsg::Ir)?;
-        if self.params.modes.values().any(Mode::uses_sonar) {
+        if p.modes.values().any(Mode::uses_sonar) {
             ctx.subscribe_timed(nomad200::DISTANCESON.on(robot), every, MasterMsg::Sonar)?;
         }
         let motors_addr = nomad200::NAVIGATIONVELOCITY.on(robot);
         let kept = ctx.keep("goal", || Arc::new(parking_lot::Mutex::new(Kept { goal: None, next_id: 1 })))?;
         let mut st = MasterState {
+            params,
+            p: p.clone(),
             readings: Readings::default(),
             readings_s: ctx.now().as_secs_f64(),
             arbiter: Arbiter::new(),
@@ -238,7 +278,7 @@ impl Component for Master {
         stop_motors(ctx, &mut st);
         let resumed = st.kept.lock().goal.clone();
         if let Some(goal) = resumed
-            && let Some(mode) = self.params.modes.get(&goal.mode)
+            && let Some(mode) = p.modes.get(&goal.mode)
         {
             for (name, sm) in &st.states {
                 let target = if mode.behaviours.contains(name) { ACTIVE } else { NEUTRAL };
@@ -299,6 +339,12 @@ impl Component for Master {
                 // The planner may have given up waiting; the goal stands regardless.
                 let _ = q.answer(reply);
             }
+            MasterMsg::Param(q) => {
+                // The new rules apply from the next scan on.
+                if let Some(p) = st.params.handle(q, ctx.now()) {
+                    st.p = Arc::new(p);
+                }
+            }
             MasterMsg::Deadline(id) => {
                 if st.goal.as_ref().is_some_and(|g| g.id == id) {
                     let done = st.goal.take();
@@ -338,13 +384,9 @@ fn stop_motors(ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
 }
 
 impl Master {
-    fn mode(&self, st: &MasterState) -> Option<&Mode> {
-        st.goal.as_ref().and_then(|g| self.params.modes.get(&g.mode))
-    }
-
     /// A switch that hands the motors from whoever drives to `want`, with `more` changes.
     fn handover(&self, st: &MasterState, want: Option<&str>, more: Switch) -> Switch {
-        let mut switch = more.step_timeout(Duration::from_secs_f64(self.params.switch_step_s));
+        let mut switch = more.step_timeout(Duration::from_secs_f64(st.p.switch_step_s));
         if let Some(old) = st.driving.as_deref()
             && want != Some(old)
         {
@@ -375,7 +417,8 @@ impl Master {
     }
 
     async fn arbitrate(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) {
-        let want = self.mode(st).and_then(|m| {
+        let p = st.p.clone();
+        let want = mode(&p, st).and_then(|m| {
             let rule = st.arbiter.decide(m, &st.readings, st.readings_s)?;
             m.rules.get(rule).map(|r| r.drive.clone())
         });
@@ -397,9 +440,10 @@ impl Master {
     /// is in its mode's state; sets it all again in one switch where it is not. Whether the
     /// check could be made (a robot it cannot reach yet is checked again at the next scan).
     async fn check_wiring(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState) -> bool {
-        let Some(mode) = self.mode(st) else { return true };
+        let p = st.p.clone();
+        let Some(mode) = mode(&p, st) else { return true };
         let motors = st.motors_addr.untyped();
-        let step = Duration::from_secs_f64(self.params.switch_step_s);
+        let step = Duration::from_secs_f64(p.switch_step_s);
         let mut switch = Switch::new().step_timeout(step);
         let mut wrong = Vec::new();
         for (name, sm) in &st.states {
@@ -452,8 +496,9 @@ impl Master {
     }
 
     async fn start_goal(&self, ctx: &Ctx<MasterMsg>, st: &mut MasterState, goal: Goal) -> GoalReply {
-        let Some(mode) = self.params.modes.get(&goal.mode) else {
-            let known: Vec<&String> = self.params.modes.keys().collect();
+        let p = st.p.clone();
+        let Some(mode) = p.modes.get(&goal.mode) else {
+            let known: Vec<&String> = p.modes.keys().collect();
             return GoalReply::Rejected {
                 reason: format!("unknown mode '{}' (known: {known:?})", goal.mode),
                 switch: None,

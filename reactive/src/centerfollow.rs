@@ -111,6 +111,12 @@ impl Default for CenterFollowParams {
     }
 }
 
+impl orsa_actors::param::Parameters for CenterFollowParams {
+    fn validate(&self) -> Result<(), String> {
+        CenterFollowParams::validate(self)
+    }
+}
+
 impl CenterFollowParams {
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
@@ -223,6 +229,12 @@ impl CenterFollower {
     /// The parameters.
     pub fn params(&self) -> &CenterFollowParams {
         &self.params
+    }
+
+    /// New parameters (checked), from the next step on; the walls' direction and what the
+    /// controller has learnt of its progress are kept.
+    pub fn set_params(&mut self, params: CenterFollowParams) {
+        self.params = params;
     }
 
     /// One control step on the latest infrared and sonar ranges; the command carries `stamp`

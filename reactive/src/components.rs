@@ -15,7 +15,9 @@ use crate::manoeuvres::contact_direction;
 use crate::ring::{Ranges, RingGeometry, ranges};
 use crate::wallfollow::{WallFollowParams, WallFollower};
 use orsa_actors::event::{EventMode, Fired};
+use orsa_actors::param::{LiveParams, ParamReply, ParamRequest};
 use orsa_actors::push_newest::PushNewestServer;
+use orsa_actors::query::QueryRequest;
 use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update};
@@ -67,11 +69,14 @@ pub enum WallFollowMsg {
     Base(Update<BaseState>),
     /// The bumpers report contact.
     Contact(Fired<ContactScan>),
+    /// A request to its `param` service.
+    Param(QueryRequest<ParamRequest, ParamReply>),
 }
 
 /// The running state of [`WallFollow`].
 pub struct WallFollowState {
     ctl: WallFollower,
+    params: LiveParams<WallFollowParams>,
     /// The direction of travel relative to the base (odometry), for where a contact is.
     steer_rad: f64,
     vel: SendPort<NavigationVelocity>,
@@ -84,6 +89,7 @@ impl Component for WallFollow {
 
     async fn setup(&self, ctx: &Ctx<WallFollowMsg>) -> Result<WallFollowState, ComponentError> {
         ctx.declare_states(states())?;
+        let params = ctx.parameters(&self.params, None, WallFollowMsg::Param)?;
         let robot = robot_params(ctx, &self.robot).await?;
         let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
         let vel = ctx.send_port(VEL)?;
@@ -96,7 +102,8 @@ impl Component for WallFollow {
             Empty {},
             WallFollowMsg::Contact,
         )?;
-        Ok(WallFollowState { ctl: WallFollower::new(self.params, ring), steer_rad: 0.0, vel, status })
+        let ctl = WallFollower::new(params.current(), ring);
+        Ok(WallFollowState { ctl, params, steer_rad: 0.0, vel, status })
     }
 
     async fn handle(
@@ -115,6 +122,12 @@ impl Component for WallFollow {
             WallFollowMsg::Contact(c) => {
                 if let Some(direction) = contact_direction(&c.event.value.pressed, st.steer_rad) {
                     st.ctl.note_contact(direction, c.event.value.stamp);
+                }
+                return Ok(());
+            }
+            WallFollowMsg::Param(q) => {
+                if let Some(p) = st.params.handle(q, ctx.now()) {
+                    st.ctl.set_params(p);
                 }
                 return Ok(());
             }
@@ -154,11 +167,14 @@ pub enum CenterFollowMsg {
     Base(Update<BaseState>),
     /// The bumpers report contact.
     Contact(Fired<ContactScan>),
+    /// A request to its `param` service.
+    Param(QueryRequest<ParamRequest, ParamReply>),
 }
 
 /// The running state of [`CenterFollow`].
 pub struct CenterFollowState {
     ctl: CenterFollower,
+    params: LiveParams<CenterFollowParams>,
     /// The direction of travel relative to the base (odometry), for where a contact is.
     steer_rad: f64,
     vel: SendPort<NavigationVelocity>,
@@ -173,6 +189,7 @@ impl Component for CenterFollow {
 
     async fn setup(&self, ctx: &Ctx<CenterFollowMsg>) -> Result<CenterFollowState, ComponentError> {
         ctx.declare_states(states())?;
+        let params = ctx.parameters(&self.params, None, CenterFollowMsg::Param)?;
         let robot = robot_params(ctx, &self.robot).await?;
         let vel = ctx.send_port(VEL)?;
         let status = ctx.push_newest_server(STATUS)?;
@@ -187,11 +204,12 @@ impl Component for CenterFollow {
         )?;
         Ok(CenterFollowState {
             ctl: CenterFollower::new(
-                self.params,
+                params.current(),
                 robot.infrared.mount_radius_m,
                 robot.infrared.beam_width_rad,
                 robot.sonar.beam_width_rad,
             ),
+            params,
             steer_rad: 0.0,
             vel,
             status,
@@ -217,6 +235,12 @@ impl Component for CenterFollow {
             CenterFollowMsg::Contact(c) => {
                 if let Some(direction) = contact_direction(&c.event.value.pressed, st.steer_rad) {
                     st.ctl.note_contact(direction, c.event.value.stamp);
+                }
+                return Ok(());
+            }
+            CenterFollowMsg::Param(q) => {
+                if let Some(p) = st.params.handle(q, ctx.now()) {
+                    st.ctl.set_params(p);
                 }
                 return Ok(());
             }

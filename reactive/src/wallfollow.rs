@@ -107,6 +107,12 @@ impl Default for WallFollowParams {
     }
 }
 
+impl orsa_actors::param::Parameters for WallFollowParams {
+    fn validate(&self) -> Result<(), String> {
+        WallFollowParams::validate(self)
+    }
+}
+
 impl WallFollowParams {
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
@@ -178,6 +184,12 @@ impl WallFollower {
     /// The parameters.
     pub fn params(&self) -> &WallFollowParams {
         &self.params
+    }
+
+    /// New parameters (checked), from the next step on; what the controller has learnt of its
+    /// progress and the gaps it is in is kept.
+    pub fn set_params(&mut self, params: WallFollowParams) {
+        self.params = params;
     }
 
     /// One control step on the infrared ranges of a scan stamped `stamp`; the command carries

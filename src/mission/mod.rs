@@ -70,7 +70,13 @@ pub struct RunOptions {
     /// passes Ctrl-C and SIGTERM): the run stops the motors, and reports and records what
     /// happened up to then.
     pub interrupt: Option<futures::future::BoxFuture<'static, String>>,
+    /// Called once the system is up, with its registry: what talks to the running system from
+    /// outside it (the live server, a test setting parameters) starts here.
+    pub on_start: Option<OnStart>,
 }
+
+/// See [`RunOptions::on_start`].
+pub type OnStart = Box<dyn FnOnce(&orsa_actors::Registry) + Send>;
 
 impl RunOptions {
     /// Options with the defaults: 10 Hz sampling, figures every simulated hour, the plot's
@@ -98,6 +104,7 @@ impl RunOptions {
             realtime: false,
             catalog: crate::system::Catalog::builtin(),
             interrupt: None,
+            on_start: None,
         }
     }
 }
@@ -203,6 +210,10 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         };
         tokio::spawn(crate::faults::run_plan(plan, targets, opts.duration_s))
     });
+
+    if let Some(on_start) = opts.on_start.take() {
+        on_start(&stack.registry);
+    }
 
     let (wtx, mut wrx) = mpsc::unbounded_channel::<Update<WiringChange>>();
     let wiring = PushNewestClient::connect_to(

@@ -1,6 +1,6 @@
 //! The processes of a distributed orsa system and the tools to look inside it, over zenoh:
 //! `orsa robot`, `orsa executive`, `orsa teleop`, `orsa list`, `orsa echo`, `orsa wire`,
-//! `orsa state`.
+//! `orsa state`, `orsa param`.
 //!
 //! ```text
 //!   orsa robot                        orsa executive             orsa teleop
@@ -17,9 +17,11 @@
 //! had wired.
 
 pub mod exchange;
+mod param;
 mod robot;
 mod tools;
 
+pub use param::{ParamAction, ParamArgs, param};
 pub use robot::{FALLBACK, ROBOT_TOP, RobotArgs, RobotReport, robot};
 pub use tools::{
     EchoArgs, ListArgs, StateArgs, SwitchArgs, WireArgs, echo, list, parse_change, state, switch, wire,

@@ -742,7 +742,7 @@ async fn start_fallback(
 ) -> anyhow::Result<ComponentHandle<Master>> {
     let mut exec = config.executive.clone();
     exec.robot = config.robot.name.clone();
-    let master = orsa_actors::component::spawn(registry, FALLBACK, Master { params: exec }).await?;
+    let master = orsa_actors::component::spawn(registry, FALLBACK, Master::new(exec)).await?;
     let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(
         registry,
         orsa_interfaces::executive::GOAL.on(FALLBACK),

@@ -13,6 +13,7 @@ use crate::record::events::{
     LinkEvent, SYSTEM_STARTING, SYSTEM_STARTING_TYPE,
 };
 use crate::record::meta::RUN_METADATA;
+use orsa_actors::param::{PARAM, ParamRequest};
 use orsa_actors::state::StateStatus;
 use orsa_actors::wiring::PortStatus;
 use orsa_actors::{CommObject, Stamped, Timestamp};
@@ -79,6 +80,16 @@ pub enum Control {
     /// The link watchdog lost an executive (it unwired the behaviours and commanded zero) or
     /// heard it again.
     Link(LinkEvent),
+    /// Someone asked a component for its parameters or set one.
+    Param {
+        /// The component.
+        component: String,
+        /// What was asked.
+        request: ParamRequest,
+        /// How many of the robot's publications came before it in the file: a replay asks
+        /// after those and before the next, as it was.
+        after: usize,
+    },
 }
 
 /// A call of this process to a service in another process: the service, and the call's number
@@ -167,6 +178,9 @@ enum Feed {
     Port,
     /// A behaviour's state, fed (process recordings).
     State,
+    /// A request to a replayed component's parameters (from a tool or the live server), fed;
+    /// its answer and the change it made are compared.
+    Param,
     /// The link watchdog's events (process recordings).
     Link,
     /// The fault plan's start.
@@ -207,6 +221,7 @@ impl Feed {
             Feed::SafetyAnswer => SafetyCounters::ID,
             Feed::Port => PortStatus::ID,
             Feed::State => StateStatus::ID,
+            Feed::Param => ParamRequest::ID,
             Feed::Link => LINK_EVENT,
             Feed::PlanStart => FAULTS_STARTED_TYPE,
             Feed::SystemStarting => SYSTEM_STARTING_TYPE,
@@ -245,6 +260,10 @@ impl Feed {
         if component == meta.robot {
             return Feed::of(service)
                 .or_else(|| (process && service != "navigationvelocity").then_some(Feed::Outside));
+        }
+        let hosted = !process || meta.hosted.iter().any(|h| h == component);
+        if service == PARAM.name() && hosted {
+            return Some(Feed::Param);
         }
         if !process || component == "supervision" {
             return None;
@@ -497,6 +516,13 @@ impl Recording {
                 let status = bare::<PortStatus>(&data, PortStatus::ID).map_err(decode)?;
                 let component = component_of(&c.topic);
                 self.controls.push((log_time, Control::Port { component, status }));
+                return Ok(());
+            }
+            Some(Feed::Param) => {
+                let request = value::<ParamRequest>(&data).map_err(decode)?;
+                let component = component_of(&c.topic);
+                let after = self.published.len();
+                self.controls.push((log_time, Control::Param { component, request, after }));
                 return Ok(());
             }
             Some(Feed::State) => {

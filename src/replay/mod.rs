@@ -243,10 +243,25 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     registry.set_tap(Some(capture.clone() as Arc<dyn Tap>));
     registry.ledger().enable(true);
 
+    // Where the robot is replayed, its stand-in makes the requests to parameters, in order
+    // among its publications; elsewhere (an executive's recording) they are made at their times.
+    let standin_asks = rec.meta.process == "run" || rec.meta.hosted.contains(&rec.meta.robot);
     let playback = Arc::new(standin::Playback {
         published: rec.published.clone(),
         answers: Mutex::new(rec.answers.clone()),
         cursor: Default::default(),
+        requests: rec
+            .controls
+            .iter()
+            .filter(|_| standin_asks)
+            .filter_map(|(at, c)| match c {
+                Control::Param { component, request, after } => {
+                    Some((*at, *after, component.clone(), request.clone()))
+                }
+                _ => None,
+            })
+            .collect(),
+        asked: Default::default(),
     });
     let mut catalog = Catalog::builtin();
     let params = config.robot.clone();
@@ -332,8 +347,12 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     };
 
     // What came from outside the replayed components, at its recorded time.
-    let controls =
-        tokio::spawn(feed_controls(registry.clone(), rec.controls.clone(), rec.meta.robot.clone()));
+    let controls = tokio::spawn(feed_controls(
+        registry.clone(),
+        rec.controls.clone(),
+        rec.meta.robot.clone(),
+        !standin_asks,
+    ));
 
     let end = rec.last_log_time;
     let end_at = clock.instant_of(Timestamp(end));
@@ -385,8 +404,9 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
 
 /// Feeds `controls` to the replayed components at their recorded times: a behaviour's port
 /// wired or its state set as the recording says, and, where the link watchdog lost an
-/// executive, the command it sent `robot` (zero), as it was.
-async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot: String) {
+/// executive, the command it sent `robot` (zero), as it was; if `ask`, the requests to
+/// parameters too (otherwise the robot's stand-in makes them).
+async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot: String, ask: bool) {
     use orsa_actors::send::SendClient;
     use orsa_actors::state::StateMaster;
     use orsa_actors::wiring::WiringMaster;
@@ -416,6 +436,11 @@ async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot:
                         tracing::warn!("replay: cannot set {component} to '{wanted}' as recorded: {e}");
                     }
                 });
+            }
+            Control::Param { component, request, .. } => {
+                if ask {
+                    standin::ask(&registry, &component, request);
+                }
             }
             Control::Link(e) => {
                 if let (Some(command), Ok(m)) = (e.command, &motors)

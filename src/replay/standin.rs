@@ -10,9 +10,10 @@
 
 use super::file::{Answers, Published};
 use orsa_actors::event::EventServer;
+use orsa_actors::param::{PARAM, ParamRequest};
 use orsa_actors::push_timed::{PushTimedServer, Tick};
-use orsa_actors::query::QueryRequest;
-use orsa_actors::{Clock, Component, ComponentError, Ctx, Empty, Stamped, Timestamp};
+use orsa_actors::query::{QueryClient, QueryRequest};
+use orsa_actors::{Component, ComponentError, Ctx, Empty, Registry, Stamped, Timestamp};
 use orsa_hardware::server::{ServerParams, contact_fires};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams, SafetyCounters,
@@ -31,6 +32,11 @@ pub struct Playback {
     pub answers: Mutex<Answers>,
     /// How far the publication has gone (a restarted stand-in goes on from here).
     pub cursor: AtomicUsize,
+    /// Requests to the replayed components' parameters from outside them, at their log time
+    /// (ns), in order: (time, publications before it, component, request).
+    pub requests: Vec<(u64, usize, String, ParamRequest)>,
+    /// How many of them were made.
+    pub asked: AtomicUsize,
 }
 
 /// The stand-in component.
@@ -86,7 +92,7 @@ impl Component for RecordedRobot {
         ctx.send_server(nomad200::TELEOP, StandInMsg::Velocity)?;
         ctx.query_server(nomad200::ROBOTPARAMS, StandInMsg::Params)?;
         ctx.query_server(nomad200::SAFETY, StandInMsg::Safety)?;
-        ctx.spawn_activity(play(ctx.clock(), servers, Arc::clone(&self.playback)));
+        ctx.spawn_activity(play(ctx.registry().clone(), servers, Arc::clone(&self.playback)));
         Ok(())
     }
 
@@ -118,15 +124,32 @@ impl Component for RecordedRobot {
 
 /// Publishes every recorded scan at its log time. Scans of one instant go out together, with
 /// nothing else running in between, as the robot server published them one handler after the
-/// other.
-async fn play(clock: Clock, servers: Servers, playback: Arc<Playback>) {
+/// other. Requests to parameters are made among them in the recorded order: a set recorded
+/// after a scan of the same instant reaches its component after that scan, as it did.
+async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
+    let clock = registry.clock();
     loop {
         let first = playback.cursor.load(Ordering::SeqCst);
-        let Some(&(at, _)) = playback.published.get(first) else { return };
+        let asked = playback.asked.load(Ordering::SeqCst);
+        let next_published = playback.published.get(first).map(|p| p.0);
+        let next_asked = playback.requests.get(asked).map(|r| r.0);
+        let at = match (next_published, next_asked) {
+            (Some(p), Some(a)) => p.min(a),
+            (Some(t), None) | (None, Some(t)) => t,
+            (None, None) => return,
+        };
         tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
         let mut i = first;
-        while let Some((t, p)) = playback.published.get(i).filter(|(t, _)| *t == at) {
-            debug_assert_eq!(*t, at);
+        loop {
+            let j = playback.asked.load(Ordering::SeqCst);
+            if let Some((_, _, component, request)) =
+                playback.requests.get(j).filter(|(t, after, _, _)| *t == at && *after <= i)
+            {
+                ask(&registry, component, request.clone());
+                playback.asked.store(j + 1, Ordering::SeqCst);
+                continue;
+            }
+            let Some((_, p)) = playback.published.get(i).filter(|(t, _)| *t == at) else { break };
             match p {
                 Published::Ir(scan) => {
                     servers.ir.put(scan.clone());
@@ -145,5 +168,17 @@ async fn play(clock: Clock, servers: Servers, playback: Arc<Playback>) {
             i += 1;
         }
         playback.cursor.store(i, Ordering::SeqCst);
+    }
+}
+
+/// Asks `component` what was asked of it; its answer and the change it makes are compared
+/// with the recording, where the tap sees them.
+pub(crate) fn ask(registry: &Registry, component: &str, request: ParamRequest) {
+    match QueryClient::connect(registry, PARAM.on(component)) {
+        Ok(client) => match client.request(request) {
+            Ok(pending) => drop(tokio::spawn(async move { pending.receive(None).await })),
+            Err(e) => tracing::warn!("replay: cannot ask {component} as recorded: {e}"),
+        },
+        Err(e) => tracing::warn!("replay: cannot ask {component} as recorded: {e}"),
     }
 }

@@ -142,7 +142,10 @@ impl Catalog {
             no_params(spec)?;
             let mut params = parts.config.executive.clone();
             params.robot = parts.robot_name().into();
-            Ok(Master { params })
+            let cmd_timeout_s = parts.config.robot.cmd_timeout_s;
+            let check: orsa_actors::param::Check<_> =
+                Arc::new(move |p| crate::config::switch_step_fits(p, cmd_timeout_s));
+            Ok(Master { params, check: Some(check) })
         });
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
         c.register_untimed("planner", Place::Executive, |parts, spec| {

@@ -19,9 +19,11 @@
 //! Because a component keeps its services, wiring and subscriptions across restarts, one-for-one
 //! is enough: a restarted server does not force its clients to restart.
 //!
-//! Modules: [`spec`] (the `[system]` table), [`catalog`] (kinds and how to make them).
+//! Modules: [`spec`] (the `[system]` table), [`catalog`] (kinds and how to make them),
+//! [`live_params`] (the system's live parameters by name, for `orsa param` and Foxglove).
 
 pub mod catalog;
+pub mod live_params;
 pub mod spec;
 
 pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, params};

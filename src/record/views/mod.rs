@@ -15,7 +15,7 @@
 //! | [`INFRARED_TOPIC`], [`SONAR_TOPIC`] | `foxglove.LaserScan` | every `distanceir` and `distanceson` scan, in `base_link` |
 //! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
-//! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, supervisor and link event (named by its topic, its JSON as the message) |
+//! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |
 
 mod shapes;
 
@@ -157,7 +157,7 @@ impl Views {
             return Some(Input::Event);
         }
         let (component, service) = topic.split_once('/')?;
-        if service == "wiring" || service == "state" {
+        if service == "wiring" || service == "state" || service == orsa_actors::param::CHANGES {
             return Some(Input::Event);
         }
         if component == self.setup.robot {

@@ -1,0 +1,76 @@
+//! `orsa param` from another process: a running robot's behaviour read, set, and seen to
+//! change how the robot moves; a refused value says why and changes nothing.
+
+use super::*;
+use std::io::Read as _;
+
+/// Runs `orsa param ARGS` against `sys`: whether it succeeded, its stdout and its stderr.
+fn param(sys: &System, name: &str, args: &[&str]) -> (bool, String, String) {
+    let mut p = sys.run(name, "param", args);
+    let mut out = String::new();
+    if let Some(mut stdout) = p.child.stdout.take() {
+        stdout.read_to_string(&mut out).expect("read stdout");
+    }
+    let status = p.child.wait().expect("orsa param ends");
+    (status.success(), out, p.log_text())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_speed_set_from_another_process_slows_the_robot() {
+    let sys = System::new("param");
+    let _robot = sys.robot(&[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+
+    let (ok, out, log) = param(&sys, "get", &["get", "centerfollow", "v_max_m_s", "--wait", "30"]);
+    assert!(ok, "{log}");
+    let before: f64 = out
+        .trim()
+        .strip_prefix("centerfollow.v_max_m_s = ")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("'{out}'"));
+    assert!(before > 0.2, "{before}");
+
+    let mut switch = sys.run(
+        "on",
+        "switch",
+        &["centerfollow:active", "centerfollow.vel=nomad200/navigationvelocity", "--wait", "30"],
+    );
+    assert!(switch.child.wait().expect("orsa switch ends").success(), "{}", switch.log_text());
+    until_base(&mut base, STARTUP, "center following drives faster than 0.2 m/s", |b| b.v_m_s > 0.2).await;
+
+    let (ok, out, log) = param(&sys, "set", &["set", "centerfollow", "v_max_m_s", "0.1"]);
+    assert!(ok, "{log}");
+    assert_eq!(out.trim(), format!("centerfollow.v_max_m_s = 0.1 (was {before})"));
+    // The robot slows down at its braking rate, then holds the new top speed.
+    until_base(&mut base, Duration::from_secs(5), "the robot slows to 0.1 m/s", |b| b.v_m_s < 0.105).await;
+    let held = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            let b = base.recv().await.expect("base states");
+            assert!(b.value.v_m_s < 0.105, "faster than the new top speed: {}", b.value.v_m_s);
+        }
+    })
+    .await;
+    assert!(held.is_err(), "base states kept coming for 2 s");
+
+    // Refused with the reason, naming the parameter; the value stays.
+    let (ok, _, log) = param(&sys, "bad", &["set", "centerfollow", "v_max_m_s", "-1"]);
+    assert!(!ok);
+    assert!(log.contains("centerfollow refused the value: centerfollow.v_max_m_s"), "{log}");
+    assert!(log.contains("centerfollow.v_max_m_s stays 0.1"), "{log}");
+    let (ok, _, log) = param(&sys, "type", &["set", "centerfollow", "v_max_m_s", "fast"]);
+    assert!(!ok && log.contains("v_max_m_s: invalid type: string \"fast\""), "{log}");
+    let (ok, _, log) = param(&sys, "usage", &["get", "centerfollow", "v_max_m_s", "0.3"]);
+    assert!(!ok && log.contains("takes no value"), "{log}");
+    let (ok, _, log) = param(&sys, "none", &["get", "nosuch", "--wait", "0.5"]);
+    assert!(!ok && log.contains("no peer offers nosuch/param"), "{log}");
+
+    let (ok, out, log) = param(&sys, "table", &["get", "centerfollow", "loops", "--json"]);
+    assert!(ok, "{log}");
+    let loops: Vec<serde_json::Value> = serde_json::from_str(&out).expect("JSON");
+    assert!(
+        loops.len() >= 2
+            && loops.iter().all(|p| p["name"].as_str().is_some_and(|n| n.starts_with("centerfollow.loops.")))
+    );
+    t.close().await;
+}
