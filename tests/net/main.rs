@@ -16,6 +16,7 @@ mod lossy;
 mod memory;
 mod processes;
 mod replay;
+mod ros2;
 mod security;
 mod stopping;
 mod switch;
