@@ -40,6 +40,54 @@ pub struct Config {
     pub link: LinkParams,
     /// Which components run, where, in which state and wired how (`[system]`).
     pub system: crate::system::SystemSpec,
+    /// The robot as a ROS 2 node, and a ROS 2 robot as orsa's hardware (`[ros2]`).
+    pub ros2: Ros2Params,
+}
+
+/// The robot as a ROS 2 node (`orsa robot --ros2`), and a ROS 2 robot behind orsa's boards
+/// (`orsa robot --hardware ros2`). See `docs/ros2.md`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ros2Params {
+    /// The node's name on the ROS 2 graph.
+    pub node: String,
+    /// The node's namespace (`/` for none): its topics are under it.
+    pub namespace: String,
+    /// `/cmd_vel` messages accepted per second, beyond a burst (more are refused and counted).
+    pub cmd_vel_rate_hz: f64,
+    /// `/cmd_vel` messages accepted at once before the rate applies.
+    pub cmd_vel_burst: u32,
+    /// The ROS 2 robot orsa drives with `--hardware ros2` (`[ros2.base]`).
+    pub base: orsa_hardware::ros2base::Ros2BaseParams,
+}
+
+impl Default for Ros2Params {
+    fn default() -> Self {
+        Ros2Params {
+            node: "orsa".into(),
+            namespace: "/".into(),
+            cmd_vel_rate_hz: 50.0,
+            cmd_vel_burst: 20,
+            base: Default::default(),
+        }
+    }
+}
+
+impl Ros2Params {
+    /// Checks every value; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        orsa_net::ros2::Ros2Options { domain: 0, namespace: self.namespace.clone(), name: self.node.clone() }
+            .validate()
+            .map_err(|e| format!("ros2.node / ros2.namespace: {e}"))?;
+        let r = self.cmd_vel_rate_hz;
+        if !(r.is_finite() && r > 0.0 && r <= 10_000.0) {
+            return Err(format!("ros2.cmd_vel_rate_hz: must be from 0 to 10000 per second, not {r}"));
+        }
+        if !(1..=10_000).contains(&self.cmd_vel_burst) {
+            return Err(format!("ros2.cmd_vel_burst: must be from 1 to 10000, not {}", self.cmd_vel_burst));
+        }
+        self.base.validate().map_err(|e| format!("ros2.base.{e}"))
+    }
 }
 
 /// A hand-over leaves the motors without a driver for one switch step, two if it fails and is
@@ -330,6 +378,7 @@ impl Config {
         self.executive.validate()?;
         self.supervision.validate()?;
         self.link.validate(self.robot.cmd_timeout_s)?;
+        self.ros2.validate()?;
         switch_step_fits(&self.executive, self.robot.cmd_timeout_s)?;
         // A subtree is a child of the top supervisor beside the components in no subtree: their
         // names must differ. (Members that are not components of the system are left out: a
@@ -369,6 +418,19 @@ mod tests {
     fn the_shipped_default_file_parses_to_the_defaults() {
         let parsed = Config::from_toml(DEFAULT_CONFIG, "config/orsa.toml").expect("default file parses");
         assert_eq!(parsed, Config::default());
+    }
+
+    #[test]
+    fn bad_ros2_values_are_named() {
+        for (text, key) in [
+            ("[ros2.base]\nbeam_width_rad = 2.0\n", "ros2.base.beam_width_rad"),
+            ("[ros2]\ncmd_vel_rate_hz = -1.0\n", "ros2.cmd_vel_rate_hz"),
+            ("[ros2]\nnode = \"or sa\"\n", "ros2.node"),
+        ] {
+            let e = Config::from_toml(text, "t.toml").expect_err(text).to_string();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+        assert!(Config::from_toml("[ros2.base]\nwheels = 2\n", "t.toml").is_err(), "unknown keys are errors");
     }
 
     #[test]

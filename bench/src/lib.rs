@@ -39,6 +39,7 @@ mod probe;
 mod protocol;
 mod render;
 mod report;
+mod ros2;
 mod sense;
 mod sim;
 mod stats;
@@ -120,6 +121,8 @@ struct Plan {
     scale_repeats: usize,
     /// Mode switches of each kind, in process.
     switch_rounds: usize,
+    /// Pushes with and without the ROS 2 publication, each.
+    ros2_samples: usize,
 }
 
 impl Plan {
@@ -159,6 +162,7 @@ impl Plan {
                 scale_repeat_up_to: 100,
                 scale_repeats: 3,
                 switch_rounds: 2_000,
+                ros2_samples: 500,
             }
         } else {
             Plan {
@@ -195,6 +199,7 @@ impl Plan {
                 scale_repeat_up_to: 100,
                 scale_repeats: 3,
                 switch_rounds: 20_000,
+                ros2_samples: 5_000,
             }
         }
     }
@@ -246,6 +251,15 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         Ok(n) => (Some(n), None),
         Err(e) => {
             say(format!("  across processes failed: {e:#}"));
+            (None, Some(format!("{e:#}")))
+        }
+    };
+
+    say("ROS 2 publication on the cross-process push");
+    let (ros2, ros2_error) = match ros2::run(plan.ros2_samples) {
+        Ok(c) => (Some(c), None),
+        Err(e) => {
+            say(format!("  the ROS 2 bench failed: {e:#}"));
             (None, Some(format!("{e:#}")))
         }
     };
@@ -339,6 +353,8 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         sense_to_act: sense,
         net,
         net_error,
+        ros2,
+        ros2_error,
         mission,
         record_replay,
         switch,
@@ -375,6 +391,19 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         target: "orsa run --record costs at most 1.25x a run without it".into(),
         measured: format!("{:.2}x", rr.record_ratio),
         met: Some(rr.record_ratio <= 1.25),
+    });
+    t.push(TargetCheck {
+        target: "the ROS 2 publication adds at most 1.2x to the robot's cross-process push (p50)".into(),
+        measured: match &r.ros2 {
+            Some(c) => format!(
+                "{:.2}x ({:.1} us with it, {:.1} us without)",
+                c.p50_ratio.unwrap_or(f64::NAN),
+                c.with_ros2.p50_ns / 1e3,
+                c.plain.p50_ns / 1e3
+            ),
+            None => "not measured".into(),
+        },
+        met: r.ros2.as_ref().and_then(|c| c.p50_ratio).map(|x| x <= 1.2),
     });
     let sw = &r.switch;
     for (place, pair) in [("in process", Some(&sw.in_process)), ("across processes", sw.across.as_ref())] {

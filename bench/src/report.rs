@@ -361,6 +361,11 @@ pub struct BenchReport {
     pub net: Option<NetReport>,
     /// Why the cross-process bench failed, if it did.
     pub net_error: Option<String>,
+    /// What the ROS 2 publication adds to the robot's cross-process push (`None` if that
+    /// bench failed; see `ros2_error`).
+    pub ros2: Option<Ros2Cost>,
+    /// Why the ROS 2 bench failed, if it did.
+    pub ros2_error: Option<String>,
     /// `orsa run`'s speed.
     pub mission: MissionRtf,
     /// What recording and replaying cost.
@@ -371,4 +376,21 @@ pub struct BenchReport {
     pub scale: Vec<ScaleRow>,
     /// The targets, judged.
     pub targets: Vec<TargetCheck>,
+}
+
+/// What the ROS 2 publication adds to the robot's cross-process push (`orsa robot --ros2`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ros2Cost {
+    /// Push to the remote subscriber, without the ROS 2 publication.
+    pub plain: Latency,
+    /// The same, with the ROS 2 publication of every scan.
+    pub with_ros2: Latency,
+    /// `with_ros2` p50 over `plain` p50.
+    pub p50_ratio: Option<f64>,
+    /// The ROS 2 path's own time per scan: convert, encode, put (p50, ns).
+    pub ros2_publish_p50_ns: f64,
+    /// LaserScans the ROS 2 subscriber on the other side received.
+    pub ros2_received: u64,
+    /// Scans the remote subscriber did not receive within 1 s (not counted in the latencies).
+    pub lost: u64,
 }

@@ -70,6 +70,8 @@ fn sample_report() -> BenchReport {
         },
         net: None,
         net_error: Some("not run in this test".into()),
+        ros2: None,
+        ros2_error: Some("not run in this test".into()),
         mission: MissionRtf { simulated_s: 1.0, wall_s: 0.0025, rtf: 400.0, distance_m: 0.1, restarts: 0 },
         record_replay: RecordReplay {
             simulated_s: 60.0,
@@ -144,6 +146,18 @@ fn targets_are_judged_from_the_figures() {
         "{cost:?}"
     );
     assert_eq!(get("zenoh push p50"), None, "the cross-process bench did not run");
+    assert_eq!(get("the ROS 2 publication"), None, "the ROS 2 bench did not run");
+}
+
+/// The ROS 2 bench, small: it measures both ways, and the LaserScans reach the other session.
+#[test]
+fn the_ros2_publication_is_measured_against_the_plain_push() {
+    let c = crate::ros2::run(100).expect("the ROS 2 bench runs");
+    assert_eq!(c.plain.n + c.with_ros2.n + c.lost as usize, 200, "{c:?}");
+    assert!(c.plain.n >= 90 && c.with_ros2.n >= 90, "{c:?}");
+    assert!(c.p50_ratio.is_some_and(|x| x > 0.0), "{c:?}");
+    assert!(c.ros2_received >= 90, "the ROS 2 subscriber got {} of 100", c.ros2_received);
+    assert!(c.ros2_publish_p50_ns > 0.0, "{c:?}");
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! traits that mirror the robot's two boards. Nothing here knows about behaviours or arbitration.
 //!
 //! Modules:
+//! - [`any`]: boards of either backend (simulator or ROS 2 base) behind one type.
 //! - [`board`]: the [`SensorBoard`](board::SensorBoard) and [`MotorBoard`](board::MotorBoard)
 //!   traits, with the table that maps each method to the original Nomad 200 C function.
 //! - [`world`]: world files (TOML) loaded into checked, typed structs; the reference world
@@ -14,15 +15,19 @@
 //!   the board traits.
 //! - [`faulty`]: board wrappers that inject hardware faults (stuck, dead and noisy rings,
 //!   stalled motors) for fault plans.
+//! - [`ros2base`]: a ROS 2 robot (laser scan, odometry, velocity commands) behind the board
+//!   traits, its scan resampled onto the rings; fed by the process that speaks ROS 2.
 //! - [`server`]: the robot server component `nomad200`, which offers the services of
 //!   [`orsa_interfaces::nomad200`] on top of any pair of boards, with its velocity watchdog.
 //!
 //! The communication objects the robot speaks live in `orsa-interfaces`, so that behaviours
 //! know the robot by its interface and never depend on this crate.
 
+pub mod any;
 pub mod board;
 pub mod faulty;
 pub mod geometry;
+pub mod ros2base;
 pub mod server;
 pub mod sim;
 pub mod world;

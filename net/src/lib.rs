@@ -45,6 +45,8 @@
 //! - `heartbeat`: the heartbeat a process publishes and peers watch ([`ZenohTransport::on_heartbeat`]).
 //! - `keys`: the key expressions every pattern travels on ([`Keys`]).
 //! - `options`: how a process joins the zenoh network ([`NetOptions`], [`NetError`]).
+//! - [`ros2`]: ROS 2 topics as rmw_zenoh lays them out (CDR messages, liveliness tokens), so
+//!   that an orsa process is also a ROS 2 node ([`ZenohTransport::ros2_node`]).
 
 mod control;
 mod gate;
@@ -52,6 +54,7 @@ mod heartbeat;
 mod keys;
 mod links;
 mod options;
+pub mod ros2;
 mod serve;
 mod session;
 mod transport;

@@ -19,10 +19,11 @@
 pub mod exchange;
 mod param;
 mod robot;
+pub mod ros2;
 mod tools;
 
 pub use param::{ParamAction, ParamArgs, param};
-pub use robot::{FALLBACK, ROBOT_TOP, RobotArgs, RobotReport, robot};
+pub use robot::{FALLBACK, Hardware, ROBOT_TOP, RobotArgs, RobotReport, robot};
 pub use tools::{
     EchoArgs, ListArgs, StateArgs, SwitchArgs, WireArgs, echo, list, parse_change, state, switch, wire,
 };

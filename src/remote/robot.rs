@@ -12,6 +12,7 @@ use orsa_actors::wiring::WiringMaster;
 use orsa_actors::{Clock, Registry, ServiceAddr};
 use orsa_executive::Master;
 use orsa_hardware::faulty::BoardFaults;
+use orsa_hardware::ros2base::Ros2Base;
 use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
 use orsa_interfaces::behaviour::VEL;
@@ -56,9 +57,29 @@ pub struct RobotArgs {
     /// what `orsa replay` needs to run its behaviours again (see the README).
     #[arg(long, value_name = "PATH.mcap")]
     pub record: Option<PathBuf>,
+    /// Also be a ROS 2 node, as rmw_zenoh (ROS 2 Jazzy) lays one out: publish /scan,
+    /// /ir_scan, /odom, /tf and /bumper, and take /cmd_vel as teleoperation (see docs/ros2.md).
+    #[arg(long)]
+    pub ros2: bool,
+    /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
+    pub domain: u32,
+    /// The robot to drive: the simulated Nomad 200, or a ROS 2 robot that publishes a laser
+    /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
+    #[arg(long, value_enum, default_value_t = Hardware::Sim)]
+    pub hardware: Hardware,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
+}
+
+/// The robot `orsa robot` drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Hardware {
+    /// The simulated Nomad 200 in the world file.
+    Sim,
+    /// A ROS 2 robot on the zenoh network (rmw_zenoh): its scan and odometry in, Twist out.
+    Ros2,
 }
 
 /// What `orsa robot --report` writes at exit.
@@ -89,6 +110,9 @@ pub struct RobotReport {
     pub stops: Vec<StopReport>,
     /// What the fault plan broke and how the robot came back (with `--faults`).
     pub faults: Option<crate::faults::FaultsReport>,
+    /// What the ROS 2 node did (with `--ros2` or `--hardware ros2`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ros2: Option<super::ros2::Ros2Report>,
 }
 
 /// One stop the robot made by itself: from the moment it knew it had to stop to the moment it
@@ -206,6 +230,12 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         bail!("--fallback {mode}: no such mode in executive.modes (known: {known:?})");
     }
     let duration = args.duration.map(|d| secs(d, "--duration")).transpose()?;
+    if args.ros2 && args.hardware == Hardware::Ros2 {
+        bail!(
+            "--ros2 with --hardware ros2: the robot's own topics (/scan, /odom, /cmd_vel) would be \
+             the base's; drive a ROS 2 robot, or be one"
+        );
+    }
     let plan = match &args.faults {
         Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_robot(&config))?),
         None => None,
@@ -221,11 +251,25 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
     runtime()?.block_on(async move {
         let clock = Clock::start();
         let registry = Registry::with_clock(clock);
-        let sim = SimNomad200::new(world.clone(), config.sim.clone(), args.seed)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let sim = SimRobot::spawn(sim, clock);
+        let (sim, ros2_base, base_slot) = match args.hardware {
+            Hardware::Sim => {
+                let sim = SimNomad200::new(world.clone(), config.sim.clone(), args.seed)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                (Some(SimRobot::spawn(sim, clock)), None, None)
+            }
+            Hardware::Ros2 => {
+                let (slot, send) = super::ros2::command_slot(clock);
+                (None, Some(Ros2Base::new(config.ros2.base.clone(), clock, send)), Some(slot))
+            }
+        };
         let robot = config.robot.name.clone();
         let boards = BoardFaults::new(args.seed);
+        let robot_boards = match (&sim, &ros2_base) {
+            (Some(sim), _) => RobotBoards::simulated(sim, &config, &boards),
+            (None, Some(base)) => RobotBoards::ros2(base, &config, &boards),
+            (None, None) => bail!("the robot has neither a simulator nor a ROS 2 base"),
+        };
+        let robot_params = robot_boards.params.clone();
         let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
         let sink = Arc::clone(&supervisor_events);
         let builder = System::builder(&config).only(Place::Robot);
@@ -264,7 +308,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         let top = crate::ending::TopWatch::new(ROBOT_TOP);
         let top_sink = top.clone();
         let start_system = builder
-            .robot(RobotBoards::simulated(&sim, &config, &boards))
+            .robot(robot_boards)
             .supervisor(ROBOT_TOP)
             .on_event(move |e| {
                 if let Some(r) = &events_tap {
@@ -284,11 +328,31 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         let mut link_log: Vec<(f64, String, String)> = Vec::new();
         let mut base = None;
         let mut stops: Vec<StopReport> = Vec::new();
+        let mut ros2_face: Option<super::ros2::RobotRos2> = None;
+        let mut base_link: Option<super::ros2::BaseLink> = None;
         let run = async {
             supervisor = Some(start_system.await.context("starting the robot")?.supervisor);
             let t = open(&registry, &args.net, "robot", None).await?;
             eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
             let transport = &*transport.insert(t);
+            if args.ros2 {
+                let face =
+                    super::ros2::RobotRos2::start(&registry, transport, &robot, &robot_params, &config.ros2, args.domain)
+                        .await
+                        .context("joining ROS 2 (--ros2)")?;
+                eprintln!("robot: on ROS 2 domain {} as node {}", args.domain, config.ros2.node);
+                ros2_face = Some(face);
+            }
+            if let (Some(b), Some(slot)) = (&ros2_base, &base_slot) {
+                let link = super::ros2::BaseLink::connect(&registry, transport, &config.ros2, args.domain, b, slot)
+                    .await
+                    .context("joining the ROS 2 base (--hardware ros2)")?;
+                eprintln!(
+                    "robot: driving the ROS 2 robot on domain {} ({} and {} in, {} out)",
+                    args.domain, config.ros2.base.scan_topic, config.ros2.base.odom_topic, config.ros2.base.cmd_vel_topic
+                );
+                base_link = Some(link);
+            }
 
             let (ev_tx, mut ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
             let tx = ev_tx.clone();
@@ -490,7 +554,11 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
                 if let Some(s) = &supervisor {
                     s.shutdown().await;
                 }
-                let stopped_in = crate::ending::stop_on_board(&sim.motor_board()).await;
+                let stopped_in = match (&sim, &ros2_base) {
+                    (Some(sim), _) => crate::ending::stop_on_board(&sim.motor_board()).await,
+                    (None, Some(base)) => crate::ending::stop_on_board(&base.boards().1).await,
+                    (None, None) => None,
+                };
                 crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, stopped_in)
             }
             Ok(stop) => crate::ending::ended(stop, at_s, None),
@@ -524,7 +592,16 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         if let Some(s) = supervisor {
             s.shutdown().await;
         }
-        let _ = sim.shutdown().await;
+        if let Some(sim) = sim {
+            let _ = sim.shutdown().await;
+        }
+        if let Some(base) = &ros2_base {
+            // The server has stopped the base; nothing drives it from here on.
+            base.close();
+        }
+        let ros2 = ros2_face.as_ref().map(|f| f.report()).or_else(|| base_link.as_ref().map(|l| l.report()));
+        drop(ros2_face);
+        drop(base_link);
         registry.set_tap(None);
         let recorded = recording.map(|r| r.finish());
         let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
@@ -554,6 +631,7 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             links: transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default(),
             stops,
             faults,
+            ros2,
         };
         if let Some(t) = transport {
             t.close().await;

@@ -12,9 +12,10 @@ use orsa_actors::Registry;
 use orsa_actors::component::{Component, ComponentHandle};
 use orsa_actors::supervision::ChildSpec;
 use orsa_executive::Master;
+use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
 use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
 use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::{SimMotorBoard, SimRobot, SimSensorBoard};
+use orsa_hardware::sim::SimRobot;
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
 use orsa_reactive::{CenterFollow, WallFollow};
@@ -26,9 +27,9 @@ use std::time::Duration;
 #[derive(Debug, Clone)]
 pub struct RobotBoards {
     /// The sensor board, behind the fault switch.
-    pub sensors: FaultySensorBoard<SimSensorBoard>,
+    pub sensors: FaultySensorBoard<AnySensorBoard>,
     /// The motor board, behind the fault switch.
-    pub motors: FaultyMotorBoard<SimMotorBoard>,
+    pub motors: FaultyMotorBoard<AnyMotorBoard>,
     /// The robot's geometry, limits and sensor layout.
     pub params: RobotParams,
 }
@@ -37,9 +38,20 @@ impl RobotBoards {
     /// The boards of a simulated robot, behind `faults`, described by `config`.
     pub fn simulated(sim: &SimRobot, config: &Config, faults: &BoardFaults) -> Self {
         RobotBoards {
-            sensors: FaultySensorBoard::new(sim.sensor_board(), faults.clone()),
-            motors: FaultyMotorBoard::new(sim.motor_board(), faults.clone()),
+            sensors: FaultySensorBoard::new(AnySensorBoard::Sim(sim.sensor_board()), faults.clone()),
+            motors: FaultyMotorBoard::new(AnyMotorBoard::Sim(sim.motor_board()), faults.clone()),
             params: config.sim.robot_params(config.robot.push_periods()),
+        }
+    }
+
+    /// The boards of a ROS 2 base (`orsa robot --hardware ros2`), behind `faults`, described
+    /// by the config's `[ros2.base]`.
+    pub fn ros2(base: &orsa_hardware::ros2base::Ros2Base, config: &Config, faults: &BoardFaults) -> Self {
+        let (sensors, motors) = base.boards();
+        RobotBoards {
+            sensors: FaultySensorBoard::new(AnySensorBoard::Ros2(sensors), faults.clone()),
+            motors: FaultyMotorBoard::new(AnyMotorBoard::Ros2(motors), faults.clone()),
+            params: config.ros2.base.robot_params(config.robot.push_periods()),
         }
     }
 }

@@ -17,6 +17,7 @@ mod memory;
 mod params;
 mod processes;
 mod replay;
+mod ros2;
 mod security;
 mod stopping;
 mod switch;

@@ -1,0 +1,190 @@
+//! What `orsa robot --ros2` adds to the robot's cross-process push: the sonar ring pushed to a
+//! remote subscriber, back to back, with and without the ROS 2 publication of the same scans
+//! (the robot's own conversion to `sensor_msgs/msg/LaserScan`, CDR, and a put on the session,
+//! received by a ROS 2 subscriber on the other side), blocks of each in turn, in the same run.
+//!
+//! Two zenoh sessions over loopback TCP, in this process: the robot's (listening) and the
+//! subscriber's (connecting). The push crosses the sessions as it crosses processes (encoding,
+//! TCP, decoding), and the ROS 2 path runs as in the robot: an in-process subscriber of the
+//! push whose sink hands each scan to a task that converts and publishes it. The cost is the
+//! time from the push until the remote subscriber's sink has it (p50); the ratio is with the
+//! ROS 2 path over without. The ROS 2 path's own time per scan (convert, encode, put) is given
+//! beside it.
+
+use super::{Ros2Cost, say, stats};
+use anyhow::{Context as _, bail};
+use orsa_actors::push_newest::{PushNewestClient, PushNewestServer};
+use orsa_actors::service::PushNewestService;
+use orsa_actors::{Registry, Sink, Timestamp, Update};
+use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, Ring, RingParams, ring_angle_rad};
+use orsa_net::ros2::msg::LaserScan;
+use orsa_net::ros2::{Qos, Ros2Options};
+use orsa_net::{NetOptions, ZenohTransport};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+const SCAN: PushNewestService<DistanceScan> = PushNewestService::new("distanceson");
+
+fn scan(seq: u64) -> DistanceScan {
+    DistanceScan {
+        stamp: Timestamp(seq),
+        ring: Ring::Sonar,
+        readings: (0..RING_SIZE)
+            .map(|i| DistanceReading {
+                sensor_id: i as u8,
+                stamp: Timestamp(seq),
+                valid: i % 5 != 0,
+                distance_m: 1.0 + i as f64 * 0.1,
+            })
+            .collect(),
+    }
+}
+
+fn ring() -> RingParams {
+    RingParams {
+        angles_rad: (0..RING_SIZE).map(ring_angle_rad).collect(),
+        mount_radius_m: 0.25,
+        beam_width_rad: 0.44,
+        min_range_m: 0.3,
+        max_range_m: 6.0,
+        fire_period_s: 0.004,
+    }
+}
+
+/// Measures `samples` pushes each way, in blocks of 50 taking turns.
+pub(crate) fn run(samples: usize) -> anyhow::Result<Ros2Cost> {
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let out = rt.block_on(async move {
+        tokio::time::timeout(Duration::from_secs(120 + samples as u64 / 50), bench(samples))
+            .await
+            .context("the ROS 2 bench did not finish in time")?
+    });
+    rt.shutdown_timeout(Duration::from_secs(2));
+    out
+}
+
+async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let prefix = format!("benchros{port}");
+    let robot = Registry::new();
+    let robot_net = ZenohTransport::open(
+        &robot,
+        &NetOptions { listen: vec![endpoint.clone()], prefix: prefix.clone(), ..NetOptions::default() },
+        "robot",
+    )
+    .await?;
+    let server = PushNewestServer::<DistanceScan>::register(&robot, SCAN.on("robot"))?;
+    let other = Registry::new();
+    let other_net = ZenohTransport::open(
+        &other,
+        &NetOptions { connect: vec![endpoint], prefix, ..NetOptions::default() },
+        "tool",
+    )
+    .await?;
+    if let Err(missing) = other_net.wait_for(&[SCAN.on("robot").untyped()], Duration::from_secs(30)).await {
+        bail!("the robot's scan service did not appear: {missing:?}");
+    }
+    let (tx, mut got) = tokio::sync::watch::channel(0u64);
+    let remote = PushNewestClient::<DistanceScan>::connect_to(
+        &other,
+        SCAN.on("robot"),
+        Sink::from_fn(move |u: Update<DistanceScan>| {
+            tx.send_replace(u.value.stamp.0);
+            Ok(())
+        }),
+    )?;
+    remote.subscribe()?;
+    // The ROS 2 side: the robot's node publishing, a node on the other session subscribing.
+    let options = |name: &str| Ros2Options { domain: 0, namespace: "/".into(), name: name.into() };
+    let node = robot_net.ros2_node(&options("orsa")).await?;
+    let publisher = Arc::new(node.publisher::<LaserScan>("scan", Qos::SensorData).await?);
+    let listener = other_net.ros2_node(&options("listener")).await?;
+    let received = Arc::new(AtomicU64::new(0));
+    let r = Arc::clone(&received);
+    let _sub = listener
+        .subscribe::<LaserScan>("scan", Qos::SensorData, move |_, _| {
+            r.fetch_add(1, Ordering::Relaxed);
+        })
+        .await?;
+    let publish_ns = Arc::new(parking_lot::Mutex::new(Vec::with_capacity(samples)));
+
+    let mut seq = 0u64;
+    let (mut plain, mut with, mut lost) = (Vec::new(), Vec::new(), 0u64);
+    // The first push of all waits for the subscription to reach the robot.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while *got.borrow() == 0 {
+        seq += 1;
+        server.put(scan(seq));
+        if Instant::now() > deadline {
+            bail!("the remote subscriber received nothing in 10 s");
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let blocks = samples.div_ceil(50);
+    for block in 0..blocks * 2 {
+        let ros2_on = block % 2 == 1;
+        // The ROS 2 path as the robot runs it: an in-process subscriber, a task that publishes.
+        let face = if ros2_on {
+            let (ftx, mut frx) = tokio::sync::mpsc::unbounded_channel::<Update<DistanceScan>>();
+            let c = PushNewestClient::<DistanceScan>::connect_to(
+                &robot,
+                SCAN.on("robot"),
+                Sink::from_fn(move |u| ftx.send(u).map_err(|_| orsa_actors::Undeliverable::Closed)),
+            )?;
+            c.subscribe()?;
+            let (p, times, ring) = (Arc::clone(&publisher), Arc::clone(&publish_ns), ring());
+            let task = tokio::spawn(async move {
+                while let Some(u) = frx.recv().await {
+                    let t = Instant::now();
+                    p.publish(&orsa::remote::ros2::laser_scan(&u.value, &ring), u.value.stamp.0);
+                    times.lock().push(t.elapsed().as_nanos() as u64);
+                }
+            });
+            Some((c, task))
+        } else {
+            None
+        };
+        for _ in 0..50 {
+            seq += 1;
+            let t = Instant::now();
+            server.put(scan(seq));
+            let arrived = tokio::time::timeout(Duration::from_secs(1), got.wait_for(|s| *s >= seq)).await;
+            match arrived {
+                Ok(Ok(_)) => {
+                    (if ros2_on { &mut with } else { &mut plain }).push(t.elapsed().as_nanos() as u64)
+                }
+                _ => lost += 1,
+            }
+        }
+        if let Some((c, task)) = face {
+            drop(c);
+            task.abort();
+        }
+    }
+    let (plain, with_ros2) = (stats::summarize(plain), stats::summarize(with));
+    let mut times = std::mem::take(&mut *publish_ns.lock());
+    times.sort_unstable();
+    let cost = Ros2Cost {
+        p50_ratio: stats::ratio(with_ros2.p50_ns, plain.p50_ns),
+        ros2_publish_p50_ns: stats::percentile(&times, 50.0).map_or(f64::NAN, |v| v as f64),
+        ros2_received: received.load(Ordering::Relaxed),
+        plain,
+        with_ros2,
+        lost,
+    };
+    say(format!(
+        "  ROS 2 publication: push p50 {:.1} us plain, {:.1} us with it ({:.2}x); its own path {:.1} us a scan; {} LaserScans received, {} lost",
+        cost.plain.p50_ns / 1e3,
+        cost.with_ros2.p50_ns / 1e3,
+        cost.p50_ratio.unwrap_or(f64::NAN),
+        cost.ros2_publish_p50_ns / 1e3,
+        cost.ros2_received,
+        cost.lost
+    ));
+    drop(remote);
+    robot_net.close().await;
+    other_net.close().await;
+    Ok(cost)
+}

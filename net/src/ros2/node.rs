@@ -1,0 +1,294 @@
+//! A ROS 2 node on orsa's zenoh session: its liveliness token, its publishers and its
+//! subscriptions, each announced by a token of its own as rmw_zenoh does, and the counts of
+//! what it sent and what it refused.
+
+use super::cdr::{self, CdrError};
+use super::graph::{self, Entity, NodeId, Qos};
+use super::msg::Message;
+use crate::ZenohTransport;
+use crate::options::NetError;
+use parking_lot::Mutex;
+use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicI64, AtomicU32, AtomicU64, Ordering};
+use zenoh::Wait as _;
+use zenoh::qos::CongestionControl;
+
+/// Who the node is on the ROS 2 graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ros2Options {
+    /// The ROS domain id (`ROS_DOMAIN_ID`), 0..=232.
+    pub domain: u32,
+    /// The node's namespace, `/` for none.
+    pub namespace: String,
+    /// The node's name.
+    pub name: String,
+}
+
+impl Ros2Options {
+    /// Checks the domain, the namespace and the name.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.domain > 232 {
+            return Err(format!("ROS domain {} is out of range (0..=232)", self.domain));
+        }
+        graph::check_node(&self.namespace, &self.name)
+    }
+}
+
+/// What a ROS 2 node sent and what it refused, since it started.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ros2Stats {
+    /// Messages published.
+    pub published: u64,
+    /// Messages received and decoded.
+    pub received: u64,
+    /// Messages received that did not decode as their topic's type (dropped).
+    pub undecodable: u64,
+    /// Messages received on a subscribed topic with another type or type hash (dropped).
+    pub wrong_type: u64,
+    /// Messages that could not be encoded or put on the session.
+    pub failed: u64,
+}
+
+#[derive(Default)]
+struct Counts {
+    published: AtomicU64,
+    received: AtomicU64,
+    undecodable: AtomicU64,
+    wrong_type: AtomicU64,
+    failed: AtomicU64,
+}
+
+struct NodeInner {
+    session: zenoh::Session,
+    id: NodeId,
+    next_entity: AtomicU32,
+    counts: Counts,
+    bad_log: orsa_actors::logbudget::LogBudget,
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+/// A ROS 2 node: publishes and subscribes to ROS 2 topics on this transport's zenoh session, as
+/// a node of rmw_zenoh would. Cheap to clone.
+#[derive(Clone)]
+pub struct Ros2Node {
+    inner: Arc<NodeInner>,
+}
+
+impl std::fmt::Debug for Ros2Node {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Node").field("name", &self.inner.id.name).finish_non_exhaustive()
+    }
+}
+
+impl ZenohTransport {
+    /// A ROS 2 node on this transport's session (announced by its liveliness token).
+    pub async fn ros2_node(&self, options: &Ros2Options) -> Result<Ros2Node, NetError> {
+        options.validate().map_err(NetError::Config)?;
+        let session = self.inner.session.clone();
+        let id = NodeId {
+            domain: options.domain,
+            zid: session.zid().to_string(),
+            node_id: 0,
+            namespace: options.namespace.clone(),
+            name: options.name.clone(),
+        };
+        let token = session
+            .liveliness()
+            .declare_token(id.token(Entity::Node, 0, None))
+            .await
+            .map_err(|e| NetError::Open(format!("ROS 2 node token: {e}")))?;
+        Ok(Ros2Node {
+            inner: Arc::new(NodeInner {
+                session,
+                id,
+                next_entity: AtomicU32::new(1),
+                counts: Counts::default(),
+                bad_log: orsa_actors::logbudget::LogBudget::hostile_input(),
+                _token: token,
+            }),
+        })
+    }
+}
+
+impl Ros2Node {
+    /// What the node sent and refused so far.
+    pub fn stats(&self) -> Ros2Stats {
+        let c = &self.inner.counts;
+        Ros2Stats {
+            published: c.published.load(Ordering::Relaxed),
+            received: c.received.load(Ordering::Relaxed),
+            undecodable: c.undecodable.load(Ordering::Relaxed),
+            wrong_type: c.wrong_type.load(Ordering::Relaxed),
+            failed: c.failed.load(Ordering::Relaxed),
+        }
+    }
+
+    /// The topic's absolute name under the node's namespace, checked.
+    fn topic(&self, topic: &str) -> Result<String, NetError> {
+        graph::qualified_topic(&self.inner.id.namespace, topic).map_err(NetError::Config)
+    }
+
+    async fn token<T: Message>(
+        &self,
+        entity: Entity,
+        topic: &str,
+        qos: Qos,
+    ) -> Result<(zenoh::liveliness::LivelinessToken, String), NetError> {
+        let n = self.inner.next_entity.fetch_add(1, Ordering::Relaxed);
+        let key = self.inner.id.token(entity, n, Some((topic, T::DDS_NAME, T::HASH, qos)));
+        let token = self
+            .inner
+            .session
+            .liveliness()
+            .declare_token(key.clone())
+            .await
+            .map_err(|e| NetError::Open(format!("ROS 2 token of {topic}: {e}")))?;
+        Ok((token, key))
+    }
+
+    /// A publisher of `T` on `topic` (relative names are under the node's namespace).
+    pub async fn publisher<T: Message>(&self, topic: &str, qos: Qos) -> Result<Ros2Publisher<T>, NetError> {
+        let topic = self.topic(topic)?;
+        let key = graph::data_key::<T>(self.inner.id.domain, &topic);
+        let publisher = self
+            .inner
+            .session
+            .declare_publisher(key)
+            .congestion_control(CongestionControl::Drop)
+            .await
+            .map_err(|e| NetError::Open(format!("ROS 2 publisher of {topic}: {e}")))?;
+        let (token, token_key) = self.token::<T>(Entity::Publisher, &topic, qos).await?;
+        Ok(Ros2Publisher {
+            node: Arc::clone(&self.inner),
+            publisher,
+            gid: graph::gid(&token_key),
+            seq: AtomicI64::new(0),
+            size: Mutex::new(64),
+            _token: token,
+            _t: PhantomData,
+        })
+    }
+
+    /// Subscribes to `topic`: `on` gets every message of type `T` that decodes, with its source
+    /// timestamp (ns since the UNIX epoch) if its attachment has one. Messages of another type
+    /// on the same topic, and messages that do not decode, are dropped and counted.
+    pub async fn subscribe<T: Message>(
+        &self,
+        topic: &str,
+        qos: Qos,
+        on: impl Fn(T, Option<i64>) + Send + Sync + 'static,
+    ) -> Result<Ros2Subscription, NetError> {
+        let topic = self.topic(topic)?;
+        let domain = self.inner.id.domain;
+        let weak = Arc::downgrade(&self.inner);
+        let name = topic.clone();
+        let subscriber = self
+            .inner
+            .session
+            .declare_subscriber(graph::any_type_key(domain, &topic))
+            .callback(move |sample| {
+                let Some(node) = weak.upgrade() else { return };
+                let key = sample.key_expr().as_str();
+                if graph::type_of_key(key, domain, &name) != Some((T::DDS_NAME, T::HASH)) {
+                    node.counts.wrong_type.fetch_add(1, Ordering::Relaxed);
+                    node.warn(format_args!(
+                        "ROS 2 {name}: dropped a message on {key}: the topic's type is {} ({})",
+                        T::NAME,
+                        T::HASH
+                    ));
+                    return;
+                }
+                match cdr::decode::<T>(&sample.payload().to_bytes()) {
+                    Ok(msg) => {
+                        node.counts.received.fetch_add(1, Ordering::Relaxed);
+                        let stamp = sample
+                            .attachment()
+                            .and_then(|a| graph::read_attachment(&a.to_bytes()).map(|a| a.1));
+                        on(msg, stamp);
+                    }
+                    Err(e) => {
+                        node.counts.undecodable.fetch_add(1, Ordering::Relaxed);
+                        node.warn(format_args!("ROS 2 {name}: dropped a message that does not decode: {e}"));
+                    }
+                }
+            })
+            .await
+            .map_err(|e| NetError::Open(format!("ROS 2 subscription to {topic}: {e}")))?;
+        let (token, _) = self.token::<T>(Entity::Subscription, &topic, qos).await?;
+        Ok(Ros2Subscription { _subscriber: subscriber, _token: token })
+    }
+}
+
+impl NodeInner {
+    /// A line about bad input, within the budget for hostile input.
+    fn warn(&self, line: std::fmt::Arguments<'_>) {
+        if let orsa_actors::logbudget::Verdict::Log { suppressed } =
+            self.bad_log.judge(std::time::Instant::now())
+        {
+            tracing::warn!(suppressed, "{line}");
+        }
+    }
+}
+
+/// A publisher of ROS 2 messages of type `T` on one topic; announced while it lives.
+pub struct Ros2Publisher<T> {
+    node: Arc<NodeInner>,
+    publisher: zenoh::pubsub::Publisher<'static>,
+    gid: [u8; 16],
+    seq: AtomicI64,
+    /// The size of the last message encoded, to allocate the next one at once.
+    size: Mutex<usize>,
+    _token: zenoh::liveliness::LivelinessToken,
+    _t: PhantomData<fn(T)>,
+}
+
+impl<T> std::fmt::Debug for Ros2Publisher<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Publisher")
+            .field("key", &self.publisher.key_expr().as_str())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<T: Message> Ros2Publisher<T> {
+    /// Publishes `msg`, taken at `stamp_ns` (ns since the UNIX epoch, the attachment's source
+    /// timestamp). A message that cannot be encoded or sent is counted and logged, not returned:
+    /// a publisher keeps publishing.
+    pub fn publish(&self, msg: &T, stamp_ns: u64) {
+        if let Err(e) = self.try_publish(msg, stamp_ns) {
+            self.node.counts.failed.fetch_add(1, Ordering::Relaxed);
+            self.node.warn(format_args!("ROS 2 {}: cannot publish: {e}", self.publisher.key_expr()));
+        }
+    }
+
+    fn try_publish(&self, msg: &T, stamp_ns: u64) -> Result<(), String> {
+        let mut bytes = Vec::with_capacity(*self.size.lock());
+        cdr::encode_into(msg, &mut bytes).map_err(|e: CdrError| e.to_string())?;
+        *self.size.lock() = bytes.len();
+        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
+        let stamp = i64::try_from(stamp_ns).unwrap_or(i64::MAX);
+        let attachment = graph::attachment(seq, stamp, &self.gid);
+        self.publisher.put(bytes).attachment(attachment.to_vec()).wait().map_err(|e| e.to_string())?;
+        self.node.counts.published.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// Messages this publisher has sent.
+    pub fn sent(&self) -> u64 {
+        u64::try_from(self.seq.load(Ordering::Relaxed)).unwrap_or(0)
+    }
+}
+
+/// A subscription to a ROS 2 topic; announced while it lives, ended when dropped.
+pub struct Ros2Subscription {
+    _subscriber: zenoh::pubsub::Subscriber<()>,
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+impl std::fmt::Debug for Ros2Subscription {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Subscription").finish_non_exhaustive()
+    }
+}

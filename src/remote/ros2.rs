@@ -1,0 +1,410 @@
+//! `orsa robot --ros2`: the robot as a ROS 2 node. Its sensor pushes and base state are
+//! published as ROS 2 topics, and `/cmd_vel` drives it as teleoperation, judged by the robot
+//! server like every other velocity command (see `docs/ros2.md`).
+//!
+//! | topic | type | from |
+//! |---|---|---|
+//! | `/scan` | `sensor_msgs/msg/LaserScan` | the sonar ring (`distanceson`), 16 rays |
+//! | `/ir_scan` | `sensor_msgs/msg/LaserScan` | the infrared ring (`distanceir`), 16 rays |
+//! | `/odom` | `nav_msgs/msg/Odometry` | `basestate`: `odom` -> `base_link` |
+//! | `/tf` | `tf2_msgs/msg/TFMessage` | `basestate`: `odom` -> `base_link` |
+//! | `/bumper` | `std_msgs/msg/Bool` | `bumpers`: whether any bumper is pressed |
+//! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` | -> `teleop`, stamped on arrival |
+//!
+//! `orsa robot --hardware ros2` is the other way round ([`BaseLink`]): a ROS 2 robot's scan and
+//! odometry feed orsa's boards ([`Ros2Base`]) and its commands go out as Twist.
+
+use crate::config::Ros2Params;
+use orsa_actors::push_timed::PushTimedClient;
+use orsa_actors::send::SendClient;
+use orsa_actors::{Registry, Sink, Timestamp, Update};
+use orsa_hardware::ros2base::{Odom, Ros2Base, Scan, SendCommand};
+use orsa_interfaces::nomad200::{
+    self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
+};
+use orsa_net::ros2::msg::{self as m, Bool, LaserScan, Odometry, TfMessage, Twist};
+use orsa_net::ros2::{Qos, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use tokio::sync::mpsc;
+
+/// What the ROS 2 side of the robot did, for `orsa robot --report`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ros2Report {
+    /// The node's messages: published, received, undecodable, wrong type.
+    pub node: Ros2Stats,
+    /// `/cmd_vel` messages handed to the robot server (which judges them as teleoperation).
+    pub cmd_vel_forwarded: u64,
+    /// `/cmd_vel` messages refused for coming faster than `ros2.cmd_vel_rate_hz` allows
+    /// (beyond a burst of `ros2.cmd_vel_burst`).
+    pub cmd_vel_rate_refused: u64,
+}
+
+/// A token bucket: at most `burst` at once, refilled at `rate_hz`.
+#[derive(Debug, Clone)]
+pub(crate) struct RateGate {
+    rate_hz: f64,
+    burst: f64,
+    tokens: f64,
+    last: Option<tokio::time::Instant>,
+}
+
+impl RateGate {
+    pub(crate) fn new(rate_hz: f64, burst: u32) -> Self {
+        RateGate { rate_hz, burst: f64::from(burst), tokens: f64::from(burst), last: None }
+    }
+
+    /// Whether a message arriving at `now` may pass.
+    pub(crate) fn admit(&mut self, now: tokio::time::Instant) -> bool {
+        if let Some(last) = self.last {
+            let dt = now.saturating_duration_since(last).as_secs_f64();
+            self.tokens = (self.tokens + dt * self.rate_hz).min(self.burst);
+        }
+        self.last = Some(now);
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// The robot's ROS 2 face; publishing and taking commands while it lives.
+pub struct RobotRos2 {
+    node: Ros2Node,
+    forwarded: Arc<AtomicU64>,
+    rate_refused: Arc<AtomicU64>,
+    _cmd_vel: Ros2Subscription,
+    _clients: Vec<Box<dyn std::any::Any + Send>>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl Drop for RobotRos2 {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+/// One update of a robot service, to publish.
+enum Out {
+    Sonar(Update<DistanceScan>),
+    Ir(Update<DistanceScan>),
+    Base(Update<BaseState>),
+    Bumpers(Update<ContactScan>),
+}
+
+struct Publishers {
+    scan: Ros2Publisher<LaserScan>,
+    ir_scan: Ros2Publisher<LaserScan>,
+    odom: Ros2Publisher<Odometry>,
+    tf: Ros2Publisher<TfMessage>,
+    bumper: Ros2Publisher<Bool>,
+}
+
+impl RobotRos2 {
+    /// Starts publishing robot `robot`'s services (in this process's `registry`) as ROS 2
+    /// topics on `transport`'s session, in `domain`, and taking `/cmd_vel`.
+    pub async fn start(
+        registry: &Registry,
+        transport: &orsa_net::ZenohTransport,
+        robot: &str,
+        params: &RobotParams,
+        ros2: &Ros2Params,
+        domain: u32,
+    ) -> anyhow::Result<Self> {
+        let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
+        let node = transport.ros2_node(&options).await?;
+        let publishers = Publishers {
+            scan: node.publisher("scan", Qos::SensorData).await?,
+            ir_scan: node.publisher("ir_scan", Qos::SensorData).await?,
+            odom: node.publisher("odom", Qos::Default).await?,
+            tf: node.publisher("/tf", Qos::Default).await?,
+            bumper: node.publisher("bumper", Qos::Default).await?,
+        };
+        let (tx, mut rx) = mpsc::unbounded_channel::<Out>();
+        let mut clients: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
+        macro_rules! follow {
+            ($svc:expr, $t:ty, $variant:ident) => {{
+                let tx = tx.clone();
+                let c = PushTimedClient::<$t>::connect_to(
+                    registry,
+                    $svc.on(robot),
+                    Sink::from_fn(move |u| {
+                        tx.send(Out::$variant(u)).map_err(|_| orsa_actors::Undeliverable::Closed)
+                    }),
+                )?;
+                c.subscribe(1)?;
+                clients.push(Box::new(c));
+            }};
+        }
+        follow!(nomad200::DISTANCESON, DistanceScan, Sonar);
+        follow!(nomad200::DISTANCEIR, DistanceScan, Ir);
+        follow!(nomad200::BASESTATE, BaseState, Base);
+        follow!(nomad200::BUMPERS, ContactScan, Bumpers);
+        drop(tx);
+        let (sonar, ir) = (params.sonar.clone(), params.infrared.clone());
+        let task = tokio::spawn(async move {
+            while let Some(out) = rx.recv().await {
+                let p = &publishers;
+                match out {
+                    Out::Sonar(u) => p.scan.publish(&laser_scan(&u.value, &sonar), u.value.stamp.0),
+                    Out::Ir(u) => p.ir_scan.publish(&laser_scan(&u.value, &ir), u.value.stamp.0),
+                    Out::Base(u) => {
+                        let (odom, tf) = odometry(&u.value);
+                        p.odom.publish(&odom, u.value.stamp.0);
+                        p.tf.publish(&tf, u.value.stamp.0);
+                    }
+                    Out::Bumpers(u) => {
+                        p.bumper.publish(&Bool { data: u.value.pressed.iter().any(|b| *b) }, u.value.stamp.0)
+                    }
+                }
+            }
+        });
+
+        let teleop = SendClient::<NavigationVelocity>::connect(registry, nomad200::TELEOP.on(robot))?;
+        let forwarded = Arc::new(AtomicU64::new(0));
+        let rate_refused = Arc::new(AtomicU64::new(0));
+        let gate = parking_lot::Mutex::new(RateGate::new(ros2.cmd_vel_rate_hz, ros2.cmd_vel_burst));
+        let (fw, rr, reg) = (Arc::clone(&forwarded), Arc::clone(&rate_refused), registry.clone());
+        let cmd_vel = node
+            .subscribe::<Twist>("cmd_vel", Qos::Default, move |t, _| {
+                // No stamp in a Twist: its arrival time is its stamp, so the server's velocity
+                // timeout runs from here.
+                if !gate.lock().admit(tokio::time::Instant::now()) {
+                    rr.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+                let cmd =
+                    NavigationVelocity { stamp: reg.now(), v_m_s: t.linear.x, omega_rad_s: t.angular.z };
+                match teleop.send(cmd) {
+                    Ok(()) => {
+                        fw.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Err(e) => {
+                        tracing::warn!("ROS 2 /cmd_vel: cannot hand a command to the robot server: {e}")
+                    }
+                }
+            })
+            .await?;
+        Ok(RobotRos2 { node, forwarded, rate_refused, _cmd_vel: cmd_vel, _clients: clients, task })
+    }
+
+    /// What it did so far.
+    pub fn report(&self) -> Ros2Report {
+        Ros2Report {
+            node: self.node.stats(),
+            cmd_vel_forwarded: self.forwarded.load(Ordering::Relaxed),
+            cmd_vel_rate_refused: self.rate_refused.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// The link to a ROS 2 base (`orsa robot --hardware ros2`): the node that reads its scan and
+/// odometry into the [`Ros2Base`] and publishes its velocity commands.
+pub struct BaseLink {
+    node: Ros2Node,
+    _subscriptions: Vec<Ros2Subscription>,
+}
+
+/// Where the base's command publisher goes once the node is up, and the function the base's
+/// motor board sends its commands through (nothing is sent before).
+pub fn command_slot(
+    clock: orsa_actors::Clock,
+) -> (Arc<std::sync::OnceLock<Ros2Publisher<Twist>>>, SendCommand) {
+    let slot: Arc<std::sync::OnceLock<Ros2Publisher<Twist>>> = Arc::default();
+    let s = Arc::clone(&slot);
+    let send: SendCommand = Arc::new(move |v, w| {
+        if let Some(p) = s.get() {
+            let mut t = Twist::default();
+            t.linear.x = v;
+            t.angular.z = w;
+            p.publish(&t, clock.now().0);
+        }
+    });
+    (slot, send)
+}
+
+impl BaseLink {
+    /// Joins the base's ROS 2 graph (`domain`, node from `ros2`): its scans and odometry feed
+    /// `base`, stamped with their arrival on `registry`'s clock (the base's clock need not agree
+    /// with this one); its command publisher fills `slot`.
+    pub async fn connect(
+        registry: &Registry,
+        transport: &orsa_net::ZenohTransport,
+        ros2: &Ros2Params,
+        domain: u32,
+        base: &Ros2Base,
+        slot: &std::sync::OnceLock<Ros2Publisher<Twist>>,
+    ) -> anyhow::Result<Self> {
+        let p = &ros2.base;
+        let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
+        let node = transport.ros2_node(&options).await?;
+        let (b, reg) = (base.clone(), registry.clone());
+        let scan = node
+            .subscribe::<LaserScan>(&p.scan_topic, Qos::SensorData, move |s, _| {
+                b.feed_scan(Scan {
+                    stamp: reg.now(),
+                    angle_min: f64::from(s.angle_min),
+                    angle_increment: f64::from(s.angle_increment),
+                    range_min: f64::from(s.range_min),
+                    range_max: f64::from(s.range_max),
+                    ranges: s.ranges,
+                });
+            })
+            .await?;
+        let (b, reg) = (base.clone(), registry.clone());
+        let odom = node
+            .subscribe::<Odometry>(&p.odom_topic, Qos::Default, move |o, _| {
+                let pose = &o.pose.pose;
+                b.feed_odometry(Odom {
+                    stamp: reg.now(),
+                    x_m: pose.position.x,
+                    y_m: pose.position.y,
+                    yaw_rad: pose.orientation.yaw(),
+                    v_m_s: o.twist.twist.linear.x,
+                    omega_rad_s: o.twist.twist.angular.z,
+                });
+            })
+            .await?;
+        let publisher = node.publisher::<Twist>(&p.cmd_vel_topic, Qos::Default).await?;
+        if slot.set(publisher).is_err() {
+            anyhow::bail!("the ROS 2 base is connected already");
+        }
+        Ok(BaseLink { node, _subscriptions: vec![scan, odom] })
+    }
+
+    /// What its node received and refused so far.
+    pub fn report(&self) -> Ros2Report {
+        Ros2Report { node: self.node.stats(), ..Default::default() }
+    }
+}
+
+/// A ROS time from an orsa timestamp (UNIX nanoseconds on a live clock).
+fn time(t: Timestamp) -> m::Time {
+    m::Time::from_nanos(t.0)
+}
+
+/// A ring as a LaserScan in `base_link`: ray `i` is sensor `i`, at the ring's angle; ranges
+/// are from the robot's centre (the sensor's reading plus its mount radius). A reading that saw
+/// nothing within range is +inf, one of a sensor that has not fired is NaN (REP-117).
+pub fn laser_scan(scan: &DistanceScan, ring: &RingParams) -> LaserScan {
+    let n = scan.readings.len();
+    let first = ring.angles_rad.first().copied().unwrap_or(0.0);
+    let step = if n > 1 { std::f64::consts::TAU / n as f64 } else { 0.0 };
+    let r0 = ring.mount_radius_m;
+    let ranges = scan
+        .readings
+        .iter()
+        .map(|r| match (r.valid, r.distance_m > 0.0) {
+            (true, _) => (r.distance_m + r0) as f32,
+            (false, true) => f32::INFINITY,
+            (false, false) => f32::NAN,
+        })
+        .collect();
+    LaserScan {
+        header: m::Header { stamp: time(scan.stamp), frame_id: "base_link".into() },
+        angle_min: first as f32,
+        angle_max: (first + step * n.saturating_sub(1) as f64) as f32,
+        angle_increment: step as f32,
+        time_increment: ring.fire_period_s as f32,
+        scan_time: (ring.fire_period_s * n as f64) as f32,
+        range_min: (ring.min_range_m + r0) as f32,
+        range_max: (ring.max_range_m + r0) as f32,
+        ranges,
+        intensities: Vec::new(),
+    }
+}
+
+/// The base state as odometry (`odom` -> `base_link`) and as the same transform on `/tf`.
+pub fn odometry(b: &BaseState) -> (Odometry, TfMessage) {
+    let header = m::Header { stamp: time(b.stamp), frame_id: "odom".into() };
+    let position = m::Point { x: b.x_m, y: b.y_m, z: 0.0 };
+    let orientation = m::Quaternion::from_yaw(b.heading_rad);
+    let mut odom =
+        Odometry { header: header.clone(), child_frame_id: "base_link".into(), ..Default::default() };
+    odom.pose.pose = m::Pose { position, orientation };
+    odom.twist.twist.linear.x = b.v_m_s;
+    odom.twist.twist.angular.z = b.omega_rad_s;
+    let tf = TfMessage {
+        transforms: vec![m::TransformStamped {
+            header,
+            child_frame_id: "base_link".into(),
+            transform: m::Transform { translation: position, rotation: orientation },
+        }],
+    };
+    (odom, tf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use orsa_interfaces::nomad200::{DistanceReading, Ring};
+    use std::time::Duration;
+
+    #[test]
+    fn the_gate_lets_a_burst_then_the_rate_through() {
+        let t0 = tokio::time::Instant::now();
+        let mut g = RateGate::new(50.0, 20);
+        let passed = (0..5000).filter(|_| g.admit(t0)).count();
+        assert_eq!(passed, 20, "a burst of 5000 at one instant");
+        // One second later: the bucket is full again, and holds no more than the burst.
+        let t1 = t0 + Duration::from_secs(1);
+        assert_eq!((0..5000).filter(|_| g.admit(t1)).count(), 20, "the bucket refills up to the burst only");
+        // A steady 20 Hz all pass.
+        let mut g = RateGate::new(50.0, 20);
+        assert!((0..200).all(|i| g.admit(t0 + Duration::from_millis(50 * i))));
+    }
+
+    #[test]
+    fn a_ring_is_a_scan_around_the_robot() {
+        let ring = RingParams {
+            angles_rad: (0..16).map(nomad200::ring_angle_rad).collect(),
+            mount_radius_m: 0.25,
+            beam_width_rad: 0.4,
+            min_range_m: 0.15,
+            max_range_m: 6.0,
+            fire_period_s: 0.004,
+        };
+        let readings = (0..16u8)
+            .map(|i| DistanceReading {
+                sensor_id: i,
+                stamp: Timestamp(5),
+                valid: i != 3 && i != 5,
+                distance_m: if i == 5 { 0.0 } else { 1.0 },
+            })
+            .collect();
+        let scan = DistanceScan { stamp: Timestamp(2_000_000_123), ring: Ring::Sonar, readings };
+        let s = laser_scan(&scan, &ring);
+        assert_eq!(s.ranges.len(), 16);
+        assert!((s.angle_increment - std::f32::consts::PI / 8.0).abs() < 1e-6);
+        assert!((s.angle_max - 15.0 * std::f32::consts::PI / 8.0).abs() < 1e-5);
+        assert_eq!(s.ranges[0], 1.25);
+        assert_eq!(s.ranges[3], f32::INFINITY);
+        assert!(s.ranges[5].is_nan());
+        assert_eq!((s.header.stamp.sec, s.header.stamp.nanosec), (2, 123));
+    }
+
+    #[test]
+    fn the_base_state_is_odometry_and_a_transform() {
+        let b = BaseState {
+            stamp: Timestamp(1),
+            x_m: 1.0,
+            y_m: 2.0,
+            heading_rad: 0.5,
+            v_m_s: 0.3,
+            omega_rad_s: -0.1,
+            steer_rad: 0.5,
+            turret_rad: 0.5,
+            turret_omega_rad_s: 0.0,
+            compass_rad: 0.0,
+            compass_valid: false,
+        };
+        let (o, tf) = odometry(&b);
+        assert!((o.pose.pose.orientation.yaw() - 0.5).abs() < 1e-12);
+        assert_eq!((o.twist.twist.linear.x, o.twist.twist.angular.z), (0.3, -0.1));
+        assert_eq!(tf.transforms[0].transform.translation.y, 2.0);
+        assert_eq!(tf.transforms[0].header.frame_id, "odom");
+    }
+}

@@ -1,0 +1,132 @@
+//! ROS 2 from outside: `tests/python/ros2_node.py`, a ROS 2 node as rmw_zenoh makes one,
+//! written from rmw_zenoh's design with eclipse-zenoh and rosbags (its CDR codec, message
+//! definitions and type hashes), none of orsa's code.
+//!
+//! - `orsa robot --ros2` is discovered through its liveliness tokens, its topics decoded at
+//!   their rates, and it is driven through `/cmd_vel` and stops when the commands cease;
+//! - bad input on `/cmd_vel` (undecodable, wrong type, not finite, a burst of 5000) is refused
+//!   and counted, and the robot stays at rest and keeps running;
+//! - `orsa robot --hardware ros2` drives the fixture's simulated ROS 2 robot along its wall.
+
+use super::*;
+use orsa::remote::RobotReport;
+
+const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/ros2_node.py");
+
+/// Runs the fixture in `mode` against the system, within `within`: its JSON line.
+async fn fixture(
+    sys: &System,
+    mode: &str,
+    extra: &[&str],
+    within: Duration,
+    logs: &[&Proc],
+) -> serde_json::Value {
+    let connect = format!("tcp/127.0.0.1:{}", sys.port);
+    let mut args: Vec<String> = vec![SCRIPT.into(), "--connect".into(), connect];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    args.push(mode.into());
+    let run = tokio::task::spawn_blocking(move || Command::new("python3").args(&args).output());
+    let out = tokio::time::timeout(within, run)
+        .await
+        .unwrap_or_else(|_| panic!("ros2_node.py {mode}: not done within {within:?}"))
+        .expect("join")
+        .expect("run python3");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let logs: Vec<String> = logs.iter().map(|p| p.log_text()).collect();
+    assert!(
+        out.status.success(),
+        "ros2_node.py {mode}: {stdout}\n{}\norsa:\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        logs.join("\n---\n")
+    );
+    let line = stdout.lines().last().unwrap_or_default();
+    serde_json::from_str(line).unwrap_or_else(|e| panic!("ros2_node.py {mode} printed {stdout:?}: {e}"))
+}
+
+/// Interrupts `p` (it writes its report) and reads the report at `path`.
+async fn interrupt_and_report(p: Proc, path: &std::path::Path) -> RobotReport {
+    let ok = Command::new("kill").args(["-INT", &p.child.id().to_string()]).status().expect("run kill");
+    assert!(ok.success());
+    let p = tokio::time::timeout(
+        Duration::from_secs(20),
+        tokio::task::spawn_blocking(move || {
+            let mut p = p;
+            let _ = p.child.wait();
+            p
+        }),
+    )
+    .await
+    .expect("the robot ends within 20 s of SIGINT")
+    .expect("join");
+    let text =
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}\n{}", path.display(), p.log_text()));
+    serde_json::from_str(&text).expect("a robot report")
+}
+
+fn report_path(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("orsa-test-{}-{name}.json", std::process::id()))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_and_counted() {
+    let sys = System::new("ros2face");
+    let report = report_path("ros2face");
+    let robot = sys.robot(&["--ros2", "--report", report.to_str().expect("utf-8")]);
+
+    let seen = fixture(&sys, "observe", &[], Duration::from_secs(60), &[&robot]).await;
+    eprintln!("observe: {seen}");
+    assert_eq!(seen["robot_node"], "orsa", "{seen}");
+    assert!(seen["moved_m"].as_f64().expect("moved_m") > 0.1, "{seen}");
+    // Velocity timeout 0.5 s, then the robot decelerates: at rest well within 2 s.
+    assert!(seen["at_rest_after_s"].as_f64().expect("at_rest") < 2.0, "{seen}");
+
+    let bad = fixture(&sys, "bad-input", &[], Duration::from_secs(60), &[&robot]).await;
+    eprintln!("bad input: {bad}");
+    let r = interrupt_and_report(robot, &report).await;
+    let ros2 = r.ros2.expect("a ros2 section in the report");
+    eprintln!("ros2: {ros2:?}\nsafety: {:?}", r.safety);
+    assert_eq!(ros2.node.undecodable, 5, "{ros2:?}");
+    assert_eq!(ros2.node.wrong_type, 3, "{ros2:?}");
+    // The 5000-message burst (some may be dropped on the way under congestion): at most the
+    // burst and what the rate refills while it lasts pass, with the 40 driving commands before.
+    assert!(ros2.cmd_vel_rate_refused >= 1000, "{ros2:?}");
+    assert!(ros2.cmd_vel_forwarded < 200, "{ros2:?}");
+    // The three commands that are not finite reached the robot server, which refused them.
+    assert!(r.safety.failed >= 3, "{:?}", r.safety);
+    assert!(ros2.node.published > 100, "{ros2:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
+    let sys = System::new("ros2base");
+    let config = std::env::temp_dir().join(format!("orsa-test-{}-ros2base.toml", std::process::id()));
+    std::fs::write(&config, "[planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 600 }]\n")
+        .expect("write the config");
+    let report = report_path("ros2base");
+    let robot = sys.robot(&["--hardware", "ros2", "--report", report.to_str().expect("utf-8")]);
+    let exec = sys.run("exec", "executive", &["--config", config.to_str().expect("utf-8")]);
+    // The robot starts 0.5 m from the wall (centre to wall); wall following holds its edge
+    // 0.20 m from it, its centre 0.45 m.
+    let run = fixture(
+        &sys,
+        "robot",
+        &["--seconds", "12", "--wall-y", "0.5"],
+        Duration::from_secs(60),
+        &[&robot, &exec],
+    )
+    .await;
+    eprintln!("ros2 robot: {run}");
+    drop(exec);
+    let r = interrupt_and_report(robot, &report).await;
+    eprintln!("report: {:?}", r.ros2);
+    assert!(run["commands"].as_u64().expect("commands") > 50, "{run}");
+    assert!(run["travelled_m"].as_f64().expect("travelled") > 1.0, "{run}");
+    assert!(run["min_clearance_m"].as_f64().expect("clearance") > 0.0, "it touched the wall: {run}");
+    let (lo, hi) = (
+        run["wall_distance_m"]["min"].as_f64().expect("min"),
+        run["wall_distance_m"]["max"].as_f64().expect("max"),
+    );
+    assert!(lo > 0.3 && hi < 0.7, "held near the wall in the second half: {run}");
+    let ros2 = r.ros2.expect("a ros2 section in the report");
+    assert!(ros2.node.received > 100 && ros2.node.undecodable == 0, "{ros2:?}");
+}

@@ -1,0 +1,360 @@
+#!/usr/bin/env python3
+"""A ROS 2 node as rmw_zenoh (ROS 2 Jazzy) makes one, written from rmw_zenoh's design document
+(docs/design.md, branch jazzy) with eclipse-zenoh and rosbags only, none of orsa's code: the
+message definitions, CDR codec and RIHS01 type hashes are rosbags' (its ROS 2 Jazzy typestore).
+
+    ros2_node.py --connect tcp/127.0.0.1:7447 observe     # see and drive a ROS 2 robot
+    ros2_node.py --connect tcp/127.0.0.1:7447 bad-input   # feed its /cmd_vel what it must refuse
+    ros2_node.py --connect tcp/127.0.0.1:7447 robot       # be a ROS 2 robot in a corridor
+
+Each mode prints one line of JSON (its findings) and exits 0, or exits non-zero saying what did
+not hold.
+
+The layout it follows:
+- data: `<domain>/<topic without the leading '/'>/<pkg>::msg::dds_::<Type>_/RIHS01_<hex>`;
+- liveliness tokens: `@ros2_lv/<domain>/<zid>/<nid>/<eid>/<NN|MP|MS>/<enclave>/<namespace>/<node>`
+  and, for topics, `/<topic>/<DDS type>/<hash>/<qos>`, a name's '/' written '%';
+- a publication's attachment: int64 sequence number, int64 source timestamp (ns), then the
+  16-byte gid after its length, little-endian;
+- payloads: CDR with its 4-byte encapsulation header.
+"""
+
+import argparse
+import json
+import math
+import os
+import struct
+import sys
+import threading
+import time
+
+import zenoh
+from rosbags.typesys import Stores, get_typestore
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+QOS_DEFAULT = "::,10:,:,:,,"
+QOS_SENSOR = "2::,5:,:,:,,"
+
+
+def fail(why):
+    sys.exit(f"ros2_node: {why}")
+
+
+def dds_name(ros_type):
+    pkg, kind, name = ros_type.split("/")
+    return f"{pkg}::{kind}::dds_::{name}_"
+
+
+def data_key(domain, topic, ros_type):
+    return f"{domain}/{topic.lstrip('/')}/{dds_name(ros_type)}/{TS.hash_rihs01(ros_type)}"
+
+
+def mangle(name):
+    return name.replace("/", "%") if name else "%"
+
+
+class Node:
+    """A node: a zenoh session, its token, publishers with rmw_zenoh's attachment."""
+
+    def __init__(self, connect, domain, name):
+        conf = zenoh.Config()
+        conf.insert_json5("mode", '"peer"')
+        conf.insert_json5("connect/endpoints", json.dumps([connect]))
+        conf.insert_json5("scouting/multicast/enabled", "false")
+        self.session = zenoh.open(conf)
+        self.zid = str(self.session.info.zid())
+        self.domain = domain
+        self.name = name
+        self.entities = 0
+        self.tokens = [self.token("NN")]
+
+    def token(self, kind, topic=None, ros_type=None, qos=QOS_DEFAULT):
+        key = f"@ros2_lv/{self.domain}/{self.zid}/0/{self.entities}/{kind}/%/%/{self.name}"
+        if topic is not None:
+            key += f"/{mangle(topic)}/{dds_name(ros_type)}/{TS.hash_rihs01(ros_type)}/{qos}"
+        self.entities += 1
+        return self.session.liveliness().declare_token(key)
+
+    def publisher(self, topic, ros_type, qos=QOS_DEFAULT):
+        self.tokens.append(self.token("MP", topic, ros_type, qos))
+        pub = self.session.declare_publisher(data_key(self.domain, topic, ros_type))
+        gid = os.urandom(16)
+        seq = [0]
+
+        def publish(msg=None, raw=None):
+            seq[0] += 1
+            attachment = struct.pack("<qqB", seq[0], time.time_ns(), 16) + gid
+            payload = raw if raw is not None else bytes(TS.serialize_cdr(msg, ros_type))
+            pub.put(payload, attachment=attachment)
+
+        return publish
+
+    def subscribe(self, topic, ros_type, on, qos=QOS_DEFAULT):
+        self.tokens.append(self.token("MS", topic, ros_type, qos))
+
+        def cb(sample):
+            a = sample.attachment.to_bytes() if sample.attachment is not None else None
+            on(TS.deserialize_cdr(sample.payload.to_bytes(), ros_type), a)
+
+        return self.session.declare_subscriber(data_key(self.domain, topic, ros_type), cb)
+
+    def close(self):
+        for t in self.tokens:
+            t.undeclare()
+        self.session.close()
+
+
+def twist(v, w):
+    V3 = TS.types["geometry_msgs/msg/Vector3"]
+    return TS.types["geometry_msgs/msg/Twist"](linear=V3(x=v, y=0.0, z=0.0), angular=V3(x=0.0, y=0.0, z=w))
+
+
+def discover(node, want, within=30):
+    """The publishers of `want` (topic -> type) that some node announces; fails after `within`."""
+    found = {}
+    lock = threading.Lock()
+
+    def on_token(sample):
+        parts = str(sample.key_expr).split("/")
+        if len(parts) != 13 or parts[5] != "MP":
+            return
+        topic = "/" + parts[9].replace("%", "/").lstrip("/")
+        with lock:
+            found[topic] = {"zid": parts[2], "node": parts[8], "type": parts[10], "hash": parts[11], "qos": parts[12]}
+
+    sub = node.session.liveliness().declare_subscriber(f"@ros2_lv/{node.domain}/**", on_token, history=True)
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        with lock:
+            if all(t in found for t in want):
+                break
+        time.sleep(0.05)
+    sub.undeclare()
+    missing = [t for t in want if t not in found]
+    if missing:
+        fail(f"no publisher token for {missing} within {within} s (found {sorted(found)})")
+    for topic, ros_type in want.items():
+        f = found[topic]
+        if f["type"] != dds_name(ros_type) or f["hash"] != TS.hash_rihs01(ros_type):
+            fail(f"{topic} is announced as {f['type']} {f['hash']}, not {ros_type} {TS.hash_rihs01(ros_type)}")
+    return found
+
+
+def observe(node, args):
+    want = {
+        "/scan": "sensor_msgs/msg/LaserScan",
+        "/ir_scan": "sensor_msgs/msg/LaserScan",
+        "/odom": "nav_msgs/msg/Odometry",
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/bumper": "std_msgs/msg/Bool",
+    }
+    found = discover(node, want)
+    seen = {t: [] for t in want}
+    lock = threading.Lock()
+
+    def keep(topic):
+        def on(msg, attachment):
+            with lock:
+                seen[topic].append((time.monotonic(), msg, attachment))
+        return on
+
+    subs = [node.subscribe(t, ty, keep(t)) for t, ty in want.items()]
+    window = 3.0
+    time.sleep(window)  # count what arrives in a window of known length
+    with lock:
+        counts = {t: len(v) for t, v in seen.items()}
+        scans = [m for _, m, _ in seen["/scan"]]
+        odoms = [m for _, m, _ in seen["/odom"]]
+        tfs = [m for _, m, _ in seen["/tf"]]
+        seqs = [struct.unpack("<q", a[:8])[0] for _, _, a in seen["/odom"] if a is not None and len(a) == 33]
+    rates = {t: c / window for t, c in counts.items()}
+    for topic, lo in [("/scan", 10.0), ("/ir_scan", 15.0), ("/odom", 7.0), ("/tf", 7.0), ("/bumper", 20.0)]:
+        if rates[topic] < lo:
+            fail(f"{topic} at {rates[topic]:.1f} Hz, expected at least {lo}")
+    s = scans[-1]
+    if len(s.ranges) != 16 or abs(s.angle_increment - math.pi / 8) > 1e-4 or s.header.frame_id != "base_link":
+        fail(f"a /scan is not the 16-sensor ring: {len(s.ranges)} rays, step {s.angle_increment}, frame {s.header.frame_id}")
+    if not any(math.isfinite(r) for r in s.ranges):
+        fail("a /scan sees nothing at all in a corridor")
+    o = odoms[-1]
+    if o.header.frame_id != "odom" or o.child_frame_id != "base_link":
+        fail(f"odometry frames {o.header.frame_id} -> {o.child_frame_id}")
+    t = tfs[-1].transforms[0]
+    if (t.header.frame_id, t.child_frame_id) != ("odom", "base_link"):
+        fail(f"tf frames {t.header.frame_id} -> {t.child_frame_id}")
+    if len(seqs) < 5 or any(b != a + 1 for a, b in zip(seqs, seqs[1:])):
+        fail(f"odometry attachments' sequence numbers are not consecutive: {seqs[:20]}")
+
+    # Drive it through /cmd_vel: forward at 0.2 m/s for 2 s, then nothing.
+    cmd = node.publisher("/cmd_vel", "geometry_msgs/msg/Twist")
+    x0 = o.pose.pose.position.x
+    y0 = o.pose.pose.position.y
+    end = time.monotonic() + 2.0
+    while time.monotonic() < end:
+        cmd(twist(0.2, 0.0))
+        time.sleep(0.05)
+    stopped_publishing = time.monotonic()
+    with lock:
+        moving = [m.twist.twist.linear.x for _, m, _ in seen["/odom"][-10:]]
+        last = seen["/odom"][-1][1]
+    moved = math.hypot(last.pose.pose.position.x - x0, last.pose.pose.position.y - y0)
+    if max(moving) < 0.1 or moved < 0.1:
+        fail(f"/cmd_vel did not drive the robot: speeds {moving}, moved {moved:.3f} m")
+    # The commands ceased: the velocity timeout stops the robot.
+    at_rest = None
+    deadline = stopped_publishing + 5.0
+    while time.monotonic() < deadline and at_rest is None:
+        with lock:
+            for t_arr, m, _ in seen["/odom"]:
+                if t_arr > stopped_publishing and m.twist.twist.linear.x == 0.0 and m.twist.twist.angular.z == 0.0:
+                    at_rest = t_arr - stopped_publishing
+                    break
+        time.sleep(0.02)
+    if at_rest is None:
+        fail("the robot did not come to rest within 5 s of the last /cmd_vel")
+    for sub in subs:
+        sub.undeclare()
+    return {
+        "found": sorted(found),
+        "robot_node": found["/odom"]["node"],
+        "rates_hz": {t: round(r, 1) for t, r in rates.items()},
+        "moved_m": round(moved, 3),
+        "at_rest_after_s": round(at_rest, 3),
+    }
+
+
+def bad_input(node, args):
+    discover(node, {"/odom": "nav_msgs/msg/Odometry"})
+    odoms = []
+    sub = node.subscribe("/odom", "nav_msgs/msg/Odometry", lambda m, a: odoms.append(m))
+    cmd = node.publisher("/cmd_vel", "geometry_msgs/msg/Twist")
+    stamped = node.publisher("/cmd_vel", "geometry_msgs/msg/TwistStamped")
+    deadline = time.monotonic() + 10
+    while not odoms and time.monotonic() < deadline:
+        time.sleep(0.01)
+    if not odoms:
+        fail("no odometry within 10 s")
+    sent = {"undecodable": 0, "wrong_type": 0, "not_finite": 0, "burst": 0}
+    for raw in [b"", b"\x00", b"\x00\x01\x00\x00\x01", b"\x07\x07\x00\x00" + b"\x00" * 48, os.urandom(20)]:
+        cmd(raw=raw)
+        sent["undecodable"] += 1
+    H = TS.types["std_msgs/msg/Header"]
+    T = TS.types["builtin_interfaces/msg/Time"]
+    for _ in range(3):
+        stamped(TS.types["geometry_msgs/msg/TwistStamped"](header=H(stamp=T(sec=0, nanosec=0), frame_id=""), twist=twist(0.3, 0.0)))
+        sent["wrong_type"] += 1
+    time.sleep(0.5)  # the rate gate fills up again
+    for v, w in [(float("nan"), 0.0), (0.0, float("inf")), (float("-inf"), float("nan"))]:
+        cmd(twist(v, w))
+        sent["not_finite"] += 1
+        time.sleep(0.05)
+    for _ in range(5000):
+        cmd(twist(0.0, 0.0))
+        sent["burst"] += 1
+    # Still alive, at rest: odometry keeps coming.
+    n = len(odoms)
+    time.sleep(1.0)
+    if len(odoms) < n + 5:
+        fail(f"odometry stopped after the bad input: {len(odoms) - n} in 1 s")
+    if any(not math.isfinite(m.twist.twist.linear.x) for m in odoms) or odoms[-1].twist.twist.linear.x != 0.0:
+        fail(f"the robot moves after the bad input: {odoms[-1].twist.twist.linear.x}")
+    sub.undeclare()
+    return {"sent": sent}
+
+
+def robot(node, args):
+    """A unicycle in a straight corridor along +x, a wall at y = wall_y on its left, none on its
+    right within the laser's range; /scan (360 rays) and /odom at 20 Hz, /cmd_vel in, and its own
+    command timeout of 0.5 s."""
+    wall_y, radius, range_max = args.wall_y, args.radius, 3.5
+    scan_pub = node.publisher("/scan", "sensor_msgs/msg/LaserScan", QOS_SENSOR)
+    odom_pub = node.publisher("/odom", "nav_msgs/msg/Odometry")
+    state = {"x": 0.0, "y": 0.0, "yaw": 0.0, "v": 0.0, "w": 0.0, "cmd_at": None, "cmds": 0}
+    lock = threading.Lock()
+
+    def on_cmd(msg, attachment):
+        with lock:
+            state["v"] = max(-0.5, min(0.5, msg.linear.x)) if math.isfinite(msg.linear.x) else 0.0
+            state["w"] = max(-1.0, min(1.0, msg.angular.z)) if math.isfinite(msg.angular.z) else 0.0
+            state["cmd_at"] = time.monotonic()
+            state["cmds"] += 1
+
+    sub = node.subscribe("/cmd_vel", "geometry_msgs/msg/Twist", on_cmd)
+    H = TS.types["std_msgs/msg/Header"]
+    T = TS.types["builtin_interfaces/msg/Time"]
+    P = TS.types["geometry_msgs/msg/Point"]
+    Q = TS.types["geometry_msgs/msg/Quaternion"]
+    V3 = TS.types["geometry_msgs/msg/Vector3"]
+    import numpy as np
+
+    def stamp():
+        ns = time.time_ns()
+        return T(sec=ns // 10**9, nanosec=ns % 10**9)
+
+    dt = 0.05
+    start = time.monotonic()
+    trace = []
+    min_clear = float("inf")
+    next_t = start
+    while time.monotonic() - start < args.seconds:
+        next_t += dt
+        with lock:
+            if state["cmd_at"] is None or time.monotonic() - state["cmd_at"] > 0.5:
+                state["v"] = state["w"] = 0.0
+            state["yaw"] += state["w"] * dt
+            state["x"] += state["v"] * math.cos(state["yaw"]) * dt
+            state["y"] += state["v"] * math.sin(state["yaw"]) * dt
+            x, y, yaw, v, w = state["x"], state["y"], state["yaw"], state["v"], state["w"]
+        clear = wall_y - y - radius
+        min_clear = min(min_clear, clear)
+        trace.append((time.monotonic() - start, x, wall_y - y))
+        angles = np.arange(360) * (2 * math.pi / 360) - math.pi
+        s = np.sin(angles + yaw)
+        with np.errstate(divide="ignore"):
+            ranges = np.where(s > 1e-6, (wall_y - y) / np.where(s > 1e-6, s, 1.0), np.inf)
+        ranges = np.where(ranges <= range_max, ranges, np.inf).astype(np.float32)
+        LaserScan = TS.types["sensor_msgs/msg/LaserScan"]
+        scan_pub(LaserScan(header=H(stamp=stamp(), frame_id="base_scan"), angle_min=-math.pi,
+                           angle_max=math.pi - 2 * math.pi / 360, angle_increment=2 * math.pi / 360,
+                           time_increment=0.0, scan_time=dt, range_min=0.12, range_max=range_max,
+                           ranges=ranges, intensities=np.zeros(0, dtype=np.float32)))
+        Odometry = TS.types["nav_msgs/msg/Odometry"]
+        PWC = TS.types["geometry_msgs/msg/PoseWithCovariance"]
+        TWC = TS.types["geometry_msgs/msg/TwistWithCovariance"]
+        odom_pub(Odometry(header=H(stamp=stamp(), frame_id="odom"), child_frame_id="base_footprint",
+                          pose=PWC(pose=TS.types["geometry_msgs/msg/Pose"](position=P(x=x, y=y, z=0.0),
+                                   orientation=Q(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))),
+                                   covariance=np.zeros(36)),
+                          twist=TWC(twist=TS.types["geometry_msgs/msg/Twist"](linear=V3(x=v, y=0.0, z=0.0),
+                                    angular=V3(x=0.0, y=0.0, z=w)), covariance=np.zeros(36))))
+        time.sleep(max(0.0, next_t - time.monotonic()))
+    sub.undeclare()
+    second_half = [d for t, _, d in trace if t > args.seconds / 2]
+    return {
+        "commands": state["cmds"],
+        "travelled_m": round(state["x"], 3),
+        "wall_distance_m": {"min": round(min(second_half), 3), "max": round(max(second_half), 3)},
+        "min_clearance_m": round(min_clear, 3),
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--connect", required=True)
+    parser.add_argument("--domain", type=int, default=0)
+    parser.add_argument("--seconds", type=float, default=15.0)
+    parser.add_argument("--wall-y", type=float, default=0.5)
+    parser.add_argument("--radius", type=float, default=0.25)
+    parser.add_argument("mode", choices=["observe", "bad-input", "robot"])
+    args = parser.parse_args()
+    node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",
+                                             "robot": "fixture_robot"}[args.mode])
+    try:
+        result = {"observe": observe, "bad-input": bad_input, "robot": robot}[args.mode](node, args)
+    finally:
+        node.close()
+    print(json.dumps(result), flush=True)
+
+
+if __name__ == "__main__":
+    main()
