@@ -1,0 +1,199 @@
+//! The control loop's side of the live view: a tap that never waits.
+//!
+//! [`LiveTap::record`] keeps only what the views are made from (the robot server's scans and
+//! odometry, the master's `driving`, wiring, state, supervisor and link events; see
+//! `ViewSetup::input_of`), and skips the scans and the odometry while no client subscribes to
+//! anything. What it keeps goes to the views' thread through a queue of [`QUEUED`] items; when
+//! that is full the item is dropped and counted (the first drop is logged), so a slow viewer
+//! never slows the run. The views' thread makes the views with the recording's code
+//! (`Views`) and writes them to the server's channels ([`LiveSink`]).
+
+use super::Shared;
+use super::sink::LiveSink;
+use crate::record::views::{Input, TruthSample, ViewSetup, Views};
+use orsa_actors::Timestamp;
+use orsa_actors::supervision::SupervisorEvent;
+use orsa_actors::tap::Tap;
+use parking_lot::Mutex;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
+
+/// Items waiting for the views' thread at most (a few seconds of a run's views in real time).
+pub const QUEUED: usize = 256;
+
+/// What the views' thread is handed.
+enum Item {
+    /// A message on a topic the views are made from.
+    Message { input: Input, topic: String, at: Timestamp, json: Vec<u8> },
+    /// A ground-truth sample.
+    Truth(TruthSample),
+}
+
+/// Hands what the views are made from to their thread.
+pub struct LiveTap {
+    setup: ViewSetup,
+    shared: Arc<Shared>,
+    /// `None` once finished.
+    queue: Mutex<Option<mpsc::SyncSender<Item>>>,
+    thread: Mutex<Option<std::thread::JoinHandle<u64>>>,
+    handed: std::sync::atomic::AtomicU64,
+}
+
+impl std::fmt::Debug for LiveTap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveTap").field("robot", &self.setup.robot).finish()
+    }
+}
+
+impl LiveTap {
+    /// Starts the views' thread, writing to channels of `context`.
+    pub(crate) fn start(
+        setup: ViewSetup,
+        context: Arc<foxglove::Context>,
+        shared: Arc<Shared>,
+    ) -> std::io::Result<LiveTap> {
+        let (tx, rx) = mpsc::sync_channel(QUEUED);
+        let views = Views::new(setup.clone());
+        let mut sink = LiveSink::new(context);
+        if let Err(e) = views.declare(&mut sink) {
+            tracing::warn!("{e}");
+        }
+        let thread_shared = Arc::clone(&shared);
+        let thread = std::thread::Builder::new()
+            .name("orsa-live-views".into())
+            .spawn(move || serve(views, sink, &thread_shared, rx))?;
+        Ok(LiveTap {
+            setup,
+            shared,
+            queue: Mutex::new(Some(tx)),
+            thread: Mutex::new(Some(thread)),
+            handed: Default::default(),
+        })
+    }
+
+    fn hand(&self, item: Item) {
+        let queue = self.queue.lock();
+        let Some(queue) = queue.as_ref() else { return };
+        match queue.try_send(item) {
+            Ok(()) => {
+                self.handed.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(mpsc::TrySendError::Full(_)) => {
+                self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+                if !self.shared.warned.swap(true, Ordering::Relaxed) {
+                    tracing::warn!(
+                        "live view: the views' queue is full ({QUEUED} items): dropping what the viewer is too slow for (counted)"
+                    );
+                }
+            }
+            // The views' thread ended (it logged why).
+            Err(mpsc::TrySendError::Disconnected(_)) => {}
+        }
+    }
+
+    /// Hands the views a ground-truth sample.
+    pub fn truth(&self, sample: TruthSample) {
+        self.hand(Item::Truth(sample));
+    }
+
+    /// Hands the views a supervisor's event (on `/events`).
+    pub fn supervisor_event(&self, e: &SupervisorEvent) {
+        self.note("supervision/events", e.at, e);
+    }
+
+    /// Hands the views a control event that is not a pattern message, on `topic`, if the
+    /// views make something of it.
+    pub fn note<T: serde::Serialize + ?Sized>(&self, topic: &str, at: Timestamp, value: &T) {
+        let Some(input) = self.setup.input_of(topic) else { return };
+        match serde_json::to_vec(value) {
+            Ok(json) => self.hand(Item::Message { input, topic: topic.to_owned(), at, json }),
+            Err(e) => tracing::warn!("live view: an event on {topic} does not serialise: {e}"),
+        }
+    }
+
+    /// Stops the views' thread once it has made the views of what it was handed.
+    pub(crate) fn finish(&self) -> super::LiveSummary {
+        self.queue.lock().take();
+        if let Some(thread) = self.thread.lock().take()
+            && thread.join().is_err()
+        {
+            tracing::error!("live view: the views' thread panicked");
+        }
+        super::LiveSummary {
+            handed: self.handed.load(Ordering::Relaxed),
+            dropped: self.shared.dropped.load(Ordering::Relaxed),
+        }
+    }
+}
+
+impl Tap for LiveTap {
+    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, json: &[u8]) {
+        let Some(input) = self.setup.input_of(topic) else { return };
+        // Scans and odometry are made into nothing but messages: none is needed while nobody
+        // looks. (Driving and events change what the robot is drawn as: always kept.)
+        if matches!(input, Input::Infrared | Input::Sonar | Input::Base)
+            && self.shared.subscriptions.load(Ordering::Acquire) == 0
+        {
+            return;
+        }
+        self.hand(Item::Message { input, topic: topic.to_owned(), at: stamp, json: json.to_vec() });
+    }
+
+    /// Messages from another process are not made into views (as in a recording).
+    fn record_remote(&self, _topic: &str, _type_id: &str, _stamp: Timestamp, _json: &[u8]) {}
+}
+
+/// The views' thread: every item, in order, until the queue closes; how many messages it sent.
+fn serve(mut views: Views, mut sink: LiveSink, shared: &Shared, queue: mpsc::Receiver<Item>) -> u64 {
+    let mut warned = false;
+    let mut last = Timestamp::ZERO;
+    for item in queue.iter() {
+        let at = match &item {
+            Item::Message { at, .. } => *at,
+            Item::Truth(s) => s.at,
+        };
+        last = last.max(at);
+        let mut done = Ok(());
+        if shared.rewrite.swap(false, Ordering::AcqRel) {
+            done = views.rewrite_latched(&mut sink, last);
+        }
+        if done.is_ok() {
+            done = match &item {
+                Item::Message { input, topic, at, json } => {
+                    views.message(&mut sink, *input, topic, *at, json)
+                }
+                Item::Truth(sample) => views.truth(&mut sink, sample),
+            };
+        }
+        if let Err(e) = done
+            && !std::mem::replace(&mut warned, true)
+        {
+            tracing::warn!("{e} (further errors of the live view are not logged)");
+        }
+    }
+    sink.sent
+}
+
+/// A tap that hands every message to two taps (a recording's and a live view's).
+pub struct Both(pub Arc<dyn Tap>, pub Arc<dyn Tap>);
+
+impl Tap for Both {
+    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.0.record(topic, type_id, stamp, json);
+        self.1.record(topic, type_id, stamp, json);
+    }
+
+    fn record_remote(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        self.0.record_remote(topic, type_id, stamp, json);
+        self.1.record_remote(topic, type_id, stamp, json);
+    }
+}
+
+/// The tap to install for a recording and a live view, either, both or neither.
+pub fn both(a: Option<Arc<dyn Tap>>, b: Option<Arc<dyn Tap>>) -> Option<Arc<dyn Tap>> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(Arc::new(Both(a, b))),
+        (a, b) => a.or(b),
+    }
+}
