@@ -144,26 +144,37 @@ impl Tap for LiveTap {
     fn record_remote(&self, _topic: &str, _type_id: &str, _stamp: Timestamp, _json: &[u8]) {}
 }
 
+/// How long the views' thread waits for an item before it looks whether a client subscribed
+/// (and wants what is written once) anyway.
+const IDLE: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// The views' thread: every item, in order, until the queue closes; how many messages it sent.
 fn serve(mut views: Views, mut sink: LiveSink, shared: &Shared, queue: mpsc::Receiver<Item>) -> u64 {
     let mut warned = false;
     let mut last = Timestamp::ZERO;
-    for item in queue.iter() {
-        let at = match &item {
+    loop {
+        let item = match queue.recv_timeout(IDLE) {
+            Ok(item) => Some(item),
+            Err(mpsc::RecvTimeoutError::Timeout) => None,
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        };
+        if let Some(at) = item.as_ref().map(|i| match i {
             Item::Message { at, .. } => *at,
             Item::Truth(s) => s.at,
-        };
-        last = last.max(at);
+        }) {
+            last = last.max(at);
+        }
         let mut done = Ok(());
         if shared.rewrite.swap(false, Ordering::AcqRel) {
             done = views.rewrite_latched(&mut sink, last);
         }
         if done.is_ok() {
             done = match &item {
-                Item::Message { input, topic, at, json } => {
+                Some(Item::Message { input, topic, at, json }) => {
                     views.message(&mut sink, *input, topic, *at, json)
                 }
-                Item::Truth(sample) => views.truth(&mut sink, sample),
+                Some(Item::Truth(sample)) => views.truth(&mut sink, sample),
+                None => Ok(()),
             };
         }
         if let Err(e) = done
@@ -195,5 +206,93 @@ pub fn both(a: Option<Arc<dyn Tap>>, b: Option<Arc<dyn Tap>>) -> Option<Arc<dyn 
     match (a, b) {
         (Some(a), Some(b)) => Some(Arc::new(Both(a, b))),
         (a, b) => a.or(b),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::views::{DRIVING_TOPIC, ROBOT_TOPIC, TRAJECTORY_TOPIC, ViewSink, WORLD_TOPIC};
+
+    /// Remembers the topics declared and written.
+    #[derive(Default)]
+    struct Topics {
+        declared: Vec<String>,
+        written: Vec<String>,
+    }
+
+    impl ViewSink for Topics {
+        type Error = std::convert::Infallible;
+
+        fn view<T: foxglove::Encode>(
+            &mut self,
+            topic: &str,
+            _at: Timestamp,
+            _msg: &T,
+        ) -> Result<(), Self::Error> {
+            self.written.push(topic.to_owned());
+            Ok(())
+        }
+
+        fn declare<T: foxglove::Encode>(&mut self, topic: &str) -> Result<(), Self::Error> {
+            self.declared.push(topic.to_owned());
+            Ok(())
+        }
+    }
+
+    fn setup(world: bool, truth: bool) -> ViewSetup {
+        let config = crate::config::Config::default();
+        let world = world.then(|| orsa_hardware::world::World::palazzina().expect("the built-in world"));
+        crate::mission::recording::view_setup(&config, world, truth)
+    }
+
+    #[test]
+    fn each_process_declares_the_channels_it_can_fill() {
+        let mut run = Topics::default();
+        Views::new(setup(true, true)).declare(&mut run).expect("declared");
+        assert_eq!(run.declared.len(), 10, "{:?}", run.declared);
+        let mut executive = Topics::default();
+        Views::new(setup(false, false)).declare(&mut executive).expect("declared");
+        assert_eq!(executive.declared, ["/robot", "/driving", "/events"]);
+    }
+
+    #[test]
+    fn a_late_subscriber_gets_the_world_the_robot_who_drives_and_the_path_again() {
+        let mut views = Views::new(setup(true, true));
+        let mut sink = Topics::default();
+        let at = Timestamp::from_secs_f64(1.0);
+        let change = orsa_actors::Stamped {
+            seq: 1,
+            sent_at: at,
+            value: orsa_interfaces::executive::WiringChange {
+                stamp: at,
+                driving: Some("wallfollow".into()),
+                mode: None,
+            },
+        };
+        let json = serde_json::to_vec(&change).expect("json");
+        views.message(&mut sink, Input::Driving, "master/driving", at, &json).expect("written");
+        let sample = TruthSample { at, x_m: 1.0, y_m: 2.0, heading_rad: 0.0, people: Vec::new() };
+        views.truth(&mut sink, &sample).expect("written");
+        sink.written.clear();
+        views.rewrite_latched(&mut sink, at).expect("written again");
+        assert_eq!(sink.written, [WORLD_TOPIC, ROBOT_TOPIC, DRIVING_TOPIC, TRAJECTORY_TOPIC]);
+    }
+
+    #[test]
+    fn the_tap_keeps_only_what_the_views_are_made_from_and_scans_only_while_watched() {
+        let shared = Arc::new(Shared::default());
+        let tap = LiveTap::start(setup(true, false), foxglove::Context::new(), Arc::clone(&shared))
+            .expect("started");
+        let at = Timestamp::ZERO;
+        tap.record("nomad200/distanceir", "t", at, b"{}");
+        tap.record("nomad200/bumpers", "t", at, b"{}");
+        tap.record_remote("master/driving", "t", at, b"{}");
+        assert_eq!(tap.handed.load(Ordering::Relaxed), 0);
+        shared.subscriptions.store(1, Ordering::Release);
+        tap.record("nomad200/distanceir", "t", at, b"{}");
+        tap.record("wallfollow/state", "t", at, b"{}");
+        let summary = tap.finish();
+        assert_eq!((summary.handed, summary.dropped), (2, 0));
     }
 }

@@ -179,6 +179,8 @@ pub(crate) struct Views {
     began: bool,
     driving: Option<String>,
     mode: Option<String>,
+    /// The last `driving` view written, for a live viewer that subscribes after it.
+    last_driving: Option<(Timestamp, Log)>,
     trajectory: Vec<Pose>,
     last_pose_ns: Option<u64>,
     /// Inputs that did not decode, warned about once each.
@@ -195,6 +197,7 @@ impl Views {
             began: false,
             driving: None,
             mode: None,
+            last_driving: None,
             trajectory: Vec::new(),
             last_pose_ns: None,
             warned: [false; 5],
@@ -242,8 +245,9 @@ impl Views {
         self.write_robot(rec, at)
     }
 
-    /// Writes again what is written once or seldom (the world, the robot, the path so far),
-    /// at `at`: for a live viewer that subscribed after they were written.
+    /// Writes again what is written once or seldom (the world, the robot, which behaviour
+    /// drives, the path so far), at `at`: for a live viewer that subscribed after they were
+    /// written.
     pub(crate) fn rewrite_latched<S: ViewSink>(
         &mut self,
         sink: &mut S,
@@ -257,6 +261,9 @@ impl Views {
             sink.view(WORLD_TOPIC, at, &scene)?;
         }
         self.write_robot(sink, at)?;
+        if let Some((when, log)) = &self.last_driving {
+            sink.view(DRIVING_TOPIC, *when, log)?;
+        }
         if self.trajectory.is_empty() {
             return Ok(());
         }
@@ -354,6 +361,7 @@ impl Views {
                     line: 0,
                 };
                 rec.view(DRIVING_TOPIC, at, &log)?;
+                self.last_driving = Some((at, log));
                 self.write_robot(rec, at)
             }
         }
