@@ -3,14 +3,15 @@
 //! [`LiveTap::record`] keeps only what the views are made from (the robot server's scans and
 //! odometry, the master's `driving`, wiring, state, supervisor and link events; see
 //! `ViewSetup::input_of`), and skips the scans and the odometry while no client subscribes to
-//! anything. What it keeps goes to the views' thread through a queue of [`QUEUED`] items; when
-//! that is full the item is dropped and counted (the first drop is logged), so a slow viewer
+//! anything (nor are they serialised: [`Tap::wants`] says no), and hands over one truth
+//! sample every 2 s only while nobody watches. What it keeps goes to the views' thread through
+//! a queue of [`QUEUED`] items; when that is full the item is dropped and counted (the first drop is logged), so a slow viewer
 //! never slows the run. The views' thread makes the views with the recording's code
 //! (`Views`) and writes them to the server's channels ([`LiveSink`]).
 
 use super::Shared;
 use super::sink::LiveSink;
-use crate::record::views::{Input, TruthSample, ViewSetup, Views};
+use crate::record::views::{Input, TRAJECTORY_PERIOD_NS, TruthSample, ViewSetup, Views};
 use orsa_actors::Timestamp;
 use orsa_actors::supervision::SupervisorEvent;
 use orsa_actors::tap::Tap;
@@ -38,6 +39,8 @@ pub struct LiveTap {
     queue: Mutex<Option<mpsc::SyncSender<Item>>>,
     thread: Mutex<Option<std::thread::JoinHandle<u64>>>,
     handed: std::sync::atomic::AtomicU64,
+    /// When the last truth sample was handed, ns (`u64::MAX`: none yet).
+    last_truth_ns: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for LiveTap {
@@ -69,6 +72,7 @@ impl LiveTap {
             queue: Mutex::new(Some(tx)),
             thread: Mutex::new(Some(thread)),
             handed: Default::default(),
+            last_truth_ns: std::sync::atomic::AtomicU64::new(u64::MAX),
         })
     }
 
@@ -92,8 +96,17 @@ impl LiveTap {
         }
     }
 
-    /// Hands the views a ground-truth sample.
+    /// Hands the views a ground-truth sample; while nobody watches, one every
+    /// [`TRAJECTORY_PERIOD_NS`] only (what the path keeps).
     pub fn truth(&self, sample: TruthSample) {
+        let ns = sample.at.as_nanos();
+        if self.shared.subscriptions.load(Ordering::Acquire) == 0 {
+            let last = self.last_truth_ns.load(Ordering::Relaxed);
+            if last != u64::MAX && ns < last.saturating_add(TRAJECTORY_PERIOD_NS) {
+                return;
+            }
+        }
+        self.last_truth_ns.store(ns, Ordering::Relaxed);
         self.hand(Item::Truth(sample));
     }
 
@@ -127,17 +140,25 @@ impl LiveTap {
     }
 }
 
+impl LiveTap {
+    /// What a message on `topic` is to the views, if they want it now: scans and odometry are
+    /// made into nothing but messages, none needed while nobody looks (driving and events
+    /// change what the robot is drawn as: always wanted).
+    fn wanted(&self, topic: &str) -> Option<Input> {
+        let input = self.setup.input_of(topic)?;
+        let watched = self.shared.subscriptions.load(Ordering::Acquire) > 0;
+        (watched || !matches!(input, Input::Infrared | Input::Sonar | Input::Base)).then_some(input)
+    }
+}
+
 impl Tap for LiveTap {
     fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, json: &[u8]) {
-        let Some(input) = self.setup.input_of(topic) else { return };
-        // Scans and odometry are made into nothing but messages: none is needed while nobody
-        // looks. (Driving and events change what the robot is drawn as: always kept.)
-        if matches!(input, Input::Infrared | Input::Sonar | Input::Base)
-            && self.shared.subscriptions.load(Ordering::Acquire) == 0
-        {
-            return;
-        }
+        let Some(input) = self.wanted(topic) else { return };
         self.hand(Item::Message { input, topic: topic.to_owned(), at: stamp, json: json.to_vec() });
+    }
+
+    fn wants(&self, topic: &str) -> bool {
+        self.wanted(topic).is_some()
     }
 
     /// Messages from another process are not made into views (as in a recording).
@@ -191,13 +212,23 @@ pub struct Both(pub Arc<dyn Tap>, pub Arc<dyn Tap>);
 
 impl Tap for Both {
     fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
-        self.0.record(topic, type_id, stamp, json);
-        self.1.record(topic, type_id, stamp, json);
+        for tap in [&self.0, &self.1] {
+            if tap.wants(topic) {
+                tap.record(topic, type_id, stamp, json);
+            }
+        }
     }
 
     fn record_remote(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
-        self.0.record_remote(topic, type_id, stamp, json);
-        self.1.record_remote(topic, type_id, stamp, json);
+        for tap in [&self.0, &self.1] {
+            if tap.wants(topic) {
+                tap.record_remote(topic, type_id, stamp, json);
+            }
+        }
+    }
+
+    fn wants(&self, topic: &str) -> bool {
+        self.0.wants(topic) || self.1.wants(topic)
     }
 }
 
@@ -285,14 +316,23 @@ mod tests {
         let tap = LiveTap::start(setup(true, false), foxglove::Context::new(), Arc::clone(&shared))
             .expect("started");
         let at = Timestamp::ZERO;
+        assert!(!tap.wants("nomad200/distanceir") && !tap.wants("nomad200/bumpers"));
+        assert!(tap.wants("master/driving") && tap.wants("wallfollow/state"));
         tap.record("nomad200/distanceir", "t", at, b"{}");
         tap.record("nomad200/bumpers", "t", at, b"{}");
         tap.record_remote("master/driving", "t", at, b"{}");
         assert_eq!(tap.handed.load(Ordering::Relaxed), 0);
+        // Unwatched, one truth sample in 2 s.
+        for i in 0..30 {
+            let at = Timestamp::from_secs_f64(f64::from(i) * 0.1);
+            tap.truth(TruthSample { at, x_m: 0.0, y_m: 0.0, heading_rad: 0.0, people: Vec::new() });
+        }
+        assert_eq!(tap.handed.load(Ordering::Relaxed), 2);
         shared.subscriptions.store(1, Ordering::Release);
+        assert!(tap.wants("nomad200/distanceir"));
         tap.record("nomad200/distanceir", "t", at, b"{}");
         tap.record("wallfollow/state", "t", at, b"{}");
         let summary = tap.finish();
-        assert_eq!((summary.handed, summary.dropped), (2, 0));
+        assert_eq!((summary.handed, summary.dropped), (4, 0));
     }
 }
