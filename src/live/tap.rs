@@ -5,9 +5,10 @@
 //! `ViewSetup::input_of`), and skips the scans and the odometry while no client subscribes to
 //! anything (nor are they serialised: [`Tap::wants`] says no), and hands over one truth
 //! sample every 2 s only while nobody watches. What it keeps goes to the views' thread through
-//! a queue of [`QUEUED`] items; when that is full the item is dropped and counted (the first drop is logged), so a slow viewer
-//! never slows the run. The views' thread makes the views with the recording's code
-//! (`Views`) and writes them to the server's channels ([`LiveSink`]).
+//! a queue of [`QUEUED`] items, which that thread empties every [`POLL`] (the control loop
+//! never wakes it); when the queue is full the item is dropped and counted (the first drop is
+//! logged), so a slow viewer never slows the run. The views' thread makes the views with the
+//! recording's code (`Views`) and writes them to the server's channels ([`LiveSink`]).
 
 use super::Shared;
 use super::sink::LiveSink;
@@ -21,7 +22,7 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc;
 
 /// Items waiting for the views' thread at most (a few seconds of a run's views in real time).
-pub const QUEUED: usize = 256;
+pub const QUEUED: usize = 1024;
 
 /// What the views' thread is handed.
 enum Item {
@@ -165,37 +166,41 @@ impl Tap for LiveTap {
     fn record_remote(&self, _topic: &str, _type_id: &str, _stamp: Timestamp, _json: &[u8]) {}
 }
 
-/// How long the views' thread waits for an item before it looks whether a client subscribed
-/// (and wants what is written once) anyway.
-const IDLE: std::time::Duration = std::time::Duration::from_millis(250);
+/// How often the views' thread takes what was queued. It is never woken by the control loop
+/// (a wake-up at each message put the views' thread, the server's and its clients' on the
+/// CPU at the moment the control loop delivers that message: sense to act's p50 tripled on a
+/// loaded 2-core machine); a viewer sees the views at most this much later.
+pub const POLL: std::time::Duration = std::time::Duration::from_millis(20);
 
 /// The views' thread: every item, in order, until the queue closes; how many messages it sent.
 fn serve(mut views: Views, mut sink: LiveSink, shared: &Shared, queue: mpsc::Receiver<Item>) -> u64 {
     let mut warned = false;
     let mut last = Timestamp::ZERO;
-    loop {
-        let item = match queue.recv_timeout(IDLE) {
-            Ok(item) => Some(item),
-            Err(mpsc::RecvTimeoutError::Timeout) => None,
-            Err(mpsc::RecvTimeoutError::Disconnected) => break,
-        };
-        if let Some(at) = item.as_ref().map(|i| match i {
-            Item::Message { at, .. } => *at,
-            Item::Truth(s) => s.at,
-        }) {
-            last = last.max(at);
-        }
+    let mut open = true;
+    while open {
+        std::thread::sleep(POLL);
         let mut done = Ok(());
         if shared.rewrite.swap(false, Ordering::AcqRel) {
             done = views.rewrite_latched(&mut sink, last);
         }
-        if done.is_ok() {
+        while done.is_ok() {
+            let item = match queue.try_recv() {
+                Ok(item) => item,
+                Err(mpsc::TryRecvError::Empty) => break,
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    open = false;
+                    break;
+                }
+            };
             done = match &item {
-                Some(Item::Message { input, topic, at, json }) => {
+                Item::Message { input, topic, at, json } => {
+                    last = last.max(*at);
                     views.message(&mut sink, *input, topic, *at, json)
                 }
-                Some(Item::Truth(sample)) => views.truth(&mut sink, sample),
-                None => Ok(()),
+                Item::Truth(sample) => {
+                    last = last.max(sample.at);
+                    views.truth(&mut sink, sample)
+                }
             };
         }
         if let Err(e) = done
