@@ -85,6 +85,11 @@ pub struct RunArgs {
     /// report gains a `faults` section.
     #[arg(long, value_name = "PLAN.toml")]
     pub faults: Option<PathBuf>,
+    /// Serve the run's views live to Foxglove (WebSocket) on ADDR (default 127.0.0.1:8765:
+    /// this host only); with --realtime only. Anyone who can reach ADDR sees them.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
+          value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 fn positive_secs(s: &str) -> Result<f64, String> {
@@ -200,6 +205,25 @@ fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("--plot {}: the file must end in .svg or .png", args.plot.display());
     }
 
+    if args.foxglove.is_some() && !args.realtime {
+        anyhow::bail!(
+            "--foxglove needs --realtime: a run on a paused clock ends in seconds, too fast to watch"
+        );
+    }
+    // The live server starts before the run; its parameters are the run's once it is up.
+    let params = crate::live::params::Pending::default();
+    let live = match args.foxglove {
+        Some(addr) => {
+            let setup = mission::recording::view_setup(&config, Some(world.clone()), true);
+            let live = crate::live::LiveView::start(addr, setup, Some(Arc::new(params.clone())))?;
+            say(&format!(
+                "foxglove: serving the run's views on ws://{} (Foxglove: Open connection, Foxglove WebSocket)",
+                live.addr()
+            ));
+            Some(live)
+        }
+        None => None,
+    };
     let bar = progress_bar(args.duration, args.quiet, "simulated");
     let plan = match &args.faults {
         Some(p) => Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_stack(&config))?),
@@ -212,6 +236,11 @@ fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
     opts.record = args.record.clone();
     opts.realtime = args.realtime;
+    opts.live = live.as_ref().map(crate::live::LiveView::tap);
+    let components: Vec<String> = opts.config.system.components.iter().map(|c| c.name.clone()).collect();
+    opts.on_start = Some(Box::new(move |registry| {
+        params.ready(crate::system::live_params::ParamDirectory::new(registry, components));
+    }));
 
     opts.interrupt = Some(interrupted());
 
@@ -227,6 +256,13 @@ fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let RunOutcome { mut report, metrics, recording, .. } = rt.block_on(mission::run(opts))?;
     report.wall_seconds = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    if let Some(live) = live {
+        let s = live.finish();
+        say(&format!(
+            "foxglove: {} messages made into views, {} dropped (the viewer was behind)",
+            s.handed, s.dropped
+        ));
+    }
 
     say(&report.table());
     let json = serde_json::to_string_pretty(&report)?;

@@ -18,7 +18,8 @@
 //! - [`mission`]: runs the corridor mission and measures it; [`config`]: the stack's one
 //!   config file.
 //! - [`record`]: writes runs as MCAP; [`plot`]: draws them; [`replay`]: runs a recording's
-//!   deciding components again, bit for bit or with other parameters.
+//!   deciding components again, bit for bit or with other parameters; [`live`]: serves a
+//!   running system's views to Foxglove (`--foxglove`).
 //! - [`remote`]: the robot, the executive, teleoperation and the tools as separate processes
 //!   over zenoh (crate `orsa-net`).
 //! - [`faults`]: reads fault plans and breaks a running stack on purpose; [`ending`]: how a
@@ -40,6 +41,7 @@ pub mod config;
 pub mod ending;
 pub mod faults;
 mod keyboard;
+pub mod live;
 pub mod mission;
 pub mod plot;
 pub mod record;

@@ -31,6 +31,13 @@ pub trait Tap: Send + Sync + 'static {
     fn record_remote(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
         self.record(topic, type_id, stamp, json);
     }
+
+    /// Whether the tap wants the messages on `topic` now: those it does not want are not even
+    /// serialised (a live viewer nobody watches wants few). By default, every one.
+    fn wants(&self, topic: &str) -> bool {
+        let _ = topic;
+        true
+    }
 }
 
 /// The tap shared by a registry and all its endpoints.
@@ -87,6 +94,9 @@ impl TapSlot {
         }
         let tap = self.0.tap.read().clone();
         let Some(tap) = tap else { return };
+        if !tap.wants(topic) {
+            return;
+        }
         let hand = |json: &mut Vec<u8>| {
             json.clear();
             match serde_json::to_writer(&mut *json, message) {

@@ -32,6 +32,7 @@
 
 mod fanout;
 mod inproc;
+mod live;
 mod net;
 mod part;
 mod peer;
@@ -243,7 +244,9 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let (budget, min) = (plan.fanout_budget, plan.fanout_min_rounds);
     let fanout = fanout::run(&plan.fanout, |n| fanout::rounds_for(n, budget, min))?;
     say("sense to act");
-    let sense = sense::run(plan.sense_s)?;
+    let sense = sense::run(plan.sense_s, false)?;
+    say("sense to act with a live server (--foxglove) and a client subscribed to everything");
+    let sense_live = sense::run(plan.sense_s, true)?;
     say("mode switch");
     let switch_in_process = switch::in_process(plan.switch_rounds)?;
     say("across processes (zenoh on loopback)");
@@ -269,8 +272,11 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     say(format!("recording and replay: {:.0} simulated s, {} runs each", plan.replay_s, plan.replay_runs));
     let record_replay = part::record_replay(part::exe_launcher, plan.replay_s, plan.replay_runs)?;
     say(format!(
-        "  --record {:.2}x a plain run, replay {:.2}x, bit-exact: {}",
-        record_replay.record_ratio, record_replay.replay_ratio, record_replay.bit_exact
+        "  --record {:.2}x a plain run, replay {:.2}x, bit-exact: {}, a live server with no client {:.2}x",
+        record_replay.record_ratio,
+        record_replay.replay_ratio,
+        record_replay.bit_exact,
+        record_replay.live_ratio
     ));
     let mut scale = Vec::new();
     for &n in &plan.scale {
@@ -351,6 +357,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         throughput,
         fanout,
         sense_to_act: sense,
+        sense_to_act_live: sense_live,
         net,
         net_error,
         ros2,
@@ -404,6 +411,11 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
             None => "not measured".into(),
         },
         met: r.ros2.as_ref().and_then(|c| c.p50_ratio).map(|x| x <= 1.2),
+    });
+    t.push(TargetCheck {
+        target: "a live server (--foxglove) with no client costs at most 1.05x a run without it".into(),
+        measured: format!("{:.2}x", rr.live_ratio),
+        met: Some(rr.live_ratio <= 1.05),
     });
     let sw = &r.switch;
     for (place, pair) in [("in process", Some(&sw.in_process)), ("across processes", sw.across.as_ref())] {
@@ -485,6 +497,21 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         target: "sense to act in process p99 < 200 us".into(),
         measured: format!("{:.1} us ({} commands)", s.from_update.p99_ns / 1e3, s.attributed),
         met: (s.attributed > 0).then_some(s.from_update.p99_ns < 200_000.0),
+    });
+    let s = &r.sense_to_act_live;
+    let client = s.live_client.as_ref();
+    t.push(TargetCheck {
+        target: "sense to act in process p99 < 200 us with a live Foxglove client subscribed to everything"
+            .into(),
+        measured: format!(
+            "{:.1} us ({} commands; the client read {} messages on {} channels)",
+            s.from_update.p99_ns / 1e3,
+            s.attributed,
+            client.map_or(0, |c| c.messages),
+            client.map_or(0, |c| c.subscribed)
+        ),
+        met: (s.attributed > 0 && client.is_some_and(|c| c.messages > 0))
+            .then_some(s.from_update.p99_ns < 200_000.0),
     });
     t.push(TargetCheck {
         target: "one robot >= 300x real time".into(),

@@ -161,6 +161,18 @@ pub fn render_markdown(r: &BenchReport) -> String {
         lat_cells(&st.from_sensor_firing)
     );
     leg_rows(&mut s, st);
+    let lv = &r.sense_to_act_live;
+    if let Some(c) = &lv.live_client {
+        let _ = writeln!(
+            s,
+            "\nThe same, right after, with a live server (`--foxglove`) serving the views to a Foxglove WebSocket \
+             client in this process (tokio-tungstenite, its own thread) subscribed to all {} channels: it read {} \
+             messages; the control loop handed the views {} and dropped {}.\n",
+            c.subscribed, c.messages, c.handed, c.dropped
+        );
+        let _ = writeln!(s, "| from | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+        let _ = writeln!(s, "| sensor update published, live client | {} |", lat_cells(&lv.from_update));
+    }
 
     render_net(&mut s, r);
 
@@ -178,7 +190,8 @@ pub fn render_markdown(r: &BenchReport) -> String {
         "Recording and replay ({:.0} simulated s, seed 1, in a fresh process; plain run, recorded run and replay \
          alternated, {} runs each, medians): `orsa run --record` takes **{:.2}x** a plain run ({} vs {} wall s) and \
          writes {} messages in {:.1} MB; `orsa replay` of that file, reading and checking it included, takes \
-         **{:.2}x** the plain run ({} wall s) and compares {} messages: {}.\n",
+         **{:.2}x** the plain run ({} wall s) and compares {} messages: {}. With a live server (`--foxglove`) and no \
+         client, a run takes **{:.2}x** a plain run ({} wall s).\n",
         rr.simulated_s,
         rr.run_wall_s.len(),
         rr.record_ratio,
@@ -189,7 +202,9 @@ pub fn render_markdown(r: &BenchReport) -> String {
         rr.replay_ratio,
         runs(&rr.replay_wall_s),
         rr.compared,
-        if rr.bit_exact { "bit-exact every time" } else { "NOT bit-exact" }
+        if rr.bit_exact { "bit-exact every time" } else { "NOT bit-exact" },
+        rr.live_ratio,
+        runs(&rr.live_wall_s)
     );
     let sw = &r.switch;
     let pair = |p: &SwitchPair| {

@@ -113,6 +113,23 @@ pub struct SenseToAct {
     pub stale_refused: u64,
     /// Supervisor restarts during the run.
     pub restarts: u64,
+    /// With a live server (`--foxglove`) serving the views to a client subscribed to
+    /// everything: what the client got.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub live_client: Option<LiveClient>,
+}
+
+/// A live server's client during a sense-to-act run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LiveClient {
+    /// Channels it subscribed to.
+    pub subscribed: u64,
+    /// Messages it read.
+    pub messages: u64,
+    /// Messages the control loop handed the views.
+    pub handed: u64,
+    /// Messages dropped because the views' queue was full.
+    pub dropped: u64,
 }
 
 /// One path's one-way latency across processes in one mode.
@@ -218,6 +235,10 @@ pub struct RecordReplay {
     pub record_ratio: f64,
     /// Median replay over median plain run.
     pub replay_ratio: f64,
+    /// `orsa run` with a live server (`--foxglove`) and no client: wall s of each run.
+    pub live_wall_s: Vec<f64>,
+    /// Median run with a live server and no client over median plain run.
+    pub live_ratio: f64,
     /// Every replay was bit-exact.
     pub bit_exact: bool,
     /// Messages in the recording.
@@ -357,6 +378,8 @@ pub struct BenchReport {
     pub fanout: Vec<FanoutRow>,
     /// Sense to act.
     pub sense_to_act: SenseToAct,
+    /// Sense to act while a live server serves the views to a client subscribed to everything.
+    pub sense_to_act_live: SenseToAct,
     /// Across processes (`None` if that bench failed; see `net_error`).
     pub net: Option<NetReport>,
     /// Why the cross-process bench failed, if it did.

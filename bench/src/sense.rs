@@ -310,14 +310,16 @@ pub(crate) fn attribute(acts: &[Act], steps: &[Step], max_v: f64, max_w: f64, ma
     m
 }
 
-/// Runs the instrumented stack in real time for `duration_s` and reports sense to act.
-pub(crate) fn run(duration_s: f64) -> anyhow::Result<SenseToAct> {
+/// Runs the instrumented stack in real time for `duration_s` and reports sense to act; with
+/// `live`, while a live server (`--foxglove`) serves its views to a client subscribed to
+/// everything ([`super::live::Client`]).
+pub(crate) fn run(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     if !(duration_s.is_finite() && duration_s > 0.0) {
         anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
     }
     let rt = super::inproc::RuntimeKind::CurrentThread.build()?;
     let out = rt.block_on(async {
-        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s))
+        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s, live))
             .await
             .map_err(|_| anyhow!("sense to act did not finish in time"))?
     });
@@ -325,11 +327,21 @@ pub(crate) fn run(duration_s: f64) -> anyhow::Result<SenseToAct> {
     out
 }
 
-async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
+async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     let config = Config::default();
     let world = World::palazzina()?;
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
+    let server = if live {
+        let setup = orsa::mission::recording::view_setup(&config, Some(world.clone()), false);
+        let addr = std::net::SocketAddr::from(([127, 0, 0, 1], 0));
+        let server = orsa::live::LiveView::start(addr, setup, None)?;
+        registry.set_tap(Some(server.tap() as Arc<dyn orsa_actors::tap::Tap>));
+        let client = super::live::Client::start(server.addr())?;
+        Some((server, client))
+    } else {
+        None
+    };
     let sim = SimNomad200::new(world, config.sim.clone(), 1).map_err(|e| anyhow!("simulator: {e}"))?;
     let sim = SimRobot::spawn(sim, clock);
     let acts = Arc::new(Mutex::new(Vec::new()));
@@ -364,6 +376,20 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
     .context("the robot server's safety counters")?;
     let acts: Vec<Act> = std::mem::take(&mut *acts.lock());
     let steps: Vec<Step> = std::mem::take(&mut *steps.lock());
+    let live_client = match server {
+        Some((server, client)) => {
+            let subscribed = client.subscribed();
+            let messages = client.stop()?;
+            registry.set_tap(None);
+            let s = server.finish();
+            say(format!(
+                "  live view: {subscribed} channels subscribed, {messages} messages read, {} dropped",
+                s.dropped
+            ));
+            Some(crate::LiveClient { subscribed, messages, handed: s.handed, dropped: s.dropped })
+        }
+        None => None,
+    };
     supervisor.shutdown().await;
     if let Err(e) = sim.shutdown().await {
         tracing::warn!("simulator task ended badly: {e}");
@@ -381,6 +407,7 @@ async fn measure(duration_s: f64) -> anyhow::Result<SenseToAct> {
         legs: legs(m.legs),
         stale_refused: safety.stale_refused,
         restarts: restarts.load(std::sync::atomic::Ordering::Relaxed),
+        live_client,
     })
 }
 
@@ -566,6 +593,7 @@ pub(crate) async fn across(
             legs: legs(m.legs),
             stale_refused: safety.stale_refused,
             restarts: restarts.load(std::sync::atomic::Ordering::Relaxed) + peer_restarts,
+            live_client: None,
         };
         Ok((sense, switch))
     }

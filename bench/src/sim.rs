@@ -59,20 +59,45 @@ pub(crate) fn mission(duration_s: f64) -> anyhow::Result<MissionRtf> {
     })
 }
 
-/// `orsa run` without and with `--record`, and `orsa replay` of the recording, `runs` times
-/// each, alternated, for `duration_s` simulated seconds.
+/// The runs [`record_replay`] alternates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Variant {
+    Plain,
+    Record,
+    /// With a live server (`--foxglove`) and no client.
+    Live,
+}
+
+/// `orsa run` without and with `--record`, with a live server and no client, and `orsa replay`
+/// of the recording, `runs` times each, alternated, for `duration_s` simulated seconds.
 pub(crate) fn record_replay(duration_s: f64, runs: usize) -> anyhow::Result<super::RecordReplay> {
     let world = World::palazzina()?;
     let dir = std::env::temp_dir().join(format!("orsa-bench-replay-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let path = dir.join("run.mcap");
     let (mut plain, mut recorded, mut replayed) = (Vec::new(), Vec::new(), Vec::new());
+    let mut live = Vec::new();
     let (mut bit_exact, mut messages, mut compared) = (true, 0, 0);
     for _ in 0..runs.max(1) {
-        for record in [false, true] {
+        for variant in [Variant::Plain, Variant::Record, Variant::Live] {
             let mut opts =
                 RunOptions::new(world.clone(), "palazzina (built in)", Config::default(), 1, duration_s);
-            opts.record = record.then(|| path.clone());
+            opts.record = (variant == Variant::Record).then(|| path.clone());
+            // A live server with no client, as `--foxglove` starts it (its start is not timed:
+            // `orsa run` starts it before the run).
+            let server = match variant {
+                Variant::Live => {
+                    let setup = orsa::mission::recording::view_setup(&opts.config, Some(world.clone()), true);
+                    let server = orsa::live::LiveView::start(
+                        std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
+                        setup,
+                        None,
+                    )?;
+                    opts.live = Some(server.tap());
+                    Some(server)
+                }
+                _ => None,
+            };
             let rt = paused_runtime()?;
             let wall = Instant::now();
             let out = rt.block_on(mission::run(opts))?;
@@ -80,7 +105,14 @@ pub(crate) fn record_replay(duration_s: f64, runs: usize) -> anyhow::Result<supe
                 r?;
             }
             let wall_s = wall.elapsed().as_secs_f64();
-            if record { recorded.push(wall_s) } else { plain.push(wall_s) }
+            if let Some(server) = server {
+                server.finish();
+            }
+            match variant {
+                Variant::Plain => plain.push(wall_s),
+                Variant::Record => recorded.push(wall_s),
+                Variant::Live => live.push(wall_s),
+            }
         }
         let rt = paused_runtime()?;
         let wall = Instant::now();
@@ -99,6 +131,8 @@ pub(crate) fn record_replay(duration_s: f64, runs: usize) -> anyhow::Result<supe
         simulated_s: duration_s,
         record_ratio: median(&recorded) / base,
         replay_ratio: median(&replayed) / base,
+        live_ratio: median(&live) / base,
+        live_wall_s: live,
         run_wall_s: plain,
         record_wall_s: recorded,
         replay_wall_s: replayed,

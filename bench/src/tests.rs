@@ -67,6 +67,20 @@ fn sample_report() -> BenchReport {
             legs: Vec::new(),
             stale_refused: 0,
             restarts: 0,
+            live_client: None,
+        },
+        sense_to_act_live: SenseToAct {
+            duration_s: 1.0,
+            commands_received: 0,
+            attributed: 0,
+            unattributed: 0,
+            by_behaviour: BTreeMap::new(),
+            from_update: Latency::default(),
+            from_sensor_firing: Latency::default(),
+            legs: Vec::new(),
+            stale_refused: 0,
+            restarts: 0,
+            live_client: None,
         },
         net: None,
         net_error: Some("not run in this test".into()),
@@ -80,6 +94,8 @@ fn sample_report() -> BenchReport {
             replay_wall_s: vec![0.5, 0.6, 0.4],
             record_ratio: 1.1,
             replay_ratio: 0.5,
+            live_wall_s: vec![1.0, 1.0, 1.0],
+            live_ratio: 1.0,
             bit_exact: true,
             messages: 1000,
             compared: 500,
@@ -240,12 +256,25 @@ fn both_skeletons_step_and_carry_commands_like_the_stack() {
 
 #[test]
 fn sense_to_act_attributes_commands_in_a_short_real_time_run() {
-    let s = sense::run(1.5).expect("sense to act");
+    let s = sense::run(1.5, false).expect("sense to act");
     assert!(s.commands_received > 0, "{s:?}");
     assert!(s.attributed > 0, "{s:?}");
     assert_eq!(s.attributed + s.unattributed, s.commands_received);
     assert_eq!(s.from_update.n as u64, s.attributed);
-    assert!(sense::run(-1.0).is_err());
+    assert!(s.live_client.is_none());
+    assert!(sense::run(-1.0, false).is_err());
+}
+
+#[test]
+fn sense_to_act_with_a_live_client_reads_the_views_and_still_attributes_commands() {
+    let s = sense::run(2.0, true).expect("sense to act with a live client");
+    assert!(s.attributed > 0, "{s:?}");
+    let c = s.live_client.expect("the live client's figures");
+    // The robot, driving, events, world, both scans and /tf: the process simulates the world.
+    assert!(c.subscribed >= 7, "{c:?}");
+    // Two seconds of scans at 25 and 15.6 Hz, and /tf at 10 Hz, at the least.
+    assert!(c.messages >= 50, "{c:?}");
+    assert_eq!(c.dropped, 0, "{c:?}");
 }
 
 // ---- across processes ----------------------------------------------------------------------
@@ -415,6 +444,7 @@ fn sample_net() -> NetReport {
             legs: vec![SenseLeg { leg: "a leg".into(), latency: lat(100_000.0) }],
             stale_refused: 0,
             restarts: 0,
+            live_client: None,
         }),
         switch: Some(SwitchPair {
             rounds: 5,

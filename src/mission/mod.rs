@@ -73,6 +73,9 @@ pub struct RunOptions {
     /// Called once the system is up, with its registry: what talks to the running system from
     /// outside it (the live server, a test setting parameters) starts here.
     pub on_start: Option<OnStart>,
+    /// Serve the run's views live (`--foxglove`): this tap is given every message and the
+    /// ground truth, as a recording is.
+    pub live: Option<Arc<crate::live::tap::LiveTap>>,
 }
 
 /// See [`RunOptions::on_start`].
@@ -105,6 +108,7 @@ impl RunOptions {
             catalog: crate::system::Catalog::builtin(),
             interrupt: None,
             on_start: None,
+            live: None,
         }
     }
 }
@@ -181,7 +185,12 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     // The top supervisor giving up ends the run (its children are gone).
     let (gave_up_tx, mut gave_up_rx) = tokio::sync::watch::channel(None::<SupervisorEvent>);
     let ev_rec = recording.clone();
-    let tap = recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>);
+    let live = opts.live.take();
+    let ev_live = live.clone();
+    let tap = crate::live::tap::both(
+        recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
+        live.clone().map(|l| l as Arc<dyn orsa_actors::tap::Tap>),
+    );
     let stack = Stack::start_with(
         opts.catalog,
         opts.world,
@@ -192,6 +201,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         move |e| {
             if let Some(r) = &ev_rec {
                 r.supervisor_event(&e);
+            }
+            if let Some(l) = &ev_live {
+                l.supervisor_event(&e);
             }
             if e.kind == SupervisorEventKind::GaveUp && e.supervisor == crate::system::TOP_SUPERVISOR {
                 let _ = gave_up_tx.send(Some(e.clone()));
@@ -262,6 +274,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     if let Some(r) = &recording {
         r.truth(truth_sample(stack.truth.truth(), &stack.truth));
     }
+    if let Some(l) = &live {
+        l.truth(truth_sample(stack.truth.truth(), &stack.truth));
+    }
     for k in 1..=samples {
         tokio::select! {
             biased;
@@ -277,8 +292,14 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         }
         let t = stack.truth.truth();
         let t_s = k as f64 * opts.sample_period_s;
-        if let Some(r) = &recording {
-            r.truth(truth_sample(t, &stack.truth));
+        if recording.is_some() || live.is_some() {
+            let sample = truth_sample(t, &stack.truth);
+            if let Some(l) = &live {
+                l.truth(sample.clone());
+            }
+            if let Some(r) = &recording {
+                r.truth(sample);
+            }
         }
         watch.sample(t_s, opts.sample_period_s, t.v_m_s, t.omega_rad_s, driving.is_some());
         if k % check_every == 0 {

@@ -94,6 +94,11 @@ pub struct ExecutiveArgs {
     /// clock starts when the executive's components are up.
     #[arg(long, value_name = "PLAN.toml")]
     pub faults: Option<PathBuf>,
+    /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
+    /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
+          value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<std::net::SocketAddr>,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
@@ -257,6 +262,15 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
             }
             None => None,
         };
+        let live = crate::live::serve_process(
+            &registry,
+            args.foxglove,
+            "executive",
+            crate::mission::recording::view_setup(&config, None, false),
+            recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
+            config.system.components.iter().map(|c| c.name.clone()).collect(),
+        )?;
+        let events_live = live.as_ref().map(crate::live::LiveView::tap);
         let top = crate::ending::TopWatch::new(EXECUTIVE_TOP);
         let events = Arc::new(parking_lot::Mutex::new(Vec::new()));
         let boards = orsa_hardware::faulty::BoardFaults::new(0);
@@ -302,6 +316,9 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                 .on_event(move |e| {
                     if let Some(r) = &events_tap {
                         r.supervisor_event(&e);
+                    }
+                    if let Some(l) = &events_live {
+                        l.supervisor_event(&e);
                     }
                     top_sink.see(&e);
                     sink.lock().push(e);
@@ -388,6 +405,10 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
             s.shutdown().await;
         }
         registry.set_tap(None);
+        if let Some(live) = live {
+            let s = live.finish();
+            eprintln!("executive: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
+        }
         let link = transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default();
         let links = transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default();
         if let Some(t) = transport {

@@ -68,6 +68,11 @@ pub struct RobotArgs {
     /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
     #[arg(long, value_enum, default_value_t = Hardware::Sim)]
     pub hardware: Hardware,
+    /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
+    /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
+          value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<std::net::SocketAddr>,
     /// Network.
     #[command(flatten)]
     pub net: NetArgs,
@@ -299,6 +304,15 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             }
             None => None,
         };
+        let live = crate::live::serve_process(
+            &registry,
+            args.foxglove,
+            "robot",
+            crate::mission::recording::view_setup(&config, Some(world.clone()), false),
+            recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
+            config.system.components.iter().map(|c| c.name.clone()).collect(),
+        )?;
+        let events_live = live.as_ref().map(crate::live::LiveView::tap);
         if let Some(tap) = &recording {
             use crate::record::events::{SYSTEM_STARTING, SYSTEM_STARTING_TYPE, SystemStarting};
             let hosted = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
@@ -313,6 +327,9 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
             .on_event(move |e| {
                 if let Some(r) = &events_tap {
                     r.supervisor_event(&e);
+                }
+                if let Some(l) = &events_live {
+                    l.supervisor_event(&e);
                 }
                 top_sink.see(&e);
                 sink.lock().push(e)
@@ -603,6 +620,10 @@ pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
         drop(ros2_face);
         drop(base_link);
         registry.set_tap(None);
+        if let Some(live) = live {
+            let s = live.finish();
+            eprintln!("robot: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
+        }
         let recorded = recording.map(|r| r.finish());
         let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
         let faults = plan.as_ref().map(|plan| {

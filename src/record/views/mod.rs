@@ -5,6 +5,9 @@
 //! scans and odometry, the master's `driving`) and from ground-truth samples the run gives the
 //! recording ([`TruthSample`]); nothing in them is read back by `orsa replay`.
 //!
+//! The same code makes them for a live viewer (`--foxglove`, see [`crate::live`]): `Views`
+//! writes to a [`ViewSink`], which is the MCAP [`Recorder`] or the live server's channels.
+//!
 //! | topic | schema | what |
 //! |---|---|---|
 //! | [`WORLD_TOPIC`] | `foxglove.SceneUpdate` | walls (`walls`: a line per wall of the world file), boxes, discs; once |
@@ -81,6 +84,28 @@ pub struct ViewSetup {
     pub truth: bool,
 }
 
+impl ViewSetup {
+    /// What a recorded `topic` is to the views, if anything.
+    pub(crate) fn input_of(&self, topic: &str) -> Option<Input> {
+        if topic == super::events::LINK_EVENTS || topic == "supervision/events" {
+            return Some(Input::Event);
+        }
+        let (component, service) = topic.split_once('/')?;
+        if service == "wiring" || service == "state" || service == orsa_actors::param::CHANGES {
+            return Some(Input::Event);
+        }
+        if component == self.robot {
+            return match service {
+                "distanceir" => Some(Input::Infrared),
+                "distanceson" => Some(Input::Sonar),
+                "basestate" => Some(Input::Base),
+                _ => None,
+            };
+        }
+        (component == self.master && service == "driving").then_some(Input::Driving)
+    }
+}
+
 /// A person of the simulated world, as ground truth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Person {
@@ -109,6 +134,31 @@ pub struct TruthSample {
     pub people: Vec<Person>,
 }
 
+/// Where views go: an MCAP recording, or a live server's channels.
+pub trait ViewSink {
+    /// What may go wrong writing one.
+    type Error;
+
+    /// Writes `msg`, a message of one of Foxglove's well-known schemas, on `topic` at robot
+    /// time `at` (a topic's first message gives it its channel and schema).
+    fn view<T: foxglove::Encode>(&mut self, topic: &str, at: Timestamp, msg: &T) -> Result<(), Self::Error>;
+
+    /// Makes `topic`'s channel, for messages of `T`, before its first message (a recording
+    /// makes a channel at its first message: by default, nothing).
+    fn declare<T: foxglove::Encode>(&mut self, topic: &str) -> Result<(), Self::Error> {
+        let _ = topic;
+        Ok(())
+    }
+}
+
+impl ViewSink for Recorder {
+    type Error = RecordError;
+
+    fn view<T: foxglove::Encode>(&mut self, topic: &str, at: Timestamp, msg: &T) -> Result<(), RecordError> {
+        self.write_view(topic, at, msg)
+    }
+}
+
 /// A recorded topic the views are made from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Input {
@@ -129,6 +179,8 @@ pub(crate) struct Views {
     began: bool,
     driving: Option<String>,
     mode: Option<String>,
+    /// The last `driving` view written, for a live viewer that subscribes after it.
+    last_driving: Option<(Timestamp, Log)>,
     trajectory: Vec<Pose>,
     last_pose_ns: Option<u64>,
     /// Inputs that did not decode, warned about once each.
@@ -145,6 +197,7 @@ impl Views {
             began: false,
             driving: None,
             mode: None,
+            last_driving: None,
             trajectory: Vec::new(),
             last_pose_ns: None,
             warned: [false; 5],
@@ -153,38 +206,76 @@ impl Views {
 
     /// What a recorded `topic` is to the views, if anything.
     pub(crate) fn input_of(&self, topic: &str) -> Option<Input> {
-        if topic == super::events::LINK_EVENTS || topic == "supervision/events" {
-            return Some(Input::Event);
+        self.setup.input_of(topic)
+    }
+
+    /// Declares the channels this process's views may write, so that a live viewer lists them
+    /// before their first message: the scans and the odometry chain where the world is
+    /// simulated, the truth's channels where truth is given, and the robot, the driving
+    /// behaviour and the events everywhere.
+    pub(crate) fn declare<S: ViewSink>(&self, sink: &mut S) -> Result<(), S::Error> {
+        use foxglove::schemas::LaserScan;
+        sink.declare::<SceneUpdate>(ROBOT_TOPIC)?;
+        sink.declare::<Log>(DRIVING_TOPIC)?;
+        sink.declare::<Log>(EVENTS_TOPIC)?;
+        if self.setup.world.is_some() {
+            sink.declare::<SceneUpdate>(WORLD_TOPIC)?;
+            sink.declare::<LaserScan>(INFRARED_TOPIC)?;
+            sink.declare::<LaserScan>(SONAR_TOPIC)?;
+            sink.declare::<FrameTransforms>(TF_TOPIC)?;
         }
-        let (component, service) = topic.split_once('/')?;
-        if service == "wiring" || service == "state" || service == orsa_actors::param::CHANGES {
-            return Some(Input::Event);
+        if self.setup.truth {
+            sink.declare::<SceneUpdate>(PEOPLE_TOPIC)?;
+            sink.declare::<FrameTransforms>(TRUTH_TF_TOPIC)?;
+            sink.declare::<PosesInFrame>(TRAJECTORY_TOPIC)?;
         }
-        if component == self.setup.robot {
-            return match service {
-                "distanceir" => Some(Input::Infrared),
-                "distanceson" => Some(Input::Sonar),
-                "basestate" => Some(Input::Base),
-                _ => None,
-            };
-        }
-        (component == self.setup.master && service == "driving").then_some(Input::Driving)
+        Ok(())
     }
 
     /// Writes the world and the robot, once, at `at`.
-    fn begin(&mut self, rec: &mut Recorder, at: Timestamp) -> Result<(), RecordError> {
+    fn begin<S: ViewSink>(&mut self, rec: &mut S, at: Timestamp) -> Result<(), S::Error> {
         if self.began {
             return Ok(());
         }
         self.began = true;
         if let Some(world) = &self.setup.world {
             let scene = SceneUpdate { deletions: Vec::new(), entities: shapes::world_entities(world, at) };
-            rec.write_view(WORLD_TOPIC, at, &scene)?;
+            rec.view(WORLD_TOPIC, at, &scene)?;
         }
         self.write_robot(rec, at)
     }
 
-    fn write_robot(&mut self, rec: &mut Recorder, at: Timestamp) -> Result<(), RecordError> {
+    /// Writes again what is written once or seldom (the world, the robot, which behaviour
+    /// drives, the path so far), at `at`: for a live viewer that subscribed after they were
+    /// written.
+    pub(crate) fn rewrite_latched<S: ViewSink>(
+        &mut self,
+        sink: &mut S,
+        at: Timestamp,
+    ) -> Result<(), S::Error> {
+        if !self.began {
+            return self.begin(sink, at);
+        }
+        if let Some(world) = &self.setup.world {
+            let scene = SceneUpdate { deletions: Vec::new(), entities: shapes::world_entities(world, at) };
+            sink.view(WORLD_TOPIC, at, &scene)?;
+        }
+        self.write_robot(sink, at)?;
+        if let Some((when, log)) = &self.last_driving {
+            sink.view(DRIVING_TOPIC, *when, log)?;
+        }
+        if self.trajectory.is_empty() {
+            return Ok(());
+        }
+        let poses = PosesInFrame {
+            timestamp: Some(shapes::stamp(at)),
+            frame_id: WORLD_FRAME.to_owned(),
+            poses: self.trajectory.clone(),
+        };
+        sink.view(TRAJECTORY_TOPIC, at, &poses)
+    }
+
+    fn write_robot<S: ViewSink>(&mut self, rec: &mut S, at: Timestamp) -> Result<(), S::Error> {
         let (driving, mode) = (self.driving.as_deref(), self.mode.as_deref());
         let r = self.setup.body_radius_m;
         let entities = if self.setup.truth {
@@ -195,21 +286,21 @@ impl Views {
         } else {
             vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 1.0)]
         };
-        rec.write_view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
+        rec.view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
     }
 
     /// Makes the views of one recorded message (`json`, logged at `at`) on an input topic. A
     /// message that does not decode is left out of the views (with a warning, once per input).
-    pub(crate) fn message(
+    pub(crate) fn message<S: ViewSink>(
         &mut self,
-        rec: &mut Recorder,
+        rec: &mut S,
         input: Input,
         topic: &str,
         at: Timestamp,
         json: &[u8],
-    ) -> Result<(), RecordError> {
+    ) -> Result<(), S::Error> {
         self.begin(rec, at)?;
-        let undecoded = |views: &mut Views, e: serde_json::Error| {
+        let undecoded = |views: &mut Views, e: serde_json::Error| -> Result<(), S::Error> {
             let warned = &mut views.warned[input as usize];
             if !*warned {
                 *warned = true;
@@ -229,7 +320,7 @@ impl Views {
                     file: String::new(),
                     line: 0,
                 };
-                rec.write_view(EVENTS_TOPIC, at, &log)
+                rec.view(EVENTS_TOPIC, at, &log)
             }
             Input::Infrared | Input::Sonar => {
                 let scan = match serde_json::from_slice::<Stamped<DistanceScan>>(json) {
@@ -237,7 +328,7 @@ impl Views {
                     Err(e) => return undecoded(self, e),
                 };
                 let topic = if input == Input::Infrared { INFRARED_TOPIC } else { SONAR_TOPIC };
-                rec.write_view(topic, at, &shapes::laser_scan(&scan, self.setup.body_radius_m))
+                rec.view(topic, at, &shapes::laser_scan(&scan, self.setup.body_radius_m))
             }
             Input::Base => {
                 let b = match serde_json::from_slice::<Stamped<BaseState>>(json) {
@@ -246,7 +337,7 @@ impl Views {
                 };
                 let transforms =
                     shapes::odometry_transforms(self.start, b.stamp, b.x_m, b.y_m, b.heading_rad);
-                rec.write_view(TF_TOPIC, at, &FrameTransforms { transforms })
+                rec.view(TF_TOPIC, at, &FrameTransforms { transforms })
             }
             Input::Driving => {
                 let change = match serde_json::from_slice::<Stamped<WiringChange>>(json) {
@@ -269,7 +360,8 @@ impl Views {
                     file: String::new(),
                     line: 0,
                 };
-                rec.write_view(DRIVING_TOPIC, at, &log)?;
+                rec.view(DRIVING_TOPIC, at, &log)?;
+                self.last_driving = Some((at, log));
                 self.write_robot(rec, at)
             }
         }
@@ -277,10 +369,10 @@ impl Views {
 
     /// Makes the views of one ground-truth sample: the truth frame, the people and, every
     /// [`TRAJECTORY_PERIOD_NS`], the trajectory.
-    pub(crate) fn truth(&mut self, rec: &mut Recorder, s: &TruthSample) -> Result<(), RecordError> {
+    pub(crate) fn truth<S: ViewSink>(&mut self, rec: &mut S, s: &TruthSample) -> Result<(), S::Error> {
         self.begin(rec, s.at)?;
         let transforms = vec![shapes::truth_transform(s.at, s.x_m, s.y_m, s.heading_rad)];
-        rec.write_view(TRUTH_TF_TOPIC, s.at, &FrameTransforms { transforms })?;
+        rec.view(TRUTH_TF_TOPIC, s.at, &FrameTransforms { transforms })?;
         if !s.people.is_empty() {
             let entities = s
                 .people
@@ -298,7 +390,7 @@ impl Views {
                     e
                 })
                 .collect();
-            rec.write_view(PEOPLE_TOPIC, s.at, &SceneUpdate { deletions: Vec::new(), entities })?;
+            rec.view(PEOPLE_TOPIC, s.at, &SceneUpdate { deletions: Vec::new(), entities })?;
         }
         let ns = s.at.as_nanos();
         if self.last_pose_ns.is_some_and(|last| ns < last.saturating_add(TRAJECTORY_PERIOD_NS)) {
@@ -318,6 +410,6 @@ impl Views {
             frame_id: WORLD_FRAME.to_owned(),
             poses: self.trajectory.clone(),
         };
-        rec.write_view(TRAJECTORY_TOPIC, s.at, &poses)
+        rec.view(TRAJECTORY_TOPIC, s.at, &poses)
     }
 }

@@ -1,0 +1,243 @@
+//! Watching a running robot in Foxglove: `--foxglove [ADDR]` serves the recording's views
+//! (see [`crate::record::views`]) live, over the Foxglove WebSocket protocol, with the
+//! `foxglove` crate's server.
+//!
+//! - [`tap`]: the control loop's side: a [`Tap`](orsa_actors::tap::Tap) that hands the
+//!   messages the views are made from to a thread of their own, through a bounded queue that
+//!   drops (and counts) what the viewer's side is too slow for;
+//! - [`sink`]: the views' thread writes to the server's channels ([`sink::LiveSink`], a
+//!   [`ViewSink`](crate::record::views::ViewSink) like the MCAP recorder);
+//! - [`params`]: the seam for live parameters ([`params::LiveParams`]), mapped onto the
+//!   protocol's `getParameters` and `setParameters`.
+//!
+//! The server runs on a tokio runtime of its own (one worker thread), so that neither it nor
+//! its clients ever run on the control loop's thread. What it does with a slow client is the
+//! SDK's: each client has a queue of [`BACKLOG`] messages whose oldest are dropped when it is
+//! full, and a client whose control queue (status, advertisements) fills is disconnected.
+
+pub mod params;
+pub mod sink;
+pub mod tap;
+
+use crate::record::views::ViewSetup;
+use foxglove::websocket::{ChannelView, Client, ServerListener};
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::time::Duration;
+
+/// Where `--foxglove` listens when given no address: this host only.
+pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
+/// Messages queued per client before the oldest are dropped (the SDK's setting).
+pub const BACKLOG: usize = 1024;
+/// How long the server may take to bind.
+pub const START_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Why the live server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    /// Its runtime or thread could not be made.
+    #[error("--foxglove {addr}: cannot start the live server's {what}: {source}")]
+    Start {
+        /// Where it was to listen.
+        addr: SocketAddr,
+        /// What could not be made.
+        what: &'static str,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The server did not bind.
+    #[error("--foxglove {addr}: the live server cannot listen there: {problem}")]
+    Bind {
+        /// Where it was to listen.
+        addr: SocketAddr,
+        /// Why.
+        problem: String,
+    },
+}
+
+/// What the server's listener and the views share.
+#[derive(Debug, Default)]
+pub(crate) struct Shared {
+    /// Channel subscriptions of every client.
+    pub(crate) subscriptions: AtomicUsize,
+    /// Set when a client subscribes: the views write what they write once (the world, the
+    /// robot, the path) again.
+    pub(crate) rewrite: AtomicBool,
+    /// Messages the control loop's side dropped because the views' queue was full.
+    pub(crate) dropped: AtomicU64,
+    /// Whether the first drop was logged.
+    pub(crate) warned: AtomicBool,
+}
+
+/// Keeps [`Shared`] up to date with the clients' subscriptions.
+struct Listener(Arc<Shared>);
+
+impl ServerListener for Listener {
+    fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
+        tracing::debug!("foxglove: client {:?} subscribed to {}", client.id(), channel.topic());
+        self.0.subscriptions.fetch_add(1, Ordering::AcqRel);
+        self.0.rewrite.store(true, Ordering::Release);
+    }
+
+    fn on_unsubscribe(&self, client: Client, channel: ChannelView<'_>) {
+        tracing::debug!("foxglove: client {:?} unsubscribed from {}", client.id(), channel.topic());
+        let _ = self.0.subscriptions.fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
+    }
+
+    fn on_client_connect(&self) {
+        tracing::info!("foxglove: a client connected");
+    }
+
+    fn on_client_disconnect(&self) {
+        tracing::info!("foxglove: a client disconnected");
+    }
+}
+
+/// A running live server and the tap that feeds it. [`LiveView::finish`] stops it.
+pub struct LiveView {
+    addr: SocketAddr,
+    tap: Arc<tap::LiveTap>,
+    server: Option<foxglove::WebSocketServerHandle>,
+    runtime: Option<tokio::runtime::Runtime>,
+}
+
+impl std::fmt::Debug for LiveView {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveView").field("addr", &self.addr).finish()
+    }
+}
+
+/// What a live server did, for the report of the command that ran it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LiveSummary {
+    /// Messages the control loop handed the views.
+    pub handed: u64,
+    /// Messages dropped because the views' queue was full.
+    pub dropped: u64,
+}
+
+impl LiveView {
+    /// Starts a server on `addr` serving the views `setup` describes, and the parameters of
+    /// `params` if given (only then does the server say it has parameters).
+    pub fn start(
+        addr: SocketAddr,
+        setup: ViewSetup,
+        params: Option<Arc<dyn params::LiveParams>>,
+    ) -> Result<LiveView, LiveError> {
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("orsa-foxglove")
+            .enable_io()
+            .enable_time()
+            .build()
+            .map_err(|source| LiveError::Start { addr, what: "runtime", source })?;
+        let context = foxglove::Context::new();
+        let shared = Arc::new(Shared::default());
+        let mut server = context
+            .websocket_server()
+            .name(concat!("orsa ", env!("CARGO_PKG_VERSION")))
+            .bind(addr.ip().to_string(), addr.port())
+            .message_backlog_size(BACKLOG)
+            .listener(Arc::new(Listener(Arc::clone(&shared))))
+            .tokio_runtime(runtime.handle());
+        if let Some(params) = params {
+            server = server
+                .parameter_handler(Arc::new(params::ParamBridge::new(params, runtime.handle().clone())));
+        }
+        // Started on its own runtime, waited for here without blocking on a runtime (the
+        // caller may be on one).
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        runtime.spawn(async move {
+            let _ = tx.send(server.start().await);
+        });
+        let server = match rx.recv_timeout(START_TIMEOUT) {
+            Ok(Ok(server)) => server,
+            Ok(Err(e)) => return Err(LiveError::Bind { addr, problem: e.to_string() }),
+            Err(_) => {
+                return Err(LiveError::Bind {
+                    addr,
+                    problem: format!("it did not start within {} s", START_TIMEOUT.as_secs()),
+                });
+            }
+        };
+        let bound = SocketAddr::new(addr.ip(), server.port());
+        let tap = tap::LiveTap::start(setup, context, shared).map_err(|source| LiveError::Start {
+            addr,
+            what: "views thread",
+            source,
+        })?;
+        Ok(LiveView { addr: bound, tap: Arc::new(tap), server: Some(server), runtime: Some(runtime) })
+    }
+
+    /// Where it listens (the port chosen if `0` was asked for).
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The tap to install on the registry (beside a recording's, see [`tap::both`]).
+    pub fn tap(&self) -> Arc<tap::LiveTap> {
+        Arc::clone(&self.tap)
+    }
+
+    /// Stops the views' thread and the server; what it did.
+    pub fn finish(mut self) -> LiveSummary {
+        self.stop()
+    }
+
+    fn stop(&mut self) -> LiveSummary {
+        let summary = self.tap.finish();
+        if let Some(server) = self.server.take() {
+            // Dropping the shutdown handle aborts the clients' tasks at once.
+            drop(server.stop());
+        }
+        if let Some(runtime) = self.runtime.take() {
+            runtime.shutdown_background();
+        }
+        summary
+    }
+}
+
+impl Drop for LiveView {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// For `orsa robot` and `orsa executive` (process `who`): if `addr` is given, starts a live
+/// view of `setup` there and installs its tap on `registry`, beside `recording`'s if any.
+pub fn serve_process(
+    registry: &orsa_actors::Registry,
+    addr: Option<SocketAddr>,
+    who: &str,
+    setup: ViewSetup,
+    recording: Option<Arc<dyn orsa_actors::tap::Tap>>,
+    components: Vec<String>,
+) -> Result<Option<LiveView>, LiveError> {
+    let Some(addr) = addr else { return Ok(None) };
+    let params = crate::system::live_params::ParamDirectory::new(registry, components);
+    let live = LiveView::start(addr, setup, Some(Arc::new(params)))?;
+    registry.set_tap(tap::both(recording, Some(live.tap() as Arc<dyn orsa_actors::tap::Tap>)));
+    eprintln!("{who}: foxglove: serving this process's views on ws://{}", live.addr());
+    Ok(Some(live))
+}
+
+/// `--foxglove`'s value: an address to listen on, `host:port`.
+pub fn parse_addr(s: &str) -> Result<SocketAddr, String> {
+    s.parse::<SocketAddr>().map_err(|_| {
+        format!("'{s}' is not an address to listen on: give IP:PORT, e.g. {DEFAULT_ADDR} or 0.0.0.0:8765")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn addresses_parse_or_say_what_to_give() {
+        assert_eq!(parse_addr("0.0.0.0:9000").map(|a| a.port()), Ok(9000));
+        assert!(parse_addr(DEFAULT_ADDR).is_ok());
+        let e = parse_addr("localhost").expect_err("not IP:PORT");
+        assert!(e.contains("IP:PORT"), "{e}");
+    }
+}
