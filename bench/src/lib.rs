@@ -57,6 +57,12 @@ pub fn serve_peer(endpoint: &str) -> anyhow::Result<()> {
     peer::run(endpoint)
 }
 
+/// Measures only what the ROS 2 publication adds to the cross-process push (`--ros2-only`);
+/// the figures are printed as they come.
+pub fn ros2_only(samples: usize) -> anyhow::Result<()> {
+    ros2::run(samples).map(|_| ())
+}
+
 /// Runs one simulation part of the bench in this process and prints its figures
 /// (`orsa-bench --sim-part SPEC`, which `orsa-bench` starts by itself: each simulation part
 /// runs in a fresh process).

@@ -27,6 +27,10 @@ struct Args {
     /// starts one process per part by itself).
     #[arg(long, hide = true, value_name = "SPEC")]
     sim_part: Option<String>,
+    /// Measure only what the ROS 2 publication adds to the cross-process push, with this many
+    /// pushes each way, and print it (the full run measures it with 5000).
+    #[arg(long, value_name = "SAMPLES", conflicts_with_all = ["quick", "peer", "sim_part"])]
+    ros2_only: Option<usize>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -43,6 +47,10 @@ fn main() -> anyhow::Result<()> {
     }
     if let Some(spec) = &args.sim_part {
         return orsa_bench::serve_sim_part(spec);
+    }
+    if let Some(samples) = args.ros2_only {
+        anyhow::ensure!(samples > 0, "--ros2-only {samples}: give at least one sample");
+        return orsa_bench::ros2_only(samples);
     }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
         orsa::cli::ensure_parent(p)?;

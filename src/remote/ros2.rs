@@ -17,6 +17,7 @@
 use crate::config::Ros2Params;
 use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::send::SendClient;
+use orsa_actors::service::PushTimedService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
 use orsa_hardware::ros2base::{Odom, Ros2Base, Scan, SendCommand};
 use orsa_interfaces::nomad200::{
@@ -27,7 +28,6 @@ use orsa_net::ros2::{Qos, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2S
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use tokio::sync::mpsc;
 
 /// What the ROS 2 side of the robot did, for `orsa robot --report`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -78,34 +78,23 @@ pub struct RobotRos2 {
     rate_refused: Arc<AtomicU64>,
     _cmd_vel: Ros2Subscription,
     _clients: Vec<Box<dyn std::any::Any + Send>>,
-    task: tokio::task::JoinHandle<()>,
 }
 
-impl Drop for RobotRos2 {
-    fn drop(&mut self) {
-        self.task.abort();
-    }
-}
-
-/// One update of a robot service, to publish.
-enum Out {
-    Sonar(Update<DistanceScan>),
-    Ir(Update<DistanceScan>),
-    Base(Update<BaseState>),
-    Bumpers(Update<ContactScan>),
-}
-
-struct Publishers {
-    scan: Ros2Publisher<LaserScan>,
-    ir_scan: Ros2Publisher<LaserScan>,
-    odom: Ros2Publisher<Odometry>,
-    tf: Ros2Publisher<TfMessage>,
-    bumper: Ros2Publisher<Bool>,
+/// The sink that publishes each scan of a ring (`ring` gives its geometry) as a
+/// `sensor_msgs/msg/LaserScan` on `publisher`, in the push's own delivery: no queue, no task to
+/// wake (a put with congestion control `Drop` does not wait). What the bench measures.
+pub fn scan_sink(publisher: Ros2Publisher<LaserScan>, ring: RingParams) -> Sink<Update<DistanceScan>> {
+    Sink::from_fn(move |u: Update<DistanceScan>| {
+        publisher.publish(&laser_scan(&u.value, &ring), u.value.stamp.0);
+        Ok(())
+    })
 }
 
 impl RobotRos2 {
     /// Starts publishing robot `robot`'s services (in this process's `registry`) as ROS 2
     /// topics on `transport`'s session, in `domain`, and taking `/cmd_vel`.
+    ///
+    /// Each update is published where the robot server pushes it (see [`scan_sink`]).
     pub async fn start(
         registry: &Registry,
         transport: &orsa_net::ZenohTransport,
@@ -116,52 +105,42 @@ impl RobotRos2 {
     ) -> anyhow::Result<Self> {
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
-        let publishers = Publishers {
-            scan: node.publisher("scan", Qos::SensorData).await?,
-            ir_scan: node.publisher("ir_scan", Qos::SensorData).await?,
-            odom: node.publisher("odom", Qos::Default).await?,
-            tf: node.publisher("/tf", Qos::Default).await?,
-            bumper: node.publisher("bumper", Qos::Default).await?,
-        };
-        let (tx, mut rx) = mpsc::unbounded_channel::<Out>();
-        let mut clients: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
-        macro_rules! follow {
-            ($svc:expr, $t:ty, $variant:ident) => {{
-                let tx = tx.clone();
-                let c = PushTimedClient::<$t>::connect_to(
-                    registry,
-                    $svc.on(robot),
-                    Sink::from_fn(move |u| {
-                        tx.send(Out::$variant(u)).map_err(|_| orsa_actors::Undeliverable::Closed)
-                    }),
-                )?;
-                c.subscribe(1)?;
-                clients.push(Box::new(c));
-            }};
+        fn follow<T: orsa_actors::CommObject>(
+            registry: &Registry,
+            addr: orsa_actors::service::Addr<PushTimedService<T>>,
+            sink: Sink<Update<T>>,
+        ) -> anyhow::Result<Box<dyn std::any::Any + Send>> {
+            let c = PushTimedClient::<T>::connect_to(registry, addr, sink)?;
+            c.subscribe(1)?;
+            Ok(Box::new(c))
         }
-        follow!(nomad200::DISTANCESON, DistanceScan, Sonar);
-        follow!(nomad200::DISTANCEIR, DistanceScan, Ir);
-        follow!(nomad200::BASESTATE, BaseState, Base);
-        follow!(nomad200::BUMPERS, ContactScan, Bumpers);
-        drop(tx);
-        let (sonar, ir) = (params.sonar.clone(), params.infrared.clone());
-        let task = tokio::spawn(async move {
-            while let Some(out) = rx.recv().await {
-                let p = &publishers;
-                match out {
-                    Out::Sonar(u) => p.scan.publish(&laser_scan(&u.value, &sonar), u.value.stamp.0),
-                    Out::Ir(u) => p.ir_scan.publish(&laser_scan(&u.value, &ir), u.value.stamp.0),
-                    Out::Base(u) => {
-                        let (odom, tf) = odometry(&u.value);
-                        p.odom.publish(&odom, u.value.stamp.0);
-                        p.tf.publish(&tf, u.value.stamp.0);
-                    }
-                    Out::Bumpers(u) => {
-                        p.bumper.publish(&Bool { data: u.value.pressed.iter().any(|b| *b) }, u.value.stamp.0)
-                    }
-                }
-            }
-        });
+        let scan = node.publisher("scan", Qos::SensorData).await?;
+        let ir_scan = node.publisher("ir_scan", Qos::SensorData).await?;
+        let odom: Ros2Publisher<Odometry> = node.publisher("odom", Qos::Default).await?;
+        let tf: Ros2Publisher<TfMessage> = node.publisher("/tf", Qos::Default).await?;
+        let bumper: Ros2Publisher<Bool> = node.publisher("bumper", Qos::Default).await?;
+        let clients = vec![
+            follow(registry, nomad200::DISTANCESON.on(robot), scan_sink(scan, params.sonar.clone()))?,
+            follow(registry, nomad200::DISTANCEIR.on(robot), scan_sink(ir_scan, params.infrared.clone()))?,
+            follow(
+                registry,
+                nomad200::BASESTATE.on(robot),
+                Sink::from_fn(move |u: Update<BaseState>| {
+                    let (o, t) = odometry(&u.value);
+                    odom.publish(&o, u.value.stamp.0);
+                    tf.publish(&t, u.value.stamp.0);
+                    Ok(())
+                }),
+            )?,
+            follow(
+                registry,
+                nomad200::BUMPERS.on(robot),
+                Sink::from_fn(move |u: Update<ContactScan>| {
+                    bumper.publish(&Bool { data: u.value.pressed.iter().any(|b| *b) }, u.value.stamp.0);
+                    Ok(())
+                }),
+            )?,
+        ];
 
         let teleop = SendClient::<NavigationVelocity>::connect(registry, nomad200::TELEOP.on(robot))?;
         let forwarded = Arc::new(AtomicU64::new(0));
@@ -188,7 +167,7 @@ impl RobotRos2 {
                 }
             })
             .await?;
-        Ok(RobotRos2 { node, forwarded, rate_refused, _cmd_vel: cmd_vel, _clients: clients, task })
+        Ok(RobotRos2 { node, forwarded, rate_refused, _cmd_vel: cmd_vel, _clients: clients })
     }
 
     /// What it did so far.
