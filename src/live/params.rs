@@ -35,13 +35,16 @@ impl LiveParams for ParamDirectory {
             let params = if names.is_empty() {
                 directory.get_all().await.0
             } else {
-                let mut found = Vec::new();
-                for name in &names {
-                    if let Ok(p) = directory.get(name).await {
-                        found.extend(p.into_iter().filter(|p| p.name == *name));
-                    }
-                }
-                found
+                // Asked all at once: an unreachable component costs one timeout.
+                let answers = futures::future::join_all(names.iter().map(|n| directory.get(n))).await;
+                names
+                    .iter()
+                    .zip(answers)
+                    .filter_map(|(name, answer)| {
+                        Some(answer.ok()?.into_iter().filter(move |p| p.name == *name))
+                    })
+                    .flatten()
+                    .collect()
             };
             params.into_iter().map(|p| (p.name, p.value)).collect()
         })

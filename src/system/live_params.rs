@@ -104,12 +104,14 @@ impl ParamDirectory {
     }
 
     /// Every parameter of every component (those that do not answer are left out, each with
-    /// the reason).
+    /// the reason), in the components' order. The components are asked all at once, so one in
+    /// an unreachable process costs one timeout, not one per component.
     pub async fn get_all(&self) -> (Vec<Param>, Vec<ParamError>) {
+        let answers = futures::future::join_all(self.components.iter().map(|c| self.get(c))).await;
         let mut all = Vec::new();
         let mut failed = Vec::new();
-        for c in &self.components {
-            match self.get(c).await {
+        for answer in answers {
+            match answer {
                 Ok(p) => all.extend(p),
                 Err(e) => failed.push(e),
             }
