@@ -175,6 +175,34 @@ mod tests {
         assert_eq!(parse_value(""), json!(""));
     }
 
+    /// Three components that never answer and one that does: everything is asked at once, so
+    /// the answer comes one timeout after the question (asked one after the other, three).
+    #[tokio::test(start_paused = true)]
+    async fn all_parameters_cost_one_timeout_however_many_components_are_silent() {
+        use orsa_actors::Sink;
+        use orsa_actors::query::{QueryRequest, QueryServer};
+        let registry = Registry::new();
+        let (tx, _never_answered) = tokio::sync::mpsc::unbounded_channel();
+        for silent in ["a", "b", "c"] {
+            QueryServer::register(&registry, PARAM.on(silent), Sink::channel(tx.clone())).expect("register");
+        }
+        let answering = Sink::from_fn(|q: QueryRequest<ParamRequest, ParamReply>| {
+            let params = vec![Param { name: "gain".into(), value: json!(2.0), fixed: false }];
+            q.answer(ParamReply { params, refused: None }).map_err(|_| orsa_actors::Undeliverable::Closed)
+        });
+        QueryServer::register(&registry, PARAM.on("d"), answering).expect("register");
+        let directory = ParamDirectory::new(&registry, ["a", "b", "c", "d"].map(String::from).to_vec());
+        let start = tokio::time::Instant::now();
+        let (params, failed) = directory.get_all().await;
+        assert_eq!(start.elapsed(), ANSWER_WITHIN);
+        assert_eq!(params.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["d.gain"]);
+        let failed: Vec<String> = failed.iter().map(ToString::to_string).collect();
+        assert_eq!(failed.len(), 3, "{failed:?}");
+        for (e, c) in failed.iter().zip(["a", "b", "c"]) {
+            assert!(e.starts_with(&format!("{c}/param: ")), "{e}");
+        }
+    }
+
     #[test]
     fn names_split_at_the_first_dot() {
         assert_eq!(split_name("wallfollow.loops.k_d"), ("wallfollow", "loops.k_d"));
