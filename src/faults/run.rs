@@ -1,0 +1,61 @@
+//! Carrying a fault plan out: the task that breaks and mends, at the plan's times, what the
+//! plan names.
+
+use super::plan::{Action, FaultPlan};
+use orsa_actors::fault::{Faults, HandlerFault};
+use orsa_hardware::faulty::BoardFaults;
+use std::time::Duration;
+
+/// Cuts (`true`) or restores (`false`) the link to the processes of a role.
+pub type LinkSwitch = std::sync::Arc<dyn Fn(&str, bool) + Send + Sync>;
+
+/// Where a running fault plan acts.
+#[derive(Clone)]
+pub struct FaultTargets {
+    /// The framework's switchboard (components and services).
+    pub faults: Faults,
+    /// The robot's boards.
+    pub boards: BoardFaults,
+    /// Cuts (true) and restores (false) the link to processes of a role, where there are any.
+    pub link: Option<LinkSwitch>,
+}
+
+fn apply(targets: &FaultTargets, action: &Action, on: bool) {
+    match action {
+        Action::Panic { component } if on => targets.faults.arm(component, HandlerFault::Panic),
+        Action::Hang { component } if on => targets.faults.arm(component, HandlerFault::Hang),
+        Action::Kill { component } if on => {
+            targets.faults.kill(component);
+        }
+        Action::Panic { .. } | Action::Hang { .. } | Action::Kill { .. } => {}
+        Action::Message { service, fault } => targets.faults.set_message_fault(service, on.then_some(*fault)),
+        Action::Sensor { ring, fault } => targets.boards.set_sensor(*ring, on.then_some(*fault)),
+        Action::MotorStall => targets.boards.set_motor_stall(on),
+        Action::LinkCut { role } => {
+            if let Some(cut) = &targets.link {
+                cut(role, on);
+            }
+        }
+    }
+}
+
+/// Runs `plan` against `targets` on tokio's clock, from now until `end_s` simulated seconds.
+/// Returns the number of occurrences injected.
+pub async fn run_plan(plan: FaultPlan, targets: FaultTargets, end_s: f64) -> usize {
+    let start = tokio::time::Instant::now();
+    // Every start and every end of an occurrence, in time order (ends first at equal times).
+    let mut timeline: Vec<(f64, bool, Action)> = Vec::new();
+    let occurrences = plan.occurrences(end_s);
+    for (t, f) in &occurrences {
+        timeline.push((*t, true, f.action.clone()));
+        if let Some(d) = f.duration_s {
+            timeline.push((t + d, false, f.action.clone()));
+        }
+    }
+    timeline.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    for (t, on, action) in timeline {
+        tokio::time::sleep_until(start + Duration::from_secs_f64(t)).await;
+        apply(&targets, &action, on);
+    }
+    occurrences.len()
+}

@@ -1,0 +1,288 @@
+//! `orsa robot`: the robot process, its behaviours, and what it does when the executive is lost.
+//!
+//! This module holds its arguments and its course: set up ([`setup`]), start the system, get on
+//! the network, run the link watchdog ([`watchdog`]) until the end, then shut down in order and
+//! write the report ([`report`]).
+
+mod fallback;
+mod report;
+mod setup;
+mod watchdog;
+
+pub use fallback::FALLBACK;
+pub use report::RobotReport;
+
+use super::{NetArgs, open, runtime};
+use crate::mission::report::Ended;
+use crate::system::{Place, System};
+use anyhow::{Context as _, bail};
+use orsa_actors::{Clock, Registry};
+use orsa_hardware::faulty::BoardFaults;
+use setup::{Checked, Drive, Faces};
+use std::path::PathBuf;
+use std::sync::Arc;
+use watchdog::{RobotEvent, Watchdog, Watched};
+
+/// The robot process's top supervisor (`orsa run`'s is [`TOP_SUPERVISOR`](crate::system::TOP_SUPERVISOR)).
+pub const ROBOT_TOP: &str = "orsa-robot";
+
+/// Arguments of `orsa robot`.
+#[derive(Debug, clap::Args)]
+pub struct RobotArgs {
+    /// World file (TOML); default: the reference corridor, built in.
+    #[arg(long, value_name = "PATH")]
+    pub world: Option<PathBuf>,
+    /// Seed of the simulator's noise.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+    /// Configuration file (see config/orsa.toml).
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// Drive this mode (from the config's executive.modes) with a local master while no
+    /// executive is connected; default: stand still.
+    #[arg(long, value_name = "MODE")]
+    pub fallback: Option<String>,
+    /// Stop after this many seconds (default: run until interrupted).
+    #[arg(long, value_name = "SECS")]
+    pub duration: Option<f64>,
+    /// Break this process on purpose as this fault plan says (see docs/faults.md): components,
+    /// services, sensors, motors, and `link_cut` to the executive, teleop or tools. Its clock
+    /// starts when the robot is on the network.
+    #[arg(long, value_name = "PLAN.toml")]
+    pub faults: Option<PathBuf>,
+    /// At exit, write a report here (JSON): safety counters, link-cut counts and, with
+    /// --faults, what was injected, detected and restarted.
+    #[arg(long, value_name = "PATH.json")]
+    pub report: Option<PathBuf>,
+    /// Record every pattern message and control event of this process here, as MCAP, with
+    /// what `orsa replay` needs to run its behaviours again (see the README).
+    #[arg(long, value_name = "PATH.mcap")]
+    pub record: Option<PathBuf>,
+    /// Also be a ROS 2 node, as rmw_zenoh (ROS 2 Jazzy) lays one out: publish /scan,
+    /// /ir_scan, /odom, /tf and /bumper, and take /cmd_vel as teleoperation (see docs/ros2.md).
+    #[arg(long)]
+    pub ros2: bool,
+    /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
+    pub domain: u32,
+    /// The robot to drive: the simulated Nomad 200, or a ROS 2 robot that publishes a laser
+    /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
+    #[arg(long, value_enum, default_value_t = Hardware::Sim)]
+    pub hardware: Hardware,
+    /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
+    /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
+          value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<std::net::SocketAddr>,
+    /// Network.
+    #[command(flatten)]
+    pub net: NetArgs,
+}
+
+/// The robot `orsa robot` drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Hardware {
+    /// The simulated Nomad 200 in the world file.
+    Sim,
+    /// A ROS 2 robot on the zenoh network (rmw_zenoh): its scan and odometry in, Twist out.
+    Ros2,
+}
+
+/// `orsa robot`.
+pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
+    let checked = Checked::of(&args)?;
+    runtime()?.block_on(run(args, checked))
+}
+
+/// The robot process, from its clock's start to its report.
+async fn run(args: RobotArgs, checked: Checked) -> anyhow::Result<crate::cli::Outcome> {
+    let config = &checked.config;
+    let clock = Clock::start();
+    let registry = Registry::with_clock(clock);
+    let drive = Drive::choose(&args, &checked, clock)?;
+    let robot = config.robot.name.clone();
+    let boards = BoardFaults::new(args.seed);
+    let robot_boards = drive.boards(config, &boards)?;
+    let robot_params = robot_boards.params.clone();
+    let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
+    let sink = Arc::clone(&supervisor_events);
+    let builder = System::builder(config).only(Place::Robot);
+    let recording = setup::start_recording(&registry, &args, &checked, &builder)?;
+    let live = crate::live::serve_process(
+        &registry,
+        args.foxglove,
+        "robot",
+        crate::mission::recording::view_setup(config, Some(checked.world.clone()), false),
+        recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
+        config.system.components.iter().map(|c| c.name.clone()).collect(),
+    )?;
+    let events_live = live.as_ref().map(crate::live::LiveView::tap);
+    if let Some(tap) = &recording {
+        use crate::record::events::{SYSTEM_STARTING, SYSTEM_STARTING_TYPE, SystemStarting};
+        let hosted = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
+        tap.note(SYSTEM_STARTING, SYSTEM_STARTING_TYPE, registry.now(), &SystemStarting { hosted });
+    }
+    let events_tap = recording.clone();
+    let top = crate::ending::TopWatch::new(ROBOT_TOP);
+    let top_sink = top.clone();
+    let start_system = builder
+        .robot(robot_boards)
+        .supervisor(ROBOT_TOP)
+        .on_event(move |e| {
+            if let Some(r) = &events_tap {
+                r.supervisor_event(&e);
+            }
+            if let Some(l) = &events_live {
+                l.supervisor_event(&e);
+            }
+            top_sink.see(&e);
+            sink.lock().push(e)
+        })
+        .start(&registry);
+    let mut supervisor: Option<orsa_actors::supervision::SupervisorRef> = None;
+    // From here on, every way out writes the report: what the loop leaves is kept here.
+    let mut transport: Option<orsa_net::ZenohTransport> = None;
+    let mut plan_task = None;
+    let mut plan_started_at = None;
+    let mut watched = Watched::default();
+    let mut base = None;
+    let mut faces = Faces::default();
+    let run = async {
+        supervisor = Some(start_system.await.context("starting the robot")?.supervisor);
+        let t = open(&registry, &args.net, "robot", None).await?;
+        eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
+        let transport = &*transport.insert(t);
+        faces.join(&registry, transport, &args, config, &robot_params, &drive).await?;
+
+        let (ev_tx, ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
+        let _beats = watchdog::listen(transport, &ev_tx).await?;
+        // The robot's own base state, to report when it came to rest and moved again.
+        let (base_tx, base_rx) = tokio::sync::mpsc::unbounded_channel();
+        let b = orsa_actors::push_timed::PushTimedClient::<orsa_interfaces::nomad200::BaseState>::connect_to(
+            &registry,
+            orsa_interfaces::nomad200::BASESTATE.on(robot.as_str()),
+            orsa_actors::Sink::channel(base_tx),
+        )?;
+        b.subscribe(1)?;
+        base = Some(b);
+
+        (plan_started_at, plan_task) =
+            setup::start_plan(&registry, &checked, &recording, transport, &ev_tx, &boards);
+        drop(ev_tx);
+
+        let watchdog = Watchdog::new(
+            &registry,
+            config,
+            &args.fallback,
+            checked.lease,
+            &recording,
+            &robot,
+            &mut watched,
+        )?;
+        let stop = crate::ending::until_end(checked.duration, &top);
+        let why = watchdog.run(stop, ev_rx, base_rx).await;
+        anyhow::Ok(why)
+    };
+    // A signal while the robot starts ends it too, with its report.
+    let run = crate::ending::or_signal(run).await;
+    if let Some(p) = plan_task {
+        p.abort();
+    }
+    let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
+    let ended = match run {
+        Ok(crate::ending::Stop::GaveUp(e)) => {
+            // The robot server is gone with its watchdog: the motors are stopped on the board.
+            eprintln!(
+                "robot: [{at_s:.3} s] supervisor '{}' gave up ({}): stopping the motors",
+                e.supervisor, e.reason
+            );
+            // Once every component has stopped: none may drive after the board's stop.
+            if let Some(s) = &supervisor {
+                s.shutdown().await;
+            }
+            let stopped_in = drive.stop_on_board().await;
+            crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, stopped_in)
+        }
+        Ok(stop) => crate::ending::ended(stop, at_s, None),
+        Err(e) => Ended::Failed { at_s, error: format!("{e:#}") },
+    };
+    if ended != Ended::Completed {
+        eprintln!("robot: {}", ended.describe());
+    }
+    let safety = if matches!(ended, Ended::GaveUp { .. }) || supervisor.is_none() {
+        // Its server is gone (or never started): what it counted went with it.
+        Default::default()
+    } else {
+        report::safety_counters(&registry, &robot).await
+    };
+    if let Some(f) = watched.fallback.take() {
+        f.stop().await;
+    }
+    drop(base);
+    let faults_switch = registry.faults();
+    if let Some(s) = supervisor {
+        s.shutdown().await;
+    }
+    if let Some(sim) = drive.sim {
+        let _ = sim.shutdown().await;
+    }
+    if let Some(base) = &drive.ros2_base {
+        // The server has stopped the base; nothing drives it from here on.
+        base.close();
+    }
+    let ros2 = faces.report();
+    drop(faces);
+    registry.set_tap(None);
+    if let Some(live) = live {
+        let s = live.finish();
+        eprintln!("robot: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
+    }
+    let recorded = recording.map(|r| r.finish());
+    let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
+    let faults = checked.plan.as_ref().map(|plan| {
+        let plan_end = end_s - plan_started_at.map_or(0.0, |t| registry.clock().since_start(t).as_secs_f64());
+        report::faults_report(
+            &registry,
+            plan,
+            plan_end,
+            &faults_switch,
+            &boards,
+            &supervisor_events.lock(),
+            &watched,
+        )
+    });
+    let (restarts, _) = crate::faults::restarts_of(&supervisor_events.lock());
+    let report = RobotReport {
+        ended: ended.clone(),
+        duration_s: end_s,
+        plan_started_at_s: plan_started_at.map(|t| registry.clock().since_start(t).as_secs_f64()),
+        safety,
+        restarts: restarts.values().sum(),
+        link: transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default(),
+        links: transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default(),
+        stops: watched.stops,
+        faults,
+        ros2,
+    };
+    if let Some(t) = transport {
+        t.close().await;
+    }
+    if let Some(p) = &args.report {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("{}: cannot write the report", p.display()))?;
+        eprintln!("robot: report: {}", p.display());
+    }
+    match recorded {
+        Some(Ok(Some(r))) => {
+            let total: u64 = r.messages.values().sum();
+            eprintln!(
+                "robot: record: {} ({total} messages on {} topics)",
+                r.path.display(),
+                r.messages.len()
+            );
+        }
+        Some(Err(e)) => bail!("the robot stopped, but its recording failed: {e}"),
+        _ => {}
+    }
+    crate::cli::Outcome::of(&ended)
+}
