@@ -35,6 +35,7 @@ use orsa_interfaces::nomad200::{
     BUMPER_COUNT, ContactScan, DistanceReading, DistanceScan, PushPeriods, RING_SIZE, Ring, RingParams,
     RobotParams, bumper_angle_rad, ring_angle_rad,
 };
+use orsa_interfaces::range::{DriveKind, project_onto_ring};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -161,6 +162,10 @@ impl Ros2BaseParams {
             odometry_resolution_m: 0.0,
             odometry_resolution_rad: 0.0,
             push,
+            drive: DriveKind::Differential,
+            // The base's laser is known only from its scans (their angles and ranges), not from
+            // the config: it is not described here.
+            range_sensors: Vec::new(),
         }
     }
 }
@@ -202,26 +207,22 @@ pub struct Odom {
 /// The nearest point of the scan within each of 16 sectors (see the module docs), as the
 /// distance from a circle of radius `radius_m`; `None` where no valid ray falls.
 pub fn resample(scan: &Scan, laser_x_m: f64, radius_m: f64, beam_width_rad: f64) -> [Option<f64>; RING_SIZE] {
-    let mut out = [None::<f64>; RING_SIZE];
-    let half = beam_width_rad / 2.0;
-    for (j, r) in scan.ranges.iter().enumerate() {
+    let ring = RingParams {
+        angles_rad: (0..RING_SIZE).map(ring_angle_rad).collect(),
+        mount_radius_m: radius_m,
+        beam_width_rad,
+        min_range_m: 0.0,
+        max_range_m: f64::INFINITY,
+        fire_period_s: 0.0,
+    };
+    let points = scan.ranges.iter().enumerate().filter_map(|(j, r)| {
         let r = f64::from(*r);
-        if !(r.is_finite() && r >= scan.range_min && r <= scan.range_max) {
-            continue;
-        }
-        let a = scan.angle_min + j as f64 * scan.angle_increment;
-        let (x, y) = (laser_x_m + r * a.cos(), r * a.sin());
-        let bearing = y.atan2(x);
-        let d = x.hypot(y) - radius_m;
-        for (i, slot) in out.iter_mut().enumerate() {
-            let off = (bearing - ring_angle_rad(i) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI;
-            if off.abs() <= half && slot.is_none_or(|s| d < s) {
-                *slot = Some(d);
-            }
-        }
-    }
-    out
+        (r.is_finite() && r >= scan.range_min && r <= scan.range_max).then(|| {
+            let a = scan.angle_min + j as f64 * scan.angle_increment;
+            (laser_x_m + r * a.cos(), r * a.sin())
+        })
+    });
+    project_onto_ring(points, &ring)
 }
 
 /// What the base last said, and how to command it.

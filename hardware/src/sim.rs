@@ -42,6 +42,7 @@
 use crate::geometry::{Circle, Point, unit_at};
 use crate::world::{World, WorldError};
 use orsa_actors::Timestamp;
+use orsa_interfaces::range::DriveKind;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Duration;
@@ -50,6 +51,7 @@ mod bumpers;
 pub mod config;
 mod drive;
 mod driver;
+mod laser;
 mod movers;
 mod odometry;
 mod rings;
@@ -58,7 +60,8 @@ mod sensor_board;
 mod truth;
 
 pub use config::{
-    BodyConfig, BumperConfig, CompassConfig, ConfigError, DriveConfig, OdometryConfig, RingConfig, SimConfig,
+    BodyConfig, BumperConfig, CompassConfig, ConfigError, DriveConfig, LaserConfig, OdometryConfig,
+    RingConfig, SectorViewConfig, SimConfig,
 };
 pub use driver::{SimMotorBoard, SimRobot, SimSensorBoard, SimTruth};
 pub use movers::MoverTruth;
@@ -66,6 +69,7 @@ pub use truth::{Side, Truth};
 
 use bumpers::Bumpers;
 use drive::Drive;
+use laser::Laser;
 use movers::MoverState;
 use odometry::Odometry;
 use rings::{Compass, RangeRing, StepMotion};
@@ -96,6 +100,7 @@ pub enum SimError {
 const SONAR_STREAM: u64 = 1;
 const INFRARED_STREAM: u64 = 2;
 const COMPASS_STREAM: u64 = 3;
+const LASER_STREAM: u64 = 4;
 
 /// A simulated Nomad 200 in a world. See the [module documentation](self).
 #[derive(Debug, Clone)]
@@ -127,6 +132,7 @@ pub struct SimNomad200 {
     movers: Vec<MoverState>,
     sonar: RangeRing,
     infrared: RangeRing,
+    laser: Option<Laser>,
     compass: Compass,
     bumpers: Bumpers,
     // Reused buffers.
@@ -177,7 +183,7 @@ impl SimNomad200 {
             blocked: false,
             travelled_m: 0.0,
             drive: Drive::new(&config.drive),
-            odometry: Odometry::new(&config.odometry),
+            odometry: Odometry::new(&config.odometry, config.drive.kind == DriveKind::Differential),
             sonar: RangeRing::new(
                 orsa_interfaces::nomad200::Ring::Sonar,
                 &config.sonar,
@@ -190,6 +196,7 @@ impl SimNomad200 {
                 stream(seed, INFRARED_STREAM),
                 0,
             ),
+            laser: config.laser.as_ref().map(|l| Laser::new(l, stream(seed, LASER_STREAM), 0)),
             compass: Compass::new(
                 config.compass.period_s,
                 config.compass.noise_sd_deg,
@@ -273,6 +280,10 @@ impl SimNomad200 {
         let travel = unit_at(self.steer + 0.5 * dsteer).into_inner() * ds;
         self.steer += dsteer;
         self.turret += dturret;
+        if self.config.drive.kind == DriveKind::Differential {
+            // The base turns with its wheels (a synchro drive's base never turns).
+            self.base_heading += dsteer;
+        }
         let fraction = self.move_body(&travel);
         self.blocked = ds != 0.0 && fraction < 1.0;
         let motors = self.drive.velocities();
@@ -297,8 +308,14 @@ impl SimNomad200 {
             movers0: &self.prev_movers,
             movers1: &self.movers,
         };
-        self.sonar.fire(&motion, &mut self.scratch);
-        self.infrared.fire(&motion, &mut self.scratch);
+        match &mut self.laser {
+            // A laser robot has no rings: its views of the laser's scan take their place.
+            Some(laser) => laser.fire(&motion, &mut self.scratch),
+            None => {
+                self.sonar.fire(&motion, &mut self.scratch);
+                self.infrared.fire(&motion, &mut self.scratch);
+            }
+        }
         self.compass.fire(&motion);
     }
 

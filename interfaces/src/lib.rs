@@ -15,6 +15,7 @@
 //! | [`behaviour`] | every behaviour | the wireable `vel` port, `status`, the `active` state |
 //! | [`executive`] | the master | goals and goal events, which behaviour drives |
 //! | [`planner`] | the planner | where the mission stands |
+//! | [`range`] | any robot | its drive and range sensors described (ring or laser), and their projection onto sectors |
 //!
 //! Every communication object is a plain serde struct in SI units with unit-suffixed field names
 //! and a stable identifier (`orsa.nomad200.DistanceScan/1`), with a round-trip test.
@@ -33,3 +34,4 @@ pub mod behaviour;
 pub mod executive;
 pub mod nomad200;
 pub mod planner;
+pub mod range;

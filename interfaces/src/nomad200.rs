@@ -21,6 +21,7 @@
 //! the body's edge (the sensor face). Bumpers are fixed to the base, which on a synchro-drive
 //! robot never rotates: their angles are relative to the base's orientation at start-up.
 
+use crate::range::{DriveKind, RangeSensorParams};
 use orsa_actors::service::{EventService, PushTimedService, QueryService, SendService};
 use orsa_actors::{Empty, Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
@@ -266,6 +267,14 @@ pub struct RobotParams {
     pub odometry_resolution_rad: f64,
     /// Push periods of the component's services.
     pub push: PushPeriods,
+    /// How the base moves (absent in objects from before robots were described: synchro).
+    #[serde(default)]
+    pub drive: DriveKind,
+    /// Every range sensor the robot carries, as it is (a ring, a planar laser): what a map or a
+    /// localizer reads. `sonar` and `infrared` above are the two sector views the behaviours
+    /// read, the rings themselves on a Nomad 200, projections of these sensors on other robots.
+    #[serde(default)]
+    pub range_sensors: Vec<RangeSensorParams>,
 }
 comm_object!(RobotParams, "orsa.nomad200.RobotParams/1");
 
@@ -390,6 +399,11 @@ mod tests {
             odometry_resolution_m: 0.0025,
             odometry_resolution_rad: 0.1f64.to_radians(),
             push: PushPeriods::default(),
+            drive: DriveKind::Differential,
+            range_sensors: vec![
+                RangeSensorParams::ring("sonar", &ring()),
+                RangeSensorParams::laser("laser", 0.1, 4.7, 271, (0.05, 10.0), 0.1),
+            ],
         });
     }
 

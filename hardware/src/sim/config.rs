@@ -12,6 +12,7 @@
 use orsa_interfaces::nomad200::{
     BUMPER_COUNT, PushPeriods, RING_SIZE, RingParams, RobotParams, bumper_angle_rad, ring_angle_rad,
 };
+use orsa_interfaces::range::{DriveKind, RangeSensorParams};
 use serde::{Deserialize, Serialize};
 
 /// A configuration value the simulator cannot use.
@@ -46,6 +47,110 @@ pub struct SimConfig {
     pub compass: CompassConfig,
     /// Odometry resolution and drift.
     pub odometry: OdometryConfig,
+    /// A planar laser (absent on a Nomad 200). A robot with a laser has no sonar or infrared
+    /// ring: `sonar` and `infrared` above are then unused, and the laser's sector views
+    /// (`laser.near`, `laser.far`) take their place.
+    pub laser: Option<LaserConfig>,
+}
+
+/// A planar laser scanner, facing forward from a mount point on the body's axis, and the two
+/// sector views of its scan that the robot server pushes for the behaviours.
+///
+/// Each view is 16 sectors on the body's edge, sector `i` facing `i x 22.5` degrees as a ring
+/// sensor would: it reads the nearest point of the scan whose bearing from the body's centre
+/// lies within half its width, as the distance from the edge. `near` is pushed as `distanceir`
+/// (a narrow, short view, like the infrared ring), `far` as `distanceson` (wide and long, like
+/// the sonar).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LaserConfig {
+    /// The mount point, m ahead of the body's centre (default 0.1).
+    pub x_m: f64,
+    /// Field of view, deg, centred on the front (default 270).
+    pub fov_deg: f64,
+    /// Beams, spread evenly over the field of view (default 271: one a degree).
+    pub beams: u32,
+    /// Shortest valid reading, m (default 0.05).
+    pub min_range_m: f64,
+    /// Longest valid reading, m (default 10).
+    pub max_range_m: f64,
+    /// Time between two scans, s (default 0.1: 10 Hz).
+    pub period_s: f64,
+    /// Standard deviation of each reading's Gaussian noise, m (default 0.01).
+    pub noise_sd_m: f64,
+    /// The view pushed as `distanceir` (default 6 deg sectors, valid to 0.6 m).
+    pub near: SectorViewConfig,
+    /// The view pushed as `distanceson` (default 25 deg sectors, valid to 6 m).
+    #[serde(default = "SectorViewConfig::far")]
+    pub far: SectorViewConfig,
+}
+
+/// One sector view of a laser scan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SectorViewConfig {
+    /// Each sector's full width, deg.
+    pub beam_width_deg: f64,
+    /// Shortest valid reading, m.
+    pub min_range_m: f64,
+    /// Longest valid reading, m.
+    pub max_range_m: f64,
+}
+
+impl Default for SectorViewConfig {
+    /// The near view: 6 deg sectors, valid up to 0.6 m.
+    fn default() -> Self {
+        SectorViewConfig { beam_width_deg: 6.0, min_range_m: 0.0, max_range_m: 0.6 }
+    }
+}
+
+impl SectorViewConfig {
+    /// The far view: 25 deg sectors, valid up to 6 m.
+    pub fn far() -> Self {
+        SectorViewConfig { beam_width_deg: 25.0, min_range_m: 0.0, max_range_m: 6.0 }
+    }
+
+    /// The view as behaviours see it, on a body of `radius_m`, refreshed every `period_s`.
+    pub fn params(&self, radius_m: f64, period_s: f64) -> RingParams {
+        RingParams {
+            angles_rad: (0..RING_SIZE).map(ring_angle_rad).collect(),
+            mount_radius_m: radius_m,
+            beam_width_rad: self.beam_width_deg.to_radians(),
+            min_range_m: self.min_range_m,
+            max_range_m: self.max_range_m,
+            fire_period_s: period_s / RING_SIZE as f64,
+        }
+    }
+}
+
+impl Default for LaserConfig {
+    fn default() -> Self {
+        LaserConfig {
+            x_m: 0.1,
+            fov_deg: 270.0,
+            beams: 271,
+            min_range_m: 0.05,
+            max_range_m: 10.0,
+            period_s: 0.1,
+            noise_sd_m: 0.01,
+            near: SectorViewConfig::default(),
+            far: SectorViewConfig::far(),
+        }
+    }
+}
+
+impl LaserConfig {
+    /// The laser as the layers above know it.
+    pub fn params(&self) -> RangeSensorParams {
+        RangeSensorParams::laser(
+            "laser",
+            self.x_m,
+            self.fov_deg.to_radians(),
+            self.beams as usize,
+            (self.min_range_m, self.max_range_m),
+            self.period_s,
+        )
+    }
 }
 
 /// The body: a cylinder.
@@ -59,10 +164,21 @@ pub struct BodyConfig {
     pub motion_margin_m: f64,
 }
 
-/// The three axes of the synchro drive: hardware maxima and default accelerations.
+/// The drive's three axes (translate, steer, turret): hardware maxima and default
+/// accelerations.
+///
+/// A `differential` drive moves as the synchro drive does (along its heading, turning at the
+/// steering rate), but its sensors are fixed to the body, so the turret axis follows the
+/// steering and its own settings are unused; and its two wheels share one speed limit: a
+/// command whose wheel speeds `v +- omega x wheel_base_m / 2` exceed `max_translate_m_s` is
+/// scaled down as a whole, keeping its curvature.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriveConfig {
+    /// `synchro` (default: the Nomad 200) or `differential`.
+    pub kind: DriveKind,
+    /// Differential drive: the distance between the wheels, m (default 0.5).
+    pub wheel_base_m: f64,
     /// Translation velocity limit, m/s (default 0.50).
     pub max_translate_m_s: f64,
     /// Steering rate limit, deg/s (default 45).
@@ -161,6 +277,7 @@ impl Default for SimConfig {
             bumpers: BumperConfig::default(),
             compass: CompassConfig::default(),
             odometry: OdometryConfig::default(),
+            laser: None,
         }
     }
 }
@@ -174,6 +291,8 @@ impl Default for BodyConfig {
 impl Default for DriveConfig {
     fn default() -> Self {
         DriveConfig {
+            kind: DriveKind::Synchro,
+            wheel_base_m: 0.5,
             max_translate_m_s: 0.50,
             max_steer_deg_s: 45.0,
             max_turret_deg_s: 45.0,
@@ -370,6 +489,50 @@ impl SimConfig {
             );
         }
         c.range(
+            "drive.wheel_base_m",
+            d.wheel_base_m,
+            f64::MIN_POSITIVE,
+            10.0,
+            "must be > 0 and at most 10 m",
+        );
+        if let Some(l) = &self.laser {
+            c.range(
+                "laser.x_m",
+                l.x_m,
+                -self.body.radius_m,
+                self.body.radius_m,
+                "must lie within the body's radius",
+            );
+            c.range("laser.fov_deg", l.fov_deg, 0.0, 360.0, "must be between 0 and 360 deg");
+            c.rule((1..=4096).contains(&l.beams), "laser.beams", l.beams, "must be between 1 and 4096");
+            c.range("laser.min_range_m", l.min_range_m, 0.0, f64::MAX, "must be a finite number >= 0");
+            c.rule(
+                l.max_range_m.is_finite() && l.max_range_m > l.min_range_m,
+                "laser.max_range_m",
+                l.max_range_m,
+                "must be finite and greater than min_range_m",
+            );
+            c.range("laser.period_s", l.period_s, 1e-3, 10.0, "must be between 1e-3 and 10 s");
+            c.range("laser.noise_sd_m", l.noise_sd_m, 0.0, f64::MAX, "must be a finite number >= 0");
+            for (name, v) in [("near", &l.near), ("far", &l.far)] {
+                let key = |k: &str| format!("laser.{name}.{k}");
+                c.range(
+                    &key("beam_width_deg"),
+                    v.beam_width_deg,
+                    0.0,
+                    180.0,
+                    "must be between 0 and 180 deg",
+                );
+                c.range(&key("min_range_m"), v.min_range_m, 0.0, f64::MAX, "must be a finite number >= 0");
+                c.rule(
+                    v.max_range_m.is_finite() && v.max_range_m > v.min_range_m,
+                    &key("max_range_m"),
+                    v.max_range_m,
+                    "must be finite and greater than min_range_m",
+                );
+            }
+        }
+        c.range(
             "bumpers.contact_margin_m",
             self.bumpers.contact_margin_m,
             f64::MIN_POSITIVE,
@@ -402,20 +565,38 @@ impl SimConfig {
     /// The robot as behaviours should know it, with the component's push periods.
     pub fn robot_params(&self, push: PushPeriods) -> RobotParams {
         let d = &self.drive;
+        let r = self.body.radius_m;
+        let (sonar, infrared, range_sensors) = match &self.laser {
+            Some(l) => (l.far.params(r, l.period_s), l.near.params(r, l.period_s), vec![l.params()]),
+            None => {
+                let (sonar, infrared) = (self.sonar.params(r), self.infrared.params(r));
+                let sensors = vec![
+                    RangeSensorParams::ring("sonar", &sonar),
+                    RangeSensorParams::ring("infrared", &infrared),
+                ];
+                (sonar, infrared, sensors)
+            }
+        };
+        let turret = match d.kind {
+            DriveKind::Synchro => d.max_turret_deg_s,
+            DriveKind::Differential => d.max_steer_deg_s,
+        };
         RobotParams {
             body_radius_m: self.body.radius_m,
             max_v_m_s: d.max_translate_m_s,
             max_omega_rad_s: d.max_steer_deg_s.to_radians(),
-            max_turret_omega_rad_s: d.max_turret_deg_s.to_radians(),
+            max_turret_omega_rad_s: turret.to_radians(),
             accel_m_s2: d.translate_accel_m_s2,
             steer_accel_rad_s2: d.steer_accel_deg_s2.to_radians(),
             turret_accel_rad_s2: d.turret_accel_deg_s2.to_radians(),
-            sonar: self.sonar.params(self.body.radius_m),
-            infrared: self.infrared.params(self.body.radius_m),
+            sonar: sonar.clone(),
+            infrared: infrared.clone(),
             bumper_angles_rad: (0..BUMPER_COUNT).map(bumper_angle_rad).collect(),
             odometry_resolution_m: self.odometry.resolution_m,
             odometry_resolution_rad: self.odometry.resolution_deg.to_radians(),
             push,
+            drive: d.kind,
+            range_sensors,
         }
     }
 }

@@ -9,6 +9,7 @@
 use super::SimNomad200;
 use crate::board::{AxisAccelerations, AxisVelocities, BoardError, MotorState};
 use crate::sim::config::DriveConfig;
+use orsa_interfaces::range::DriveKind;
 
 /// One velocity-controlled axis.
 #[derive(Debug, Clone, PartialEq)]
@@ -55,6 +56,8 @@ impl Axis {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Drive {
     axes: [Axis; 3],
+    /// Differential drive: half the distance between the wheels, m (`None`: synchro drive).
+    half_base: Option<f64>,
 }
 
 const AXIS_NAMES: [&str; 3] = ["translate", "steer", "turret"];
@@ -76,7 +79,14 @@ fn check(operation: &'static str, values: [f64; 3], max: [f64; 3], positive: boo
 
 impl Drive {
     pub(crate) fn new(c: &DriveConfig) -> Self {
+        // A differential drive has no turret: its "turret" axis mirrors the steering, so that
+        // the sensors turn with the body and every limit set on the steering holds for both.
+        let (turret_max, turret_accel, turret_max_accel) = match c.kind {
+            DriveKind::Synchro => (c.max_turret_deg_s, c.turret_accel_deg_s2, c.max_turret_accel_deg_s2),
+            DriveKind::Differential => (c.max_steer_deg_s, c.steer_accel_deg_s2, c.max_steer_accel_deg_s2),
+        };
         Drive {
+            half_base: (c.kind == DriveKind::Differential).then_some(c.wheel_base_m / 2.0),
             axes: [
                 Axis::new(c.max_translate_m_s, c.translate_accel_m_s2, c.max_translate_accel_m_s2),
                 Axis::new(
@@ -84,18 +94,25 @@ impl Drive {
                     c.steer_accel_deg_s2.to_radians(),
                     c.max_steer_accel_deg_s2.to_radians(),
                 ),
-                Axis::new(
-                    c.max_turret_deg_s.to_radians(),
-                    c.turret_accel_deg_s2.to_radians(),
-                    c.max_turret_accel_deg_s2.to_radians(),
-                ),
+                Axis::new(turret_max.to_radians(), turret_accel.to_radians(), turret_max_accel.to_radians()),
             ],
         }
     }
 
     pub(crate) fn command(&mut self, v: AxisVelocities) -> Result<(), BoardError> {
         check("move_velocity", v.as_array(), [0.0; 3], false)?;
-        for (axis, c) in self.axes.iter_mut().zip(v.as_array()) {
+        let mut c = v.as_array();
+        if let Some(half_base) = self.half_base {
+            // Both wheels within the translation limit, the curvature kept; no turret.
+            let wheel = c[0].abs() + c[1].abs() * half_base;
+            let max = self.axes[0].limit;
+            if wheel > max {
+                let k = max / wheel;
+                c = [c[0] * k, c[1] * k, c[1] * k];
+            }
+            c[2] = c[1];
+        }
+        for (axis, c) in self.axes.iter_mut().zip(c) {
             axis.command = c;
         }
         Ok(())
@@ -109,7 +126,11 @@ impl Drive {
 
     pub(crate) fn set_limits(&mut self, v: AxisVelocities) -> Result<(), BoardError> {
         check("set_velocity_limits", v.as_array(), self.axes.clone().map(|a| a.max_limit), true)?;
-        for (axis, l) in self.axes.iter_mut().zip(v.as_array()) {
+        let mut l = v.as_array();
+        if self.half_base.is_some() {
+            l[2] = l[1];
+        }
+        for (axis, l) in self.axes.iter_mut().zip(l) {
             axis.limit = l;
         }
         Ok(())
@@ -117,7 +138,11 @@ impl Drive {
 
     pub(crate) fn set_accels(&mut self, a: AxisAccelerations) -> Result<(), BoardError> {
         check("set_accelerations", a.as_array(), self.axes.clone().map(|a| a.max_accel), true)?;
-        for (axis, acc) in self.axes.iter_mut().zip(a.as_array()) {
+        let mut acc = a.as_array();
+        if self.half_base.is_some() {
+            acc[2] = acc[1];
+        }
+        for (axis, acc) in self.axes.iter_mut().zip(acc) {
             axis.accel = acc;
         }
         Ok(())
@@ -236,5 +261,38 @@ mod tests {
             d.advance(0.01);
         }
         assert_eq!(d.velocities(), AxisVelocities::synchro(0.2, -0.1));
+    }
+
+    /// A differential drive's wheels share the translation limit: a command beyond it is
+    /// scaled down whole (same curvature), and the sensors turn with the body.
+    #[test]
+    fn a_differential_drive_shares_its_wheel_speed() {
+        let c = DriveConfig {
+            kind: DriveKind::Differential,
+            wheel_base_m: 0.5,
+            max_translate_m_s: 1.0,
+            max_steer_deg_s: 180.0,
+            steer_accel_deg_s2: 720.0,
+            max_steer_accel_deg_s2: 720.0,
+            translate_accel_m_s2: 1.0,
+            ..DriveConfig::default()
+        };
+        let mut d = Drive::new(&c);
+        // Wheels at 0.8 +- 2 x 0.25 = 1.3 and 0.3 m/s: scaled by 1 / 1.3.
+        d.command(AxisVelocities { translate_m_s: 0.8, steer_rad_s: 2.0, turret_rad_s: -5.0 }).expect("cmd");
+        for _ in 0..300 {
+            d.advance(0.01);
+        }
+        let v = d.velocities();
+        assert!((v.translate_m_s - 0.8 / 1.3).abs() < 1e-12, "{v:?}");
+        assert!((v.steer_rad_s - 2.0 / 1.3).abs() < 1e-12, "{v:?}");
+        assert_eq!(v.turret_rad_s, v.steer_rad_s, "no turret of its own");
+        assert!(v.translate_m_s + v.steer_rad_s * 0.25 <= 1.0 + 1e-12);
+        // Within the limit nothing is scaled.
+        d.command(AxisVelocities::synchro(0.5, 1.0)).expect("cmd");
+        for _ in 0..300 {
+            d.advance(0.01);
+        }
+        assert_eq!(d.velocities(), AxisVelocities::synchro(0.5, 1.0));
     }
 }

@@ -34,11 +34,15 @@ pub(crate) struct Odometry {
     distance_error: f64,
     heading_error: f64,
     heading_error_per_m: f64,
+    /// The wheels and sensors are fixed to the base (a differential drive): the steering and
+    /// turret encoders, relative to the base, stay at zero while the heading turns.
+    fixed_to_base: bool,
 }
 
 impl Odometry {
-    pub(crate) fn new(c: &OdometryConfig) -> Self {
+    pub(crate) fn new(c: &OdometryConfig, fixed_to_base: bool) -> Self {
         Odometry {
+            fixed_to_base,
             x: 0.0,
             y: 0.0,
             heading: 0.0,
@@ -60,8 +64,10 @@ impl Odometry {
         self.x += counted_ds * mid.cos();
         self.y += counted_ds * mid.sin();
         self.heading += dheading;
-        self.steer += dsteer;
-        self.turret += dturret;
+        if !self.fixed_to_base {
+            self.steer += dsteer;
+            self.turret += dturret;
+        }
     }
 
     /// Makes the current pose the origin.
@@ -122,7 +128,7 @@ mod tests {
 
     #[test]
     fn integrates_a_square_exactly_without_errors() {
-        let mut o = Odometry::new(&exact());
+        let mut o = Odometry::new(&exact(), false);
         for _ in 0..4 {
             o.integrate(1.0, 0.0, 0.0);
             o.integrate(0.0, PI / 2.0, PI / 2.0);
@@ -134,7 +140,8 @@ mod tests {
 
     #[test]
     fn quantises_to_the_resolution() {
-        let mut o = Odometry::new(&OdometryConfig { resolution_m: 0.0025, resolution_deg: 0.1, ..exact() });
+        let mut o =
+            Odometry::new(&OdometryConfig { resolution_m: 0.0025, resolution_deg: 0.1, ..exact() }, false);
         o.integrate(1.2345, 0.0, 0.0);
         o.integrate(0.0, 0.123f64.to_radians(), 0.0);
         let s = report(&o);
@@ -147,8 +154,10 @@ mod tests {
 
     #[test]
     fn drift_factors_bend_and_stretch_the_path() {
-        let mut o =
-            Odometry::new(&OdometryConfig { distance_error: 0.01, heading_error_deg_per_m: 1.0, ..exact() });
+        let mut o = Odometry::new(
+            &OdometryConfig { distance_error: 0.01, heading_error_deg_per_m: 1.0, ..exact() },
+            false,
+        );
         for _ in 0..100 {
             o.integrate(0.01, 0.0, 0.0);
         }
@@ -158,7 +167,7 @@ mod tests {
         let chord = (s.x_m.powi(2) + s.y_m.powi(2)).sqrt();
         assert!((chord - 1.01).abs() < 1e-4, "{chord}");
         assert!(s.y_m > 0.008 && s.y_m < 0.0095, "curves left: {}", s.y_m);
-        let mut o = Odometry::new(&OdometryConfig { heading_error: 0.1, ..exact() });
+        let mut o = Odometry::new(&OdometryConfig { heading_error: 0.1, ..exact() }, false);
         o.integrate(0.0, 1.0, 1.0);
         assert!((report(&o).heading_rad - 1.1).abs() < 1e-12);
         assert!((report(&o).steer_rad - 1.0).abs() < 1e-12, "the steering encoder itself is exact");

@@ -47,6 +47,19 @@ impl StepMotion<'_> {
         self.turret0 + a * (self.turret1 - self.turret0)
     }
 
+    /// Where the body's centre and the turret's front are at `t_ns`; fills `scratch` with the
+    /// movers' circles at that instant.
+    pub(crate) fn pose_at(&self, t_ns: u64, scratch: &mut Vec<Circle>) -> (Point, f64) {
+        let a = self.alpha(t_ns);
+        let lerp = |p0: &Point, p1: &Point| Point::new(p0.x + (p1.x - p0.x) * a, p0.y + (p1.y - p0.y) * a);
+        scratch.clear();
+        scratch.extend(self.movers0.iter().zip(self.movers1).map(|(p0, m)| {
+            let c = m.circle();
+            Circle::new(lerp(p0, &c.center), c.radius)
+        }));
+        (lerp(&self.p0, &self.p1), self.turret_at(t_ns))
+    }
+
     /// What a sensor facing `sensor_angle` from the turret's front sees at `t_ns`: the distance
     /// from its face to the nearest surface met by any ray at `offsets` from its axis, if one is
     /// met within `max`. `scratch` holds the movers' circles at that instant.
@@ -58,15 +71,8 @@ impl StepMotion<'_> {
         max: f64,
         scratch: &mut Vec<Circle>,
     ) -> Option<f64> {
-        let a = self.alpha(t_ns);
-        let lerp = |p0: &Point, p1: &Point| Point::new(p0.x + (p1.x - p0.x) * a, p0.y + (p1.y - p0.y) * a);
-        let center = lerp(&self.p0, &self.p1);
-        scratch.clear();
-        scratch.extend(self.movers0.iter().zip(self.movers1).map(|(p0, m)| {
-            let c = m.circle();
-            Circle::new(lerp(p0, &c.center), c.radius)
-        }));
-        let axis = self.turret_at(t_ns) + sensor_angle;
+        let (center, turret) = self.pose_at(t_ns, scratch);
+        let axis = turret + sensor_angle;
         let (s, c) = axis.sin_cos();
         let face = Point::new(center.x + c * self.radius, center.y + s * self.radius);
         self.scene.ray_fan(scratch, face, axis, offsets, max)

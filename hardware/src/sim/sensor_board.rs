@@ -3,7 +3,8 @@
 
 use super::SimNomad200;
 use crate::board::{BoardError, CompassReading};
-use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
+use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan, Ring};
 use std::time::Duration;
 
 /// The shortest fire period accepted: 0.1 ms.
@@ -34,6 +35,9 @@ impl SimNomad200 {
     pub fn sensor_init(&mut self) {
         self.sonar.reset(self.now_ns);
         self.infrared.reset(self.now_ns);
+        if let Some(laser) = &mut self.laser {
+            laser.reset(self.now_ns);
+        }
         self.compass.reset(self.now_ns);
     }
 
@@ -61,14 +65,31 @@ impl SimNomad200 {
         Ok(())
     }
 
-    /// The latest reading of each sonar transducer.
+    /// The latest reading of each sonar transducer (on a laser robot: the laser's far view).
     pub fn sonar(&self) -> DistanceScan {
-        self.sonar.scan(self.origin)
+        match (&self.laser, &self.config.laser) {
+            (Some(laser), Some(c)) => {
+                laser.view(Ring::Sonar, &c.far.params(self.radius, c.period_s), self.origin)
+            }
+            _ => self.sonar.scan(self.origin),
+        }
     }
 
-    /// The latest reading of each infrared sensor.
+    /// The latest reading of each infrared sensor (on a laser robot: the laser's near view).
     pub fn infrared(&self) -> DistanceScan {
-        self.infrared.scan(self.origin)
+        match (&self.laser, &self.config.laser) {
+            (Some(laser), Some(c)) => {
+                laser.view(Ring::Infrared, &c.near.params(self.radius, c.period_s), self.origin)
+            }
+            _ => self.infrared.scan(self.origin),
+        }
+    }
+
+    /// The laser's newest scan, if the robot has a laser: when it was taken and each beam's
+    /// reading (`None`: not valid), beams as [`LaserConfig::params`] describes them.
+    pub fn laser_scan(&self) -> Option<(Timestamp, &[Option<f64>])> {
+        let (t, beams) = self.laser.as_ref()?.last()?;
+        Some((Timestamp(self.origin.0.saturating_add(t)), beams))
     }
 
     /// The bumpers as of the last step.

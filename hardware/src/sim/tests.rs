@@ -69,3 +69,72 @@ fn a_clone_continues_identically() {
     assert_eq!(a.sonar(), b.sonar());
     assert_eq!(a.infrared(), b.infrared());
 }
+
+/// The corridor robot of config/diffbot.toml: differential drive, a 270 degree laser.
+fn diffbot() -> SimNomad200 {
+    let mut c = SimConfig::noiseless();
+    c.body.radius_m = 0.35;
+    c.drive.kind = orsa_interfaces::range::DriveKind::Differential;
+    c.drive.max_translate_m_s = 1.0;
+    c.drive.max_steer_deg_s = 120.0;
+    c.drive.steer_accel_deg_s2 = 240.0;
+    c.drive.max_steer_accel_deg_s2 = 480.0;
+    c.laser = Some(LaserConfig { noise_sd_m: 0.0, ..LaserConfig::default() });
+    SimNomad200::new(World::palazzina().expect("world"), c, 7).expect("sim")
+}
+
+/// A laser robot's rings are views of its scan: the walls 1.2 m either side of its centre show
+/// 0.85 m from its 0.35 m body in the far view's side sectors, beyond the near view's reach, and
+/// nothing behind it, which the 270 degree laser cannot see.
+#[test]
+fn a_laser_robot_sees_the_corridor_through_its_sector_views() {
+    let mut sim = diffbot();
+    assert!(sim.laser_scan().is_none(), "no scan before the first period");
+    assert!(sim.sonar().readings.iter().all(|r| !r.valid), "nothing before the first scan");
+    sim.run_for(Duration::from_millis(100));
+    let (taken, beams) = sim.laser_scan().expect("one scan after 100 ms");
+    assert_eq!(taken, Timestamp(100_000_000));
+    assert_eq!(beams.len(), 271);
+    let far = sim.sonar();
+    assert_eq!(far.stamp, taken);
+    for side in [4, 12] {
+        let d = far.valid_distance_m(side).expect("a wall either side");
+        assert!((d - 0.85).abs() < 0.01, "sector {side}: {d}");
+    }
+    assert_eq!(far.valid_distance_m(8), None, "behind the laser's field of view");
+    let near = sim.infrared();
+    assert_eq!(near.valid_distance_m(4), None, "0.85 m is beyond the near view's 0.6 m");
+    // The params describe the laser as it is, and the views as the behaviours read them.
+    let p = sim.robot_params(orsa_interfaces::nomad200::PushPeriods::default());
+    assert_eq!(p.drive, orsa_interfaces::range::DriveKind::Differential);
+    assert_eq!(p.range_sensors.len(), 1);
+    assert_eq!(p.range_sensors[0].angles_rad.len(), 271);
+    assert_eq!(p.infrared.mount_radius_m, 0.35);
+    assert_eq!(p.max_turret_omega_rad_s, p.max_omega_rad_s, "no turret of its own");
+}
+
+/// A differential robot turns its sensors with its body, and the same seed gives the same scan.
+#[test]
+fn a_differential_robot_turns_its_sensors_with_it() {
+    let mut sim = diffbot();
+    sim.move_velocity(crate::board::AxisVelocities {
+        translate_m_s: 0.0,
+        steer_rad_s: 1.0,
+        turret_rad_s: 0.0,
+    })
+    .expect("turn");
+    sim.run_for(Duration::from_secs(1));
+    let t = sim.truth();
+    assert!(t.heading_rad > 0.5, "turned: {}", t.heading_rad);
+    assert_eq!(t.turret_rad, t.heading_rad, "the sensors turn with the body");
+    let mut again = diffbot();
+    again
+        .move_velocity(crate::board::AxisVelocities {
+            translate_m_s: 0.0,
+            steer_rad_s: 1.0,
+            turret_rad_s: 0.0,
+        })
+        .expect("turn");
+    again.run_for(Duration::from_secs(1));
+    assert_eq!(sim.laser_scan(), again.laser_scan());
+}
