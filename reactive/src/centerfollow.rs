@@ -27,7 +27,7 @@ use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, WallEstimate, front_min, fuse, wall_in};
 use crate::walldir::{WallDirParams, WallDirection};
 use orsa_actors::Timestamp;
-use orsa_interfaces::nomad200::NavigationVelocity;
+use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of center following (the `[centerfollow]` table of the config file).
@@ -206,6 +206,13 @@ impl CenterFollower {
     }
 
     /// The robot's odometry at `stamp`: where it is (for getting out of deadlocks), where it
+    /// The sectors that neither view covers (a laser's blind rear): getting out of a
+    /// deadlock never backs into them.
+    pub fn with_blind(mut self, blind: [bool; RING_SIZE]) -> Self {
+        self.unstick.set_blind(blind);
+        self
+    }
+
     /// heads and how fast it turns (for holding the walls' direction).
     pub fn note_odometry(
         &mut self,

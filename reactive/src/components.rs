@@ -40,6 +40,18 @@ async fn robot_params(ctx: &Ctx<impl ractor::Message>, robot: &str) -> Result<Ro
     Ok(params)
 }
 
+/// The sectors none of `views` covers, given the robot's range sensors.
+fn blind(robot: &RobotParams, views: &[&nomad200::RingParams]) -> [bool; RING_SIZE] {
+    let mut blind = [true; RING_SIZE];
+    for view in views {
+        let covered = orsa_interfaces::range::sector_coverage(&robot.range_sensors, view);
+        for (b, c) in blind.iter_mut().zip(covered) {
+            *b &= !c;
+        }
+    }
+    blind
+}
+
 fn sent(result: Result<(), PatternError>) -> bool {
     match result {
         Ok(()) => true,
@@ -102,7 +114,7 @@ impl Component for WallFollow {
             Empty {},
             WallFollowMsg::Contact,
         )?;
-        let ctl = WallFollower::new(params.current(), ring);
+        let ctl = WallFollower::new(params.current(), ring).with_blind(blind(&robot, &[&robot.infrared]));
         Ok(WallFollowState { ctl, params, steer_rad: 0.0, vel, status })
     }
 
@@ -208,7 +220,8 @@ impl Component for CenterFollow {
                 robot.infrared.mount_radius_m,
                 robot.infrared.beam_width_rad,
                 robot.sonar.beam_width_rad,
-            ),
+            )
+            .with_blind(blind(&robot, &[&robot.infrared, &robot.sonar])),
             params,
             steer_rad: 0.0,
             vel,

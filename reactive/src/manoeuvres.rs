@@ -200,6 +200,9 @@ pub struct Unstick {
     /// direction of travel (rad, counter-clockwise).
     contact: Option<(u64, f64)>,
     recovery: Recovery,
+    /// The sectors no sensor of the robot covers (see
+    /// [`orsa_interfaces::range::sector_coverage`]): never taken for open space behind.
+    blind: [bool; RING_SIZE],
 }
 
 /// How long a contact report counts: the bumpers report every 30 ms while pressed.
@@ -228,6 +231,12 @@ fn ahead_or_beside(a: f64) -> bool {
 }
 
 impl Unstick {
+    /// Marks the sectors no sensor covers: the robot backs out only where every sector behind
+    /// it is covered and clear, and otherwise turns in place at once.
+    pub fn set_blind(&mut self, blind: [bool; RING_SIZE]) {
+        self.blind = blind;
+    }
+
     /// The robot is at `(x, y)` (odometry, m) at `now` (ns).
     pub fn note_position(&mut self, p: &UnstickParams, x: f64, y: f64, now: u64) {
         if !(x.is_finite() && y.is_finite()) {
@@ -280,7 +289,8 @@ impl Unstick {
             self.recovery = Recovery::Backing { until: now + secs_ns(p.back_s) };
         }
         if let Recovery::Backing { until } = self.recovery {
-            let rear_clear = (6..=10).all(|i| r[i].is_none_or(|d| d > p.rear_clear_m));
+            // A sector no sensor covers is not clear: it was not looked at.
+            let rear_clear = (6..=10).all(|i| !self.blind[i] && r[i].is_none_or(|d| d > p.rear_clear_m));
             if now < until && rear_clear && !self.touching(false, now) {
                 return Some((-p.back_m_s, 0.0));
             }

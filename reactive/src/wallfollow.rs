@@ -38,7 +38,7 @@ use crate::cascade::{CascadeParams, check_positive};
 use crate::manoeuvres::{Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, front_min, side_min, wall};
 use orsa_actors::Timestamp;
-use orsa_interfaces::nomad200::{NavigationVelocity, ring_angle_rad};
+use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
@@ -78,6 +78,11 @@ pub struct WallFollowParams {
     pub share_gaps: bool,
     /// See `share_gaps`, m.
     pub share_within_m: f64,
+    /// Something on the right inside the band the body sweeps going straight on: turn in place
+    /// rather than drive into it (for a body that a gap beside a person can be too narrow for;
+    /// the Nomad 200's 45 degree `stop_below_m` does without). Off unless set.
+    #[serde(default)]
+    pub stop_in_path: bool,
     /// The two loops (`[...loops]` in the config file).
     pub loops: CascadeParams,
     /// Backing out of a deadlock (`[...unstick]`).
@@ -101,6 +106,7 @@ impl Default for WallFollowParams {
             limit_approach: true,
             share_gaps: true,
             share_within_m: 0.05,
+            stop_in_path: false,
             loops: CascadeParams { k_d: 5.0, alpha_max_deg: 45.0, ..CascadeParams::default() },
             unstick: UnstickParams::default(),
         }
@@ -169,6 +175,13 @@ impl WallFollower {
         WallFollower { params, ring, wedge: Wedge::default(), unstick: Unstick::default() }
     }
 
+    /// The sectors of the ring that no sensor of the robot covers (a laser's blind rear):
+    /// getting out of a deadlock never backs into them.
+    pub fn with_blind(mut self, blind: [bool; RING_SIZE]) -> Self {
+        self.unstick.set_blind(blind);
+        self
+    }
+
     /// The robot's odometry: where it is at `stamp` (for getting out of deadlocks).
     pub fn note_position(&mut self, x_m: f64, y_m: f64, stamp: Timestamp) {
         self.unstick.note_position(&self.params.unstick, x_m, y_m, stamp.0);
@@ -216,7 +229,8 @@ impl WallFollower {
             omega = turn;
         }
         let front_close = [15, 0, 1].iter().any(|&i| ir[i].is_some_and(|x| x < p.slow_below_m));
-        let mut v = if wedged.is_some() || front_min(ir).is_some_and(|d| d < p.stop_below_m) {
+        let in_path = p.stop_in_path && right_of_path(ir, &self.ring).is_some_and(|r| r < 0.0);
+        let mut v = if wedged.is_some() || in_path || front_min(ir).is_some_and(|d| d < p.stop_below_m) {
             0.0
         } else if front_close {
             p.v_slow_m_s

@@ -92,6 +92,8 @@ impl Component for FakeRobot {
                     odometry_resolution_m: 0.0025,
                     odometry_resolution_rad: 0.1f64.to_radians(),
                     push: PushPeriods::default(),
+                    drive: Default::default(),
+                    range_sensors: Vec::new(),
                 };
                 q.answer(params)?;
             }

@@ -126,22 +126,27 @@ impl Catalog {
         Catalog::default()
     }
 
-    /// The corridor mission's kinds: `nomad200` (the robot server, on the robot's boards),
+    /// The corridor mission's kinds: `robot` or `nomad200` (the robot server, on the robot's
+    /// boards, whatever the robot),
     /// `wallfollow`, `centerfollow` (behaviours, on the robot), `master` and `planner` (with
     /// the executive).
     pub fn builtin() -> Self {
         let mut c = Catalog::empty();
-        c.register("nomad200", Place::Robot, |parts, spec| {
-            no_params(spec)?;
-            let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
-            let server = Nomad200::new(
-                parts.config.robot.clone(),
-                boards.params.clone(),
-                boards.sensors.clone(),
-                boards.motors.clone(),
-            );
-            Ok(server)
-        });
+        // The robot server, on whatever robot this process has the boards of: `robot` names
+        // the kind for any robot, `nomad200` is the thesis' name for it.
+        for kind in ["robot", "nomad200"] {
+            c.register(kind, Place::Robot, |parts, spec| {
+                no_params(spec)?;
+                let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
+                let server = Nomad200::new(
+                    parts.config.robot.clone(),
+                    boards.params.clone(),
+                    boards.sensors.clone(),
+                    boards.motors.clone(),
+                );
+                Ok(server)
+            });
+        }
         c.register("wallfollow", Place::Robot, |parts, spec| {
             no_params(spec)?;
             Ok(WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() })
