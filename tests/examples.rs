@@ -9,6 +9,10 @@ mod new_component;
 #[path = "../examples/new_behaviour.rs"]
 mod new_behaviour;
 
+#[allow(dead_code, unreachable_pub)]
+#[path = "../examples/new_robot.rs"]
+mod new_robot;
+
 /// The battery's five services each work, with the figures its 0.1 Wh at 36 W imply.
 #[tokio::test(start_paused = true)]
 async fn a_new_component_serves_each_pattern() {
@@ -46,4 +50,32 @@ async fn a_system_naming_an_unknown_kind_is_refused_with_the_key() {
         .expect_err("wander is not a built-in kind");
     let text = err.to_string();
     assert!(text.contains("system.components[1].kind") && text.contains("'wander'"), "{text}");
+}
+
+/// The differential-drive robot with a laser, described in config alone, runs the corridor
+/// mission: it says what it is (drive, laser, sector views on its 0.35 m body), both behaviours
+/// drive it, wall following holds its 20 cm, and it touches nothing. (Seeds 1 to 10 for a
+/// simulated hour each are in EXPERIMENTS.md: too long for the test command.)
+#[tokio::test(start_paused = true)]
+async fn a_new_robot_runs_the_corridor_mission_from_its_description() {
+    use orsa::interfaces::range::{DriveKind, RangeLayout};
+    let seen = new_robot::run(1, 900.0).await.expect("the example runs");
+    let p = &seen.params;
+    assert_eq!(p.drive, DriveKind::Differential);
+    assert_eq!((p.body_radius_m, p.max_v_m_s), (0.35, 1.0));
+    assert_eq!(p.range_sensors.len(), 1, "{:?}", p.range_sensors);
+    let laser = &p.range_sensors[0];
+    assert_eq!((laser.layout, laser.angles_rad.len(), laser.x_m), (RangeLayout::Laser, 271, 0.1));
+    assert_eq!((laser.min_range_m, laser.max_range_m, laser.period_s), (0.05, 10.0, 0.1));
+    assert_eq!(p.infrared.mount_radius_m, 0.35, "the views sit on the body's edge");
+    let report = &seen.outcome.report;
+    assert_eq!(report.bumps, 0, "{:?}", report.bumps_at);
+    for b in ["wallfollow", "centerfollow"] {
+        let share = report.behaviour_share.get(b).copied().unwrap_or(0.0);
+        assert!(share > 0.1, "{b} drove {share} of the time: {:?}", report.behaviour_share);
+    }
+    assert!(report.distance_m > 150.0, "drove only {:.1} m", report.distance_m);
+    let clearance = report.wallfollow.mean_clearance_m.expect("wall following held a wall");
+    assert!((clearance - 0.20).abs() < 0.03, "held {clearance} m from the wall (target 0.20)");
+    assert_eq!(report.integrity.driven_unwired_s, 0.0);
 }

@@ -4,7 +4,7 @@
 //! traits that mirror the robot's two boards. Nothing here knows about behaviours or arbitration.
 //!
 //! Modules:
-//! - [`any`]: boards of either backend (simulator or ROS 2 base) behind one type.
+//! - [`any`]: boards of any backend (the simulator, a ROS 2 base, a user's own) behind one type.
 //! - [`board`]: the [`SensorBoard`](board::SensorBoard) and [`MotorBoard`](board::MotorBoard)
 //!   traits, with the table that maps each method to the original Nomad 200 C function.
 //! - [`world`]: world files (TOML) loaded into checked, typed structs; the reference world
