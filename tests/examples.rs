@@ -29,15 +29,30 @@ async fn a_new_component_serves_each_pattern() {
     assert!((seen.low_after_s - 5.0).abs() < 0.11, "fired after {} s", seen.low_after_s);
 }
 
-/// One registration and config put `wander` in the mission: the master wires it, it drives
-/// the robot along the corridor, and nothing else does.
+/// One file, one registration and config put `wander` in the mission: the master wires it, it
+/// drives the robot along the corridor, nothing else does, the report counts it, and the harness
+/// gave it a live `param` service (what `orsa param get wander` asks) that checks a set with the
+/// controller's own `validate()`.
 #[tokio::test(start_paused = true)]
 async fn a_new_behaviour_joins_the_mission_through_config_and_one_registration() {
-    let outcome = new_behaviour::run(120.0).await.expect("the example runs");
-    let report = outcome.report;
+    let seen = new_behaviour::run(120.0).await.expect("the example runs");
+    let report = seen.outcome.report;
     assert_eq!(report.behaviour_share.get("wander").copied(), Some(1.0), "{:?}", report.behaviour_share);
     assert!(report.distance_m > 5.0, "wander drove only {:.1} m", report.distance_m);
     assert_eq!(report.integrity.driven_unwired_s, 0.0);
+    let params: Vec<(String, serde_json::Value)> =
+        seen.params.params.iter().map(|p| (p.name.clone(), p.value.clone())).collect();
+    assert_eq!(
+        params,
+        vec![
+            ("gain_rad_s_m".to_string(), serde_json::json!(3.0)),
+            ("speed_m_s".to_string(), serde_json::json!(0.2))
+        ],
+        "its config's params, live"
+    );
+    let why = seen.refused.refused.expect("5 m/s is refused");
+    assert!(why.contains("speed_m_s"), "{why}");
+    assert_eq!(seen.refused.params[0].value, serde_json::json!(0.2), "the old value stays");
 }
 
 /// The example's config is refused, with the key named, by a catalog that does not know it.

@@ -168,7 +168,7 @@ impl Triggered for WallFollow {
         // Odometry, contact and parameters never make a step (no status follows them), so their stamps are
         // never used.
         match msg {
-            WallFollowMsg::Ir(u) => (u.sent_at, u.value.stamp),
+            WallFollowMsg::Ir(u) | WallFollowMsg::Sonar(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
             WallFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),

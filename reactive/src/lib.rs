@@ -12,7 +12,10 @@
 //! - [`wallfollow`]: hold a distance from the left wall (infrared).
 //! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
 //! - [`manoeuvres`]: backing out of a contact and getting unstuck, shared by both.
-//! - [`components`]: the two as components with a `vel` port, activated by State.
+//! - [`harness`]: the one behaviour component every controller runs in ([`harness::Controller`]
+//!   is what a controller implements; [`harness::Behaviour`] gives it states, live parameters,
+//!   inputs, odometry, contact, a wireable `vel` port and `status`).
+//! - [`components`]: wall following and center following as controllers in the harness.
 //!
 //! The behaviours know the robot only by its interface (`orsa_interfaces::nomad200`: the sensor
 //! scans they subscribe to, the command they send, the parameters they ask for) and offer the
@@ -21,9 +24,11 @@
 pub mod cascade;
 pub mod centerfollow;
 pub mod components;
+pub mod harness;
 pub mod manoeuvres;
 pub mod ring;
 pub mod walldir;
 pub mod wallfollow;
 
 pub use components::{CenterFollow, WallFollow};
+pub use harness::{Behaviour, Controller};
