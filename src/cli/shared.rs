@@ -7,15 +7,12 @@ use std::path::PathBuf;
 /// `orsa replay` take them.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub(crate) struct Shared {
-    /// Configuration file for the whole stack (see config/orsa.toml): components, behaviours,
-    /// modes and rules, the planner's mission; default: built-in defaults (`orsa replay`: the
-    /// recorded one, to see what another would have changed).
+    /// Configuration file for the whole stack (see config/orsa.toml); default: built-in
+    /// defaults (`orsa replay`: the recorded one).
     #[arg(long, value_name = "PATH")]
     pub(crate) config: Option<PathBuf>,
-    /// Write a report here (JSON): `orsa run` its results (default out/report.json); `orsa
-    /// robot` and `orsa executive` at exit, whatever ends them (how it ended, restarts, safety
-    /// and link counters and, with --faults, what was injected, detected and restarted); `orsa
-    /// replay` its divergence or what-if figures.
+    /// Write the report here, as JSON (`orsa run`: default out/report.json; `orsa robot`,
+    /// `orsa executive`: at exit, however they end; `orsa replay`: what diverged or changed).
     #[arg(long, value_name = "PATH.json")]
     pub(crate) report: Option<PathBuf>,
 }
