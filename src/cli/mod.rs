@@ -2,7 +2,7 @@
 //! subcommand runs, which makes them into the library's options and calls it.
 //!
 //! - [`shared`]: the options several commands share, declared once (config, report, network);
-//! - [`run`]: `orsa run`, the corridor mission, with its progress bar, table and plot;
+//! - [`run`](mod@run): `orsa run`, the corridor mission, with its progress bar, table and plot;
 //! - [`args`]: the arguments of the processes and the tools (`orsa robot`, `orsa executive`,
 //!   `orsa teleop`, `orsa list`, `orsa echo`, `orsa wire`, `orsa state`, `orsa switch`,
 //!   `orsa param`);
