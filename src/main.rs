@@ -1,12 +1,17 @@
 //! The `orsa` binary: parse arguments, set up logging, run.
+//!
+//! The command line is this crate's alone ([`cli`]): its argument types are private, and each
+//! command makes them into the `orsa` library's options and calls it.
 
 use clap::Parser;
 use tracing_subscriber::EnvFilter;
 
+mod cli;
+
 fn main() -> std::process::ExitCode {
     // Panics a fault plan injects are expected: they print one line, not a backtrace.
     orsa::ending::quiet_injected_panics();
-    let cli = orsa::cli::Cli::parse();
+    let cli = cli::Cli::parse();
     let filter = match &cli.log {
         Some(f) => EnvFilter::try_new(f),
         None => Ok(EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"))),
@@ -19,7 +24,7 @@ fn main() -> std::process::ExitCode {
         }
     };
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
-    match orsa::cli::run(cli) {
+    match cli::run(cli) {
         Ok(outcome) => std::process::ExitCode::from(outcome.exit_code()),
         Err(e) => {
             eprintln!("error: {e:#}");

@@ -53,7 +53,7 @@ fn main() -> anyhow::Result<()> {
         return orsa_bench::ros2_only(samples);
     }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
-        orsa::cli::ensure_parent(p)?;
+        orsa::output::ensure_parent(p)?;
     }
     let report = orsa_bench::run(&orsa_bench::BenchOptions { quick: args.quick })?;
     let markdown = orsa_bench::render_markdown(&report);

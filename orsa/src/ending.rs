@@ -2,7 +2,7 @@
 //! and `orsa executive` end when their time is up, on Ctrl-C or SIGTERM, when their top
 //! supervisor gives up, or on a fatal error; each writes its report on every one of those paths
 //! and says how it ended ([`Ended`]), and the command's exit code tells them apart
-//! ([`Outcome`](crate::cli::Outcome)).
+//! ([`Outcome`]).
 
 use crate::mission::report::Ended;
 use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
@@ -65,7 +65,7 @@ pub async fn until_end(duration: Option<Duration>, top: &TopWatch) -> Stop {
     };
     tokio::select! {
         () = limit => Stop::Time,
-        signal = crate::cli::interrupted() => Stop::Signal(signal),
+        signal = interrupted() => Stop::Signal(signal),
         e = top.gave_up() => Stop::GaveUp(e),
     }
 }
@@ -107,7 +107,7 @@ pub fn ended(stop: Stop, at_s: f64, stopped_in_s: Option<f64>) -> Ended {
 pub async fn or_signal(run: impl std::future::Future<Output = anyhow::Result<Stop>>) -> anyhow::Result<Stop> {
     tokio::select! {
         r = run => r,
-        signal = crate::cli::interrupted() => Ok(Stop::Signal(signal)),
+        signal = interrupted() => Ok(Stop::Signal(signal)),
     }
 }
 
@@ -128,4 +128,64 @@ pub fn quiet_injected_panics() {
             default_hook(info);
         }
     }));
+}
+
+/// How a command ended, when it did not fail: each has its exit code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// It did what it was asked (exit code 0).
+    Completed,
+    /// The system gave up: its top supervisor went over its restart intensity; the motors were
+    /// stopped and the report written (exit code 3).
+    GaveUp,
+    /// Ctrl-C or SIGTERM ended it early; the report was written (exit code 130).
+    Interrupted,
+}
+
+impl Outcome {
+    /// The outcome of a command that ended so; a fatal error (whose report was written) is the
+    /// command's error (exit code 1).
+    pub fn of(ended: &Ended) -> anyhow::Result<Outcome> {
+        match ended {
+            Ended::Completed => Ok(Outcome::Completed),
+            Ended::GaveUp { .. } => Ok(Outcome::GaveUp),
+            Ended::Interrupted { .. } => Ok(Outcome::Interrupted),
+            Ended::Failed { at_s, error } => Err(anyhow::anyhow!("failed at {at_s:.1} s: {error}")),
+        }
+    }
+
+    /// The process's exit code (an error is 1, a command line error 2).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Outcome::Completed => 0,
+            Outcome::GaveUp => 3,
+            Outcome::Interrupted => 130,
+        }
+    }
+}
+
+/// Ctrl-C or SIGTERM, by name (on systems without SIGTERM, Ctrl-C only).
+pub fn interrupted() -> futures::future::BoxFuture<'static, String> {
+    Box::pin(async {
+        #[cfg(unix)]
+        let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
+        #[cfg(unix)]
+        let term = async move {
+            match term.as_mut() {
+                Some(t) => {
+                    t.recv().await;
+                }
+                None => std::future::pending::<()>().await,
+            }
+        };
+        #[cfg(not(unix))]
+        let term = std::future::pending::<()>();
+        tokio::select! {
+            r = tokio::signal::ctrl_c() => match r {
+                Ok(()) => "SIGINT (Ctrl-C)".to_string(),
+                Err(_) => std::future::pending().await,
+            },
+            () = term => "SIGTERM".to_string(),
+        }
+    })
 }

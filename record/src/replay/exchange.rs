@@ -1,5 +1,5 @@
 //! The transport of a replayed process: what its components exchanged with services in other
-//! processes, played back from the recording (see [`crate::remote::exchange`], which recorded
+//! processes, played back from the recording (see [`crate::exchange`], which recorded
 //! it).
 //!
 //! Every reply, update and firing comes back at the time it came in the recorded run, to the

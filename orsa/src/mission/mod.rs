@@ -11,9 +11,11 @@
 
 pub mod integrity;
 pub mod metrics;
-pub mod recording;
 pub mod report;
 pub mod stack;
+
+/// A run's recording: in the recording crate, `orsa_record::recording`.
+pub use orsa_record::recording;
 
 use crate::config::Config;
 use metrics::{Metrics, Sample};

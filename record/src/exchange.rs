@@ -5,8 +5,8 @@
 //! the executive's components again on what reached them, when it reached them (see
 //! [`crate::replay::exchange`]).
 
-use crate::mission::recording::McapTap;
 use crate::record::events::{EXCHANGED_TYPE, ExchangeKind, Exchanged};
+use crate::recording::McapTap;
 use futures::FutureExt as _;
 use orsa_actors::transport::{ByteSink, EventMode, Served, Subscription, Transport};
 use orsa_actors::{Clock, PatternResult, ServiceAddr, ServiceInfo};

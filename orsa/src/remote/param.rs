@@ -6,23 +6,17 @@
 //! orsa param set wallfollow target_m 0.25   # one, checked as the config file is
 //! ```
 
-use super::{NetArgs, open, runtime, secs, wait_for};
+use super::{NetworkOptions, open, runtime, secs, wait_for};
 use crate::system::live_params::{ParamDirectory, ParamError, parse_value, show_value};
 use anyhow::bail;
 use orsa_actors::param::Param;
 use orsa_actors::{Registry, ServiceAddr};
 
-/// Arguments of `orsa param`.
-#[derive(Debug, clap::Args)]
-#[command(
-    allow_negative_numbers = true,
-    after_help = "Examples:\n  orsa param get wallfollow\n  orsa param get wallfollow loops\n  \
-orsa param set wallfollow target_m 0.25\n  orsa param set master modes.patrol.rules.0.when.0.below_m 0.6"
-)]
-pub struct ParamArgs {
+/// Options of `orsa param`.
+#[derive(Debug)]
+pub struct ParamOptions {
     /// `get` shows parameters; `set` sets one while the component runs (checked by the
     /// component as the config file is: a refused value changes nothing, and says why).
-    #[arg(value_enum)]
     pub action: ParamAction,
     /// The component (`wallfollow`, `centerfollow`, `master`).
     pub component: String,
@@ -33,18 +27,15 @@ pub struct ParamArgs {
     /// text that is not TOML is taken as a string.
     pub value: Option<String>,
     /// How long to wait for the component.
-    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
     pub wait: f64,
     /// Print JSON instead of text.
-    #[arg(long)]
     pub json: bool,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
 /// What `orsa param` does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamAction {
     /// Show parameters.
     Get,
@@ -65,7 +56,7 @@ fn render(params: &[Param]) -> String {
 }
 
 /// `orsa param`.
-pub fn param(args: ParamArgs) -> anyhow::Result<()> {
+pub fn param(args: ParamOptions) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     let component = args.component.clone();
     if !orsa_actors::addr::valid_name(&component) {
@@ -95,7 +86,7 @@ pub fn param(args: ParamArgs) -> anyhow::Result<()> {
                     let params = directory.get(&full).await?;
                     let text =
                         if args.json { serde_json::to_string_pretty(&params)? } else { render(&params) };
-                    crate::cli::say(&text);
+                    crate::output::say(&text);
                     Ok(())
                 }
                 Some((name, value)) => {
@@ -110,7 +101,7 @@ pub fn param(args: ParamArgs) -> anyhow::Result<()> {
                             } else {
                                 format!("{}{}", render(std::slice::from_ref(&now)), was.unwrap_or_default())
                             };
-                            crate::cli::say(&text);
+                            crate::output::say(&text);
                             Ok(())
                         }
                         Err(ParamError::Refused { component, reason, current }) => {

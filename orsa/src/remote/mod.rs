@@ -16,16 +16,18 @@
 //! lost heartbeat (a link that was cut while its session stayed up) gets back the behaviour it
 //! had wired.
 
-pub mod exchange;
+/// What a process exchanged across processes, recorded: in the recording crate.
+pub use orsa_record::exchange;
 mod param;
 mod robot;
 pub mod ros2;
 mod tools;
 
-pub use param::{ParamAction, ParamArgs, param};
-pub use robot::{FALLBACK, Hardware, ROBOT_TOP, RobotArgs, RobotReport, robot};
+pub use param::{ParamAction, ParamOptions, param};
+pub use robot::{FALLBACK, Hardware, ROBOT_TOP, RobotOptions, RobotReport, robot};
 pub use tools::{
-    EchoArgs, ListArgs, StateArgs, SwitchArgs, WireArgs, echo, list, parse_change, state, switch, wire,
+    EchoOptions, ListOptions, StateOptions, SwitchOptions, WireOptions, echo, list, parse_change, state,
+    switch, wire,
 };
 
 use crate::config::Config;
@@ -39,24 +41,20 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// How a process joins the network (shared by every networked subcommand).
-#[derive(Debug, Clone, clap::Args)]
-pub struct NetArgs {
+/// How a process joins the network (every networked process and tool).
+#[derive(Debug, Clone)]
+pub struct NetworkOptions {
     /// zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable).
-    #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
     /// zenoh endpoint of a peer to connect to, e.g. `tcp/robot.local:7447` (repeatable).
-    #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// zenoh configuration file (JSON5): TLS, user/password, everything else (see docs/security.md).
-    #[arg(long, value_name = "PATH")]
     pub zenoh_config: Option<PathBuf>,
     /// Key prefix: systems with different prefixes do not see each other.
-    #[arg(long, value_name = "PREFIX", default_value = "orsa")]
     pub prefix: String,
 }
 
-impl NetArgs {
+impl NetworkOptions {
     fn options(&self, heartbeat: Option<Duration>) -> NetOptions {
         NetOptions {
             listen: self.listen.clone(),
@@ -68,75 +66,48 @@ impl NetArgs {
     }
 }
 
-/// Arguments of `orsa executive`.
-#[derive(Debug, clap::Args)]
-pub struct ExecutiveArgs {
+/// Options of `orsa executive`.
+#[derive(Debug)]
+pub struct ExecutiveOptions {
     /// Configuration file (see config/orsa.toml): modes, rules, the planner's mission.
-    #[arg(long, value_name = "PATH")]
     pub config: Option<PathBuf>,
     /// Seconds of the default mission (patrol) and of the process (default: 3600).
-    #[arg(long, value_name = "SECS", default_value_t = 3600.0)]
     pub duration: f64,
     /// How long to wait for the robot's services to appear.
-    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
     pub wait: f64,
     /// Record this process here, as MCAP: its components' messages, and everything it
     /// exchanged with the robot's services, when it crossed (what `orsa replay` feeds back).
-    #[arg(long, value_name = "PATH.mcap")]
     pub record: Option<PathBuf>,
     /// At exit (whatever ends it: its time, Ctrl-C or SIGTERM, its supervisor giving up, an
     /// error), write a report here (JSON): how it ended, restarts and, with --faults, what was
     /// injected, detected and restarted.
-    #[arg(long, value_name = "PATH.json")]
     pub report: Option<PathBuf>,
     /// Break this process on purpose as this fault plan says (see docs/faults.md): the master
     /// and the planner, the master's push, and `link_cut` to the robot, teleop or tools. Its
     /// clock starts when the executive's components are up.
-    #[arg(long, value_name = "PLAN.toml")]
     pub faults: Option<PathBuf>,
     /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
     /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
-    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
-          value_parser = crate::live::parse_addr)]
     pub foxglove: Option<std::net::SocketAddr>,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
-/// Arguments of `orsa teleop`.
-#[derive(Debug, clap::Args)]
-pub struct TeleopArgs {
+/// Options of `orsa teleop`.
+#[derive(Debug)]
+pub struct TeleopOptions {
     /// The robot component.
-    #[arg(long, default_value = "nomad200")]
     pub robot: String,
     /// Scripted: send this velocity (m/s, rad/s) instead of reading the keyboard.
-    #[arg(long, value_name = "V,OMEGA", value_parser = parse_velocity, allow_hyphen_values = true)]
     pub send: Option<(f64, f64)>,
     /// Scripted: for this many seconds, then stop and quit.
-    #[arg(long = "for", value_name = "SECS", default_value_t = 1.0)]
     pub for_s: f64,
     /// Commands per second.
-    #[arg(long, value_name = "HZ", default_value_t = 10.0)]
     pub rate: f64,
     /// How long to wait for the robot.
-    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
     pub wait: f64,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
-}
-
-fn parse_velocity(s: &str) -> Result<(f64, f64), String> {
-    let (v, w) = s.split_once(',').ok_or_else(|| format!("'{s}' is not V,OMEGA (e.g. 0.1,0.0)"))?;
-    let num = |t: &str, what: &str| -> Result<f64, String> {
-        t.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("{what} '{t}' is not a number"))
-    };
-    Ok((num(v, "V")?, num(w, "OMEGA")?))
+    pub net: NetworkOptions,
 }
 
 fn secs(s: f64, flag: &str) -> anyhow::Result<Duration> {
@@ -165,7 +136,7 @@ fn load_config(path: &Option<PathBuf>) -> anyhow::Result<Config> {
 
 async fn open(
     registry: &Registry,
-    net: &NetArgs,
+    net: &NetworkOptions,
     role: &str,
     heartbeat: Option<Duration>,
 ) -> anyhow::Result<ZenohTransport> {
@@ -198,8 +169,7 @@ async fn until_stopped(duration: Option<Duration>) {
     }
 }
 
-/// The executive process's top supervisor.
-pub const EXECUTIVE_TOP: &str = "orsa-executive";
+pub use crate::system::EXECUTIVE_TOP;
 
 /// What `orsa executive --report` writes at exit.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
@@ -220,7 +190,7 @@ pub struct ExecutiveReport {
 }
 
 /// `orsa executive`.
-pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
+pub fn executive(args: ExecutiveOptions) -> anyhow::Result<crate::ending::Outcome> {
     use crate::mission::report::Ended;
     let config = load_config(&args.config)?;
     let duration = secs(args.duration, "--duration")?;
@@ -232,7 +202,7 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
         None => None,
     };
     for p in [args.record.as_ref(), args.report.as_ref()].into_iter().flatten() {
-        crate::cli::ensure_parent(p)?;
+        crate::output::ensure_parent(p)?;
     }
     runtime()?.block_on(async move {
         let clock = Clock::start();
@@ -460,12 +430,12 @@ pub fn executive(args: ExecutiveArgs) -> anyhow::Result<crate::cli::Outcome> {
                 Err(e) => bail!("the executive stopped, but its recording failed: {e}"),
             }
         }
-        crate::cli::Outcome::of(&ended)
+        crate::ending::Outcome::of(&ended)
     })
 }
 
 /// `orsa teleop`.
-pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
+pub fn teleop(args: TeleopOptions) -> anyhow::Result<()> {
     if !(args.rate.is_finite() && (0.5..=100.0).contains(&args.rate)) {
         bail!("--rate {}: must be from 0.5 to 100 commands per second", args.rate);
     }

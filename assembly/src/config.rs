@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The commented default configuration, as shipped.
-pub const DEFAULT_CONFIG: &str = include_str!("../config/orsa.toml");
+pub const DEFAULT_CONFIG: &str = include_str!("../../config/orsa.toml");
 
 /// Everything a stack needs besides the world and the seed.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -435,7 +435,7 @@ mod tests {
 
     #[test]
     fn the_previous_default_file_parses_and_differs_only_in_the_behaviours() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
         let c = Config::load(&root.join("config/previous-default.toml")).expect("parses");
         assert_ne!(c.centerfollow, Config::default().centerfollow);
         assert_ne!(c.wallfollow, Config::default().wallfollow);

@@ -3,7 +3,7 @@
 //! own node with `--ros2`, the base's topics with `--hardware ros2`) and starting its fault plan.
 
 use super::watchdog::RobotEvent;
-use super::{Hardware, RobotArgs};
+use super::{Hardware, RobotOptions as RobotArgs};
 use crate::config::Config;
 use crate::remote::{load_config, ros2, secs};
 use crate::system::RobotBoards;
@@ -61,7 +61,7 @@ impl Checked {
             None => None,
         };
         for p in [args.report.as_ref(), args.record.as_ref()].into_iter().flatten() {
-            crate::cli::ensure_parent(p)?;
+            crate::output::ensure_parent(p)?;
         }
         let world_label = match &args.world {
             Some(p) => p.display().to_string(),

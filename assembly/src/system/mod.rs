@@ -79,8 +79,14 @@ impl std::fmt::Debug for System {
     }
 }
 
-/// The name of a system's supervisor unless the builder is given another.
+/// The name of a system's supervisor unless the builder is given another (`orsa run`'s).
 pub const TOP_SUPERVISOR: &str = "orsa";
+
+/// The robot process's top supervisor (`orsa robot`).
+pub const ROBOT_TOP: &str = "orsa-robot";
+
+/// The executive process's top supervisor (`orsa executive`).
+pub const EXECUTIVE_TOP: &str = "orsa-executive";
 
 impl System {
     /// Starts describing the system of `config` (its `[system]` table).

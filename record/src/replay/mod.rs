@@ -18,7 +18,6 @@
 //! recording in the middle of it, so which of its messages made it into the file is not part of
 //! what the system decided.
 
-pub mod command;
 pub mod diff;
 pub mod exchange;
 pub mod file;
@@ -273,8 +272,8 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     // The supervisor as the recording process named it (its events carry the name).
     let supervisor = match rec.meta.process.as_str() {
         "run" => crate::system::TOP_SUPERVISOR,
-        "robot" => crate::remote::ROBOT_TOP,
-        "executive" => crate::remote::EXECUTIVE_TOP,
+        "robot" => crate::system::ROBOT_TOP,
+        "executive" => crate::system::EXECUTIVE_TOP,
         other => {
             return Err(ReplayError::Metadata {
                 path: rec.path.clone(),

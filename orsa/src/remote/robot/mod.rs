@@ -12,7 +12,7 @@ mod watchdog;
 pub use fallback::FALLBACK;
 pub use report::RobotReport;
 
-use super::{NetArgs, open, runtime};
+use super::{NetworkOptions, open, runtime};
 use crate::mission::report::Ended;
 use crate::system::{Place, System};
 use anyhow::{Context as _, bail};
@@ -23,64 +23,49 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use watchdog::{RobotEvent, Watchdog, Watched};
 
-/// The robot process's top supervisor (`orsa run`'s is [`TOP_SUPERVISOR`](crate::system::TOP_SUPERVISOR)).
-pub const ROBOT_TOP: &str = "orsa-robot";
+pub use crate::system::ROBOT_TOP;
 
-/// Arguments of `orsa robot`.
-#[derive(Debug, clap::Args)]
-pub struct RobotArgs {
+/// Options of `orsa robot`.
+#[derive(Debug)]
+pub struct RobotOptions {
     /// World file (TOML); default: the reference corridor, built in.
-    #[arg(long, value_name = "PATH")]
     pub world: Option<PathBuf>,
     /// Seed of the simulator's noise.
-    #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
     /// Configuration file (see config/orsa.toml).
-    #[arg(long, value_name = "PATH")]
     pub config: Option<PathBuf>,
     /// Drive this mode (from the config's executive.modes) with a local master while no
     /// executive is connected; default: stand still.
-    #[arg(long, value_name = "MODE")]
     pub fallback: Option<String>,
     /// Stop after this many seconds (default: run until interrupted).
-    #[arg(long, value_name = "SECS")]
     pub duration: Option<f64>,
     /// Break this process on purpose as this fault plan says (see docs/faults.md): components,
     /// services, sensors, motors, and `link_cut` to the executive, teleop or tools. Its clock
     /// starts when the robot is on the network.
-    #[arg(long, value_name = "PLAN.toml")]
     pub faults: Option<PathBuf>,
     /// At exit, write a report here (JSON): safety counters, link-cut counts and, with
     /// --faults, what was injected, detected and restarted.
-    #[arg(long, value_name = "PATH.json")]
     pub report: Option<PathBuf>,
     /// Record every pattern message and control event of this process here, as MCAP, with
     /// what `orsa replay` needs to run its behaviours again (see the README).
-    #[arg(long, value_name = "PATH.mcap")]
     pub record: Option<PathBuf>,
     /// Also be a ROS 2 node, as rmw_zenoh (ROS 2 Jazzy) lays one out: publish /scan,
     /// /ir_scan, /odom, /tf and /bumper, and take /cmd_vel as teleoperation (see docs/ros2.md).
-    #[arg(long)]
     pub ros2: bool,
     /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
     pub domain: u32,
     /// The robot to drive: the simulated Nomad 200, or a ROS 2 robot that publishes a laser
     /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
-    #[arg(long, value_enum, default_value_t = Hardware::Sim)]
     pub hardware: Hardware,
     /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
     /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
-    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = crate::live::DEFAULT_ADDR,
-          value_parser = crate::live::parse_addr)]
     pub foxglove: Option<std::net::SocketAddr>,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
 /// The robot `orsa robot` drives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Hardware {
     /// The simulated Nomad 200 in the world file.
     Sim,
@@ -89,13 +74,13 @@ pub enum Hardware {
 }
 
 /// `orsa robot`.
-pub fn robot(args: RobotArgs) -> anyhow::Result<crate::cli::Outcome> {
+pub fn robot(args: RobotOptions) -> anyhow::Result<crate::ending::Outcome> {
     let checked = Checked::of(&args)?;
     runtime()?.block_on(run(args, checked))
 }
 
 /// The robot process, from its clock's start to its report.
-async fn run(args: RobotArgs, checked: Checked) -> anyhow::Result<crate::cli::Outcome> {
+async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::ending::Outcome> {
     let config = &checked.config;
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
@@ -284,5 +269,5 @@ async fn run(args: RobotArgs, checked: Checked) -> anyhow::Result<crate::cli::Ou
         Some(Err(e)) => bail!("the robot stopped, but its recording failed: {e}"),
         _ => {}
     }
-    crate::cli::Outcome::of(&ended)
+    crate::ending::Outcome::of(&ended)
 }

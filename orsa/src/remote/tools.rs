@@ -1,6 +1,6 @@
 //! The inspection tools: `orsa list`, `orsa echo`, `orsa wire`, `orsa state`, `orsa switch`.
 
-use super::{NetArgs, open, runtime, secs, until_stopped, wait_for};
+use super::{NetworkOptions, open, runtime, secs, until_stopped, wait_for};
 use anyhow::{Context as _, bail};
 use orsa_actors::switch::{Change, Switch, SwitchMaster};
 use orsa_actors::transport::Transport as _;
@@ -9,45 +9,37 @@ use orsa_actors::{PatternKind, Registry, ServiceAddr};
 use std::sync::Arc;
 use std::time::Duration;
 
-/// Arguments of `orsa list`.
-#[derive(Debug, clap::Args)]
-pub struct ListArgs {
+/// Options of `orsa list`.
+#[derive(Debug)]
+pub struct ListOptions {
     /// Seconds to listen for peers before listing.
-    #[arg(long, value_name = "SECS", default_value_t = 1.0)]
     pub wait: f64,
     /// Print JSON instead of text.
-    #[arg(long)]
     pub json: bool,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
-/// Arguments of `orsa echo`.
-#[derive(Debug, clap::Args)]
-pub struct EchoArgs {
+/// Options of `orsa echo`.
+#[derive(Debug)]
+pub struct EchoOptions {
     /// The push service, `component/service`.
     pub service: ServiceAddr,
     /// Every n-th update (counted at the source).
-    #[arg(long, value_name = "N", default_value_t = 1)]
     pub every: u32,
     /// Stop after this many updates.
-    #[arg(long, value_name = "N")]
     pub count: Option<u64>,
     /// One JSON object per line.
-    #[arg(long)]
     pub json: bool,
     /// How long to wait for the service.
-    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
     pub wait: f64,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
-/// Arguments of `orsa wire`.
-#[derive(Debug, clap::Args)]
-pub struct WireArgs {
+/// Options of `orsa wire`.
+#[derive(Debug)]
+pub struct WireOptions {
     /// The component whose port to rewire.
     pub component: String,
     /// The port.
@@ -55,37 +47,30 @@ pub struct WireArgs {
     /// The service to connect it to (`component/service`); omit with --disconnect.
     pub target: Option<ServiceAddr>,
     /// Disconnect the port instead.
-    #[arg(long, conflicts_with = "target")]
     pub disconnect: bool,
     /// How long to wait for the component.
-    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
     pub wait: f64,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
-/// Arguments of `orsa switch`.
-#[derive(Debug, clap::Args)]
-pub struct SwitchArgs {
+/// Options of `orsa switch`.
+#[derive(Debug)]
+pub struct SwitchOptions {
     /// The changes, made all or nothing: `COMPONENT.PORT=SERVICE` connects a port (SERVICE is
     /// `component/service`), `COMPONENT.PORT=` disconnects it, `COMPONENT:STATE` sets a main
     /// state. For example: `wallfollow.vel= wallfollow:neutral centerfollow:active
     /// centerfollow.vel=nomad200/navigationvelocity`.
-    #[arg(required = true, value_name = "CHANGE", value_parser = parse_change)]
     pub changes: Vec<Change>,
     /// How long each step may take before the whole switch is undone.
-    #[arg(long, value_name = "SECS", default_value_t = 1.0)]
     pub step_timeout: f64,
     /// How long to wait for the components.
-    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
     pub wait: f64,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
-/// One change as typed on the command line (see [`SwitchArgs::changes`]).
+/// One change as typed on the command line (see [`SwitchOptions::changes`]).
 pub fn parse_change(text: &str) -> Result<Change, String> {
     let bad =
         |why: &str| format!("'{text}': {why} (COMPONENT.PORT=SERVICE, COMPONENT.PORT= or COMPONENT:STATE)");
@@ -111,19 +96,17 @@ pub fn parse_change(text: &str) -> Result<Change, String> {
     Err(bad("neither a port nor a state"))
 }
 
-/// Arguments of `orsa state`.
-#[derive(Debug, clap::Args)]
-pub struct StateArgs {
+/// Options of `orsa state`.
+#[derive(Debug)]
+pub struct StateOptions {
     /// The component.
     pub component: String,
     /// The main state to set; omit to show the state.
     pub main: Option<String>,
     /// How long to wait for the component.
-    #[arg(long, value_name = "SECS", default_value_t = 10.0)]
     pub wait: f64,
     /// Network.
-    #[command(flatten)]
-    pub net: NetArgs,
+    pub net: NetworkOptions,
 }
 
 /// What `orsa list` prints as JSON.
@@ -151,7 +134,7 @@ struct ListedService {
 }
 
 /// `orsa list`.
-pub fn list(args: ListArgs) -> anyhow::Result<()> {
+pub fn list(args: ListOptions) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
@@ -193,9 +176,9 @@ pub fn list(args: ListArgs) -> anyhow::Result<()> {
             .collect();
         let listing = Listing { processes, services };
         if args.json {
-            crate::cli::say(&serde_json::to_string_pretty(&listing)?);
+            crate::output::say(&serde_json::to_string_pretty(&listing)?);
         } else {
-            crate::cli::say(&render_listing(&listing));
+            crate::output::say(&render_listing(&listing));
         }
         transport.close().await;
         Ok(())
@@ -259,7 +242,7 @@ fn render_listing(l: &Listing) -> String {
 }
 
 /// `orsa echo`.
-pub fn echo(args: EchoArgs) -> anyhow::Result<()> {
+pub fn echo(args: EchoOptions) -> anyhow::Result<()> {
     let every = std::num::NonZeroU32::new(args.every).context("--every must be at least 1")?;
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
@@ -287,9 +270,9 @@ pub fn echo(args: EchoArgs) -> anyhow::Result<()> {
                         Ok(v) => {
                             let json = cbor_to_json(v);
                             if args.json {
-                                crate::cli::say(&serde_json::to_string(&json)?);
+                                crate::output::say(&serde_json::to_string(&json)?);
                             } else {
-                                crate::cli::say(&format!("{}\n---", serde_json::to_string_pretty(&json)?));
+                                crate::output::say(&format!("{}\n---", serde_json::to_string_pretty(&json)?));
                             }
                         }
                         Err(e) => eprintln!("echo: {e}"),
@@ -343,7 +326,7 @@ fn cbor_to_json(v: ciborium::Value) -> serde_json::Value {
 const TOOL_STEP_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// `orsa wire`.
-pub fn wire(args: WireArgs) -> anyhow::Result<()> {
+pub fn wire(args: WireOptions) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     if args.target.is_none() && !args.disconnect {
         bail!("give a TARGET service (component/service) or --disconnect");
@@ -362,7 +345,7 @@ pub fn wire(args: WireArgs) -> anyhow::Result<()> {
         let master = WiringMaster::new(&registry);
         for p in master.ports(&args.component).await? {
             let target = p.target.map_or("(disconnected)".to_string(), |t| t.to_string());
-            crate::cli::say(&format!("{}.{} -> {target}", args.component, p.port));
+            crate::output::say(&format!("{}.{} -> {target}", args.component, p.port));
         }
         transport.close().await;
         Ok(())
@@ -370,7 +353,7 @@ pub fn wire(args: WireArgs) -> anyhow::Result<()> {
 }
 
 /// `orsa state`.
-pub fn state(args: StateArgs) -> anyhow::Result<()> {
+pub fn state(args: StateOptions) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     runtime()?.block_on(async move {
         let registry = Registry::new();
@@ -382,7 +365,7 @@ pub fn state(args: StateArgs) -> anyhow::Result<()> {
         }
         let master = orsa_actors::state::StateMaster::connect(&registry, &args.component)?;
         let s = master.status().await?;
-        crate::cli::say(&format!(
+        crate::output::say(&format!(
             "{}: {}{}",
             args.component,
             s.current,
@@ -395,7 +378,7 @@ pub fn state(args: StateArgs) -> anyhow::Result<()> {
 
 /// `orsa switch`: several wiring and state changes, on components anywhere on the network, all
 /// or nothing.
-pub fn switch(args: SwitchArgs) -> anyhow::Result<()> {
+pub fn switch(args: SwitchOptions) -> anyhow::Result<()> {
     let wait = secs(args.wait, "--wait")?;
     let step = secs(args.step_timeout, "--step-timeout")?;
     runtime()?.block_on(async move {
@@ -419,7 +402,7 @@ pub fn switch(args: SwitchArgs) -> anyhow::Result<()> {
         transport.close().await;
         result?;
         for c in &args.changes {
-            crate::cli::say(&format!("done: {c}"));
+            crate::output::say(&format!("done: {c}"));
         }
         Ok(())
     })

@@ -279,7 +279,7 @@ mod tests {
     fn setup(world: bool, truth: bool) -> ViewSetup {
         let config = crate::config::Config::default();
         let world = world.then(|| orsa_hardware::world::World::palazzina().expect("the built-in world"));
-        crate::mission::recording::view_setup(&config, world, truth)
+        crate::recording::view_setup(&config, world, truth)
     }
 
     #[test]

@@ -1,50 +1,50 @@
-//! `orsa replay`: the command around [`super::replay`].
+//! `orsa replay`: the command around [`orsa::replay::replay`].
 
-use super::file::Recording;
-use super::{ReplayOptions, Replayed, replay};
-use crate::cli::say;
-use crate::config::Config;
+use super::progress_bar;
+use super::shared::Shared;
 use anyhow::Context as _;
+use orsa::config::Config;
+use orsa::output::{ensure_parent, say};
+use orsa::replay::file::Recording;
+use orsa::replay::{ReplayOptions, Replayed, replay};
 use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Arguments of `orsa replay`.
 #[derive(Debug, clap::Args)]
-pub struct ReplayArgs {
+pub(crate) struct ReplayArgs {
     /// The recording (made with `--record`); several, one per process of a distributed system
     /// (`orsa robot --record`, `orsa executive --record`), are replayed one after the other.
     #[arg(value_name = "PATH.mcap", required = true, num_args = 1..)]
-    pub recordings: Vec<PathBuf>,
-    /// What if: replay with this configuration instead of the recorded one.
-    #[arg(long, value_name = "PATH")]
-    pub config: Option<PathBuf>,
+    pub(crate) recordings: Vec<PathBuf>,
     /// What if: change one key of the configuration (`wallfollow.k_v=0.8`); repeatable.
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
-    pub sets: Vec<String>,
+    pub(crate) sets: Vec<String>,
     /// What if: draw the recorded and the what-if commands over time here (.svg or .png).
     #[arg(long, value_name = "PATH.svg")]
-    pub plot: Option<PathBuf>,
-    /// Write the result (divergence or what-if figures) as JSON here.
-    #[arg(long, value_name = "PATH.json")]
-    pub report: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// For a recording made live (`orsa robot --record`, `orsa run --realtime --record`): how
     /// far, in ms, a replayed message may be from its recorded log time (default 250).
     #[arg(long, value_name = "MS")]
-    pub tolerance_ms: Option<f64>,
+    pub(crate) tolerance_ms: Option<f64>,
     /// Do not show the progress bar.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
+    /// What if: replay with this configuration instead of the recorded one (--config); write
+    /// the result, divergence or what-if figures, as JSON here (--report).
+    #[command(flatten)]
+    pub(crate) shared: Shared,
 }
 
 /// Runs `orsa replay`.
-pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: ReplayArgs) -> anyhow::Result<()> {
     if let [one] = args.recordings.as_slice() {
         return run_one(&args, one);
     }
     for (flag, given) in [
-        ("--config", args.config.is_some()),
+        ("--config", args.shared.config.is_some()),
         ("--plot", args.plot.is_some()),
-        ("--report", args.report.is_some()),
+        ("--report", args.shared.report.is_some()),
     ] {
         if given {
             anyhow::bail!(
@@ -84,7 +84,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
 /// Replays one recording (see [`run`]).
 fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let rec = Recording::open(path)?;
-    let what_if = args.config.is_some() || !args.sets.is_empty();
+    let what_if = args.shared.config.is_some() || !args.sets.is_empty();
     if args.plot.is_some() && !what_if {
         anyhow::bail!("--plot draws a what-if: give another configuration with --config or --set");
     }
@@ -95,9 +95,9 @@ fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
         }
     }
     let config = if what_if {
-        let base = match &args.config {
+        let base = match &args.shared.config {
             Some(p) => Config::load(p)?,
-            None => super::recorded_config(&rec)?,
+            None => orsa::replay::recorded_config(&rec)?,
         };
         Some(base.with_sets(&args.sets).map_err(anyhow::Error::msg)?)
     } else {
@@ -116,8 +116,8 @@ fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
             rec.path.display()
         );
     }
-    for p in [args.plot.as_ref(), args.report.as_ref()].into_iter().flatten() {
-        crate::cli::ensure_parent(p)?;
+    for p in [args.plot.as_ref(), args.shared.report.as_ref()].into_iter().flatten() {
+        ensure_parent(p)?;
     }
     let m = &rec.meta;
     say(&format!(
@@ -131,7 +131,7 @@ fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
         rec.messages
     ));
     let span_s = orsa_actors::Timestamp(rec.last_log_time.saturating_sub(m.clock_origin_ns)).as_secs_f64();
-    let bar = crate::cli::progress_bar(span_s, args.quiet, "replayed");
+    let bar = progress_bar(span_s, args.quiet, "replayed");
     let b = bar.clone();
     let opts = ReplayOptions {
         config,
@@ -160,7 +160,7 @@ fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Resul
         "{} recorded inputs{controls} fed; {} messages on {} topics compared over {:.1} s (in {wall_s:.2} s)",
         out.fed, out.compared, out.topics, out.replayed_s
     );
-    if let super::diff::Timing::Within(tolerance) = out.timing {
+    if let orsa::replay::diff::Timing::Within(tolerance) = out.timing {
         summary.push_str(&format!(
             "\n  recorded live: every message in its recorded order with the same content; its log \
              time and the clock readings in it within {:.1} ms of the recording's (largest log time \
@@ -169,7 +169,7 @@ fn report_exact(args: &ReplayArgs, out: &Replayed, wall_s: f64) -> anyhow::Resul
             out.largest_offset_ns as f64 / 1e6
         ));
     }
-    if let Some(path) = &args.report {
+    if let Some(path) = &args.shared.report {
         let json = serde_json::json!({
             "bit_exact": out.bit_exact(),
             "timing": out.timing,
@@ -256,12 +256,12 @@ fn report_what_if(args: &ReplayArgs, rec: &Recording, out: &Replayed, wall_s: f6
             w.wiring_differs_s.len()
         ));
     }
-    if let Some(path) = &args.report {
+    if let Some(path) = &args.shared.report {
         std::fs::write(path, serde_json::to_string_pretty(&w)?)
             .with_context(|| format!("{}: cannot write the report", path.display()))?;
     }
     if let Some(path) = &args.plot {
-        crate::plot::write_what_if(path, &what_if_plot(args, rec, out, &w))?;
+        orsa::plot::write_what_if(path, &what_if_plot(args, rec, out, &w))?;
         say(&format!("plot: {}", path.display()));
     }
     Ok(())
@@ -272,11 +272,11 @@ fn what_if_plot(
     args: &ReplayArgs,
     rec: &Recording,
     out: &Replayed,
-    w: &super::diff::WhatIf,
-) -> crate::plot::WhatIfPlot {
+    w: &orsa::replay::diff::WhatIf,
+) -> orsa::plot::WhatIfPlot {
     let topic = format!("{}/{}", rec.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name());
     let origin = rec.meta.clock_origin_ns;
-    let series = |messages: Option<&Vec<super::file::Recorded>>| {
+    let series = |messages: Option<&Vec<orsa::replay::file::Recorded>>| {
         let (mut v, mut omega) = (Vec::new(), Vec::new());
         for m in messages.into_iter().flatten().filter(|m| m.log_time < out.end) {
             #[derive(serde::Deserialize)]
@@ -294,10 +294,10 @@ fn what_if_plot(
     let (rv, rw) = series(rec.outputs.get(topic.as_str()));
     let (wv, ww) = series(out.replayed.get(topic.as_str()));
     let mut changed: Vec<String> = args.sets.clone();
-    if let Some(c) = &args.config {
+    if let Some(c) = &args.shared.config {
         changed.insert(0, format!("--config {}", c.display()));
     }
-    crate::plot::WhatIfPlot {
+    orsa::plot::WhatIfPlot {
         title: format!("What if · {} · seed {} · {}", rec.path.display(), rec.meta.seed, topic),
         subtitle: format!("recorded vs {}", changed.join(", ")),
         v: [rv, wv],
