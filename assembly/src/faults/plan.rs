@@ -1,6 +1,7 @@
 //! Fault plans: the plan file, its parsing, and the checks of every fault against what the
 //! process can break (its components, services, boards and links).
 
+use crate::system::Place;
 use orsa_actors::ServiceAddr;
 use orsa_actors::fault::MessageFault;
 use orsa_hardware::faulty::{FaultRing, SensorFault};
@@ -126,51 +127,82 @@ pub struct PlanTargets {
 }
 
 impl PlanTargets {
-    /// What `orsa run`'s stack offers to a plan.
+    /// What `orsa run`'s stack offers to a plan: every component of the system, the robot
+    /// server's Send and push services, every behaviour's status and the master's push.
     pub fn for_stack(config: &crate::config::Config) -> Self {
-        let robot = config.robot.name.as_str();
-        let components = vec![
-            robot.to_string(),
-            "wallfollow".into(),
-            "centerfollow".into(),
-            "master".into(),
-            "planner".into(),
-        ];
-        let mut services = robot_and_behaviour_services(robot);
-        services.push(ServiceAddr::new("master", "driving"));
+        let components = config.system.components.iter().map(|c| c.name.clone()).collect();
+        let mut services = robot_and_behaviour_services(config);
+        services.extend(master_services(config));
         PlanTargets { components, services, roles: Vec::new(), boards: true }
     }
 
-    /// What `orsa robot`'s process offers to a plan: the robot server and the behaviours, their
-    /// Send and push services, and the links to the other processes.
+    /// What `orsa robot`'s process offers to a plan: the components it hosts (the robot
+    /// server and the behaviours), their Send and push services, and the links to the other
+    /// processes.
     pub fn for_robot(config: &crate::config::Config) -> Self {
-        let robot = config.robot.name.as_str();
-        let components = vec![robot.to_string(), "wallfollow".into(), "centerfollow".into()];
-        let services = robot_and_behaviour_services(robot);
+        let components = hosted(config, Place::Robot);
+        let services = robot_and_behaviour_services(config);
         let roles = ["executive", "teleop", "tool"].map(String::from).to_vec();
         PlanTargets { components, services, roles, boards: true }
     }
 
-    /// What `orsa executive`'s process offers to a plan: the master and the planner, the
-    /// master's push, and the links to the robot and the tools.
-    pub fn for_executive(_config: &crate::config::Config) -> Self {
-        let components = vec!["master".to_string(), "planner".to_string()];
-        let services = vec![ServiceAddr::new("master", "driving")];
+    /// What `orsa executive`'s process offers to a plan: the components it hosts (the master
+    /// and the planner), the master's push, and the links to the robot and the tools.
+    pub fn for_executive(config: &crate::config::Config) -> Self {
+        let components = hosted(config, Place::Executive);
+        let services = master_services(config);
         let roles = ["robot", "teleop", "tool"].map(String::from).to_vec();
         PlanTargets { components, services, roles, boards: false }
     }
 }
 
+/// The components of the system that `place` hosts, read from the system (a kind's own place
+/// where its entry gives none, as the built-in catalog says; a kind it does not know is a
+/// robot-side one, as `Catalog::register`'s examples are).
+fn hosted(config: &crate::config::Config, place: Place) -> Vec<String> {
+    let catalog = crate::system::Catalog::builtin();
+    config
+        .system
+        .components
+        .iter()
+        .filter(|c| {
+            c.place.or_else(|| catalog.get(c.kind()).map(|k| k.place())).unwrap_or(Place::Robot) == place
+        })
+        .map(|c| c.name.clone())
+        .collect()
+}
+
+/// The behaviours of the system: the components the executive's modes arbitrate, read from
+/// the config rather than from a list of names, so a new behaviour is a target as soon as a mode
+/// names it.
+fn behaviours(config: &crate::config::Config) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for mode in config.executive.modes.values() {
+        for b in &mode.behaviours {
+            if config.system.has(b) && !out.contains(b) {
+                out.push(b.clone());
+            }
+        }
+    }
+    out
+}
+
+/// The master's push, where the system has a master.
+fn master_services(config: &crate::config::Config) -> Vec<ServiceAddr> {
+    let master = orsa_interfaces::executive::NAME;
+    if config.system.has(master) { vec![ServiceAddr::new(master, "driving")] } else { Vec::new() }
+}
+
 /// The robot server's Send and push services and the behaviours' status pushes, which every
 /// process that runs them offers to a plan.
-fn robot_and_behaviour_services(robot: &str) -> Vec<ServiceAddr> {
+fn robot_and_behaviour_services(config: &crate::config::Config) -> Vec<ServiceAddr> {
+    let robot = config.robot.name.as_str();
     let mut services: Vec<ServiceAddr> =
         ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
             .iter()
             .map(|s| ServiceAddr::new(robot, *s))
             .collect();
-    services.push(ServiceAddr::new("wallfollow", "status"));
-    services.push(ServiceAddr::new("centerfollow", "status"));
+    services.extend(behaviours(config).iter().map(|b| ServiceAddr::new(b, "status")));
     services
 }
 
@@ -468,5 +500,33 @@ sigma_m = 0.02
             let e = FaultPlan::parse(text, "exec.toml", &targets).expect_err(text).to_string();
             assert!(e.contains(expected), "{e}\n  should contain: {expected}");
         }
+    }
+
+    /// A behaviour is a target because the system runs it and a mode names it, not because it
+    /// is on a list: a new one is a target with no edit here, and a removed one is not.
+    #[test]
+    fn targets_are_read_from_the_system() {
+        let default = PlanTargets::for_stack(&crate::config::Config::default());
+        assert_eq!(default.components, ["nomad200", "wallfollow", "centerfollow", "master", "planner"]);
+        let robot = PlanTargets::for_robot(&crate::config::Config::default());
+        assert_eq!(robot.components, ["nomad200", "wallfollow", "centerfollow"]);
+        let text = "[[system.components]]\nname = \"nomad200\"\n\
+                    [[system.components]]\nname = \"wander\"\n\
+                    [[system.components]]\nname = \"master\"\n\
+                    [executive.modes.wander]\nbehaviours = [\"wander\"]\nrules = [{ drive = \"wander\" }]\n";
+        let config = crate::config::Config::from_toml(text, "wander.toml").expect("config");
+        let targets = PlanTargets::for_stack(&config);
+        assert_eq!(targets.components, ["nomad200", "wander", "master"]);
+        let plan = "[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"wander\"\n\n\
+                    [[fault]]\nat = 2\nkind = \"drop\"\ntarget = \"wander/status\"\nduration = 1\n";
+        FaultPlan::parse(plan, "plan.toml", &targets).expect("the new behaviour is a target");
+        let gone = "[[fault]]\nat = 1\nkind = \"kill\"\ntarget = \"wallfollow\"\n";
+        let e = FaultPlan::parse(gone, "plan.toml", &targets).expect_err("not in this system").to_string();
+        assert!(e.contains("unknown component 'wallfollow'"), "{e}");
+        assert_eq!(
+            PlanTargets::for_robot(&config).components,
+            ["nomad200", "wander"],
+            "an unknown kind is robot-side"
+        );
     }
 }
