@@ -86,7 +86,7 @@ impl SimNomad200 {
     }
 
     /// The laser's newest scan, if the robot has a laser: when it was taken and each beam's
-    /// reading (`None`: not valid), beams as [`LaserConfig::params`] describes them.
+    /// reading (`None`: not valid), beams as [`LaserConfig::params`](crate::sim::LaserConfig::params) describes them.
     pub fn laser_scan(&self) -> Option<(Timestamp, &[Option<f64>])> {
         let (t, beams) = self.laser.as_ref()?.last()?;
         Some((Timestamp(self.origin.0.saturating_add(t)), beams))
