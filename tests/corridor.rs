@@ -1,11 +1,9 @@
 //! Whole-stack scenarios on the simulator, on tokio's paused clock.
 
 use orsa::config::Config;
+use orsa::mission::stack::Stack;
 use orsa::mission::{self, RunOptions};
-use orsa::system::{RobotBoards, System};
 use orsa_actors::{Clock, Registry};
-use orsa_hardware::faulty::BoardFaults;
-use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
 use std::time::Duration;
 
@@ -29,17 +27,13 @@ async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor()
         "the test's config",
     )
     .expect("config");
-    let sim = SimRobot::spawn(
-        SimNomad200::new(World::palazzina().expect("world"), config.sim.clone(), 7).expect("sim"),
-        clock,
-    );
-    let truth = sim.truth();
-    let system = System::builder(&config)
-        .robot(RobotBoards::simulated(&sim, &config, &BoardFaults::new(7)))
-        .start(&registry)
+    let stack = Stack::builder(&config, World::palazzina().expect("world"))
+        .seed(7)
+        .start_on(&registry)
         .await
-        .expect("system");
-    assert_eq!(system.components, ["nomad200", "centerfollow"]);
+        .expect("stack");
+    assert_eq!(stack.components, ["nomad200", "centerfollow"]);
+    let truth = stack.truth().expect("the simulator has a truth").clone();
 
     let start = truth.truth();
     let mut worst_offset: f64 = 0.0;

@@ -6,6 +6,7 @@
 //! corridor mission's five kinds; adding a behaviour is one [`Catalog::register`] and one entry
 //! in the config (see `examples/new_behaviour.rs`).
 
+use super::robots::{MakeRobot, Robot, RobotError, RobotSetup};
 use super::spec::{ComponentSpec, Place};
 use crate::config::Config;
 use orsa_actors::Registry;
@@ -13,9 +14,8 @@ use orsa_actors::component::{Component, ComponentHandle};
 use orsa_actors::supervision::ChildSpec;
 use orsa_executive::Master;
 use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
-use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
+use orsa_hardware::faulty::{FaultyMotorBoard, FaultySensorBoard};
 use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::SimRobot;
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
 use orsa_reactive::{CenterFollow, WallFollow};
@@ -23,7 +23,10 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The robot's boards, for the process that hosts the robot server.
+/// The simulator's robot kind, the one `orsa run` and the whole-stack tests drive.
+pub const SIM: &str = "sim";
+
+/// The robot's boards, for the process that hosts the robot server ([`Robot::boards`]).
 #[derive(Debug, Clone)]
 pub struct RobotBoards {
     /// The sensor board, behind the fault switch.
@@ -32,28 +35,6 @@ pub struct RobotBoards {
     pub motors: FaultyMotorBoard<AnyMotorBoard>,
     /// The robot's geometry, limits and sensor layout.
     pub params: RobotParams,
-}
-
-impl RobotBoards {
-    /// The boards of a simulated robot, behind `faults`, described by `config`.
-    pub fn simulated(sim: &SimRobot, config: &Config, faults: &BoardFaults) -> Self {
-        RobotBoards {
-            sensors: FaultySensorBoard::new(AnySensorBoard::Sim(sim.sensor_board()), faults.clone()),
-            motors: FaultyMotorBoard::new(AnyMotorBoard::Sim(sim.motor_board()), faults.clone()),
-            params: config.sim.robot_params(config.robot.push_periods()),
-        }
-    }
-
-    /// The boards of a ROS 2 base (`orsa robot --hardware ros2`), behind `faults`, described
-    /// by the config's `[ros2.base]`.
-    pub fn ros2(base: &orsa_hardware::ros2base::Ros2Base, config: &Config, faults: &BoardFaults) -> Self {
-        let (sensors, motors) = base.boards();
-        RobotBoards {
-            sensors: FaultySensorBoard::new(AnySensorBoard::Ros2(sensors), faults.clone()),
-            motors: FaultyMotorBoard::new(AnyMotorBoard::Ros2(motors), faults.clone()),
-            params: config.ros2.base.robot_params(config.robot.push_periods()),
-        }
-    }
 }
 
 /// What a kind's maker has to make a component from.
@@ -114,10 +95,20 @@ impl Kind {
     }
 }
 
-/// Every kind of component a system can be made of.
-#[derive(Debug, Clone, Default)]
+/// Every kind of component a system can be made of, and every kind of robot it can run on.
+#[derive(Clone, Default)]
 pub struct Catalog {
     kinds: BTreeMap<String, Kind>,
+    robots: BTreeMap<String, Arc<MakeRobot>>,
+}
+
+impl std::fmt::Debug for Catalog {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Catalog")
+            .field("kinds", &self.kinds.keys().collect::<Vec<_>>())
+            .field("robots", &self.robots.keys().collect::<Vec<_>>())
+            .finish()
+    }
 }
 
 impl Catalog {
@@ -129,9 +120,12 @@ impl Catalog {
     /// The corridor mission's kinds: `robot` or `nomad200` (the robot server, on the robot's
     /// boards, whatever the robot),
     /// `wallfollow`, `centerfollow` (behaviours, on the robot), `master` and `planner` (with
-    /// the executive).
+    /// the executive); and the robot kinds `sim` (the simulator, the robot of `[sim]`) and
+    /// `ros2` (a ROS 2 base, `[ros2.base]`).
     pub fn builtin() -> Self {
         let mut c = Catalog::empty();
+        c.register_robot(SIM, super::robots::simulated);
+        c.register_robot("ros2", super::robots::ros2);
         // The robot server, on whatever robot this process has the boards of: `robot` names
         // the kind for any robot, `nomad200` is the thesis' name for it.
         for kind in ["robot", "nomad200"] {
@@ -217,6 +211,40 @@ impl Catalog {
         });
         self.kinds.insert(kind.to_string(), Kind { place, make });
         self
+    }
+
+    /// Adds (or replaces) the robot kind `kind`: `make` brings its robot up from what the
+    /// process knows (see [`robots`](super::robots)).
+    pub fn register_robot(
+        &mut self,
+        kind: &str,
+        make: impl Fn(&RobotSetup<'_>) -> Result<Robot, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.robots.insert(kind.to_string(), Arc::new(make));
+        self
+    }
+
+    /// The names of every robot kind.
+    pub fn robot_kinds(&self) -> Vec<String> {
+        self.robots.keys().cloned().collect()
+    }
+
+    /// Whether `kind` is a robot kind of this catalog, or why not (naming the known ones).
+    pub fn check_robot(&self, kind: &str) -> Result<(), RobotError> {
+        if self.robots.contains_key(kind) {
+            Ok(())
+        } else {
+            Err(RobotError::Unknown { kind: kind.into(), known: self.robot_kinds().join(", ") })
+        }
+    }
+
+    /// Brings up a robot of kind `kind`.
+    pub fn start_robot(&self, kind: &str, setup: &RobotSetup<'_>) -> Result<Robot, RobotError> {
+        self.check_robot(kind)?;
+        let mut robot =
+            (self.robots[kind])(setup).map_err(|message| RobotError::Make { kind: kind.into(), message })?;
+        robot.kind = kind.into();
+        Ok(robot)
     }
 
     /// The kind called `kind`.

@@ -215,6 +215,13 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         },
     )
     .await?;
+    let Some(truth) = stack.truth().cloned() else {
+        let kind = stack.robot.kind.clone();
+        stack.shutdown().await;
+        return Err(MissionError::Invalid(format!(
+            "the mission is measured against the simulator's truth; robot kind '{kind}' has none"
+        )));
+    };
 
     let plan = opts.faults.clone().map(|plan| {
         let targets = crate::faults::FaultTargets {
@@ -274,10 +281,10 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let mut ended = Ended::Completed;
     let mut simulated_s = opts.duration_s;
     if let Some(r) = &recording {
-        r.truth(truth_sample(stack.truth.truth(), &stack.truth));
+        r.truth(truth_sample(truth.truth(), &truth));
     }
     if let Some(l) = &live {
-        l.truth(truth_sample(stack.truth.truth(), &stack.truth));
+        l.truth(truth_sample(truth.truth(), &truth));
     }
     for k in 1..=samples {
         tokio::select! {
@@ -292,10 +299,10 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         while let Ok(change) = wrx.try_recv() {
             driving = change.driving.clone();
         }
-        let t = stack.truth.truth();
+        let t = truth.truth();
         let t_s = k as f64 * opts.sample_period_s;
         if recording.is_some() || live.is_some() {
-            let sample = truth_sample(t, &stack.truth);
+            let sample = truth_sample(t, &truth);
             if let Some(l) = &live {
                 l.truth(sample.clone());
             }
@@ -316,8 +323,8 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
             y_m: t.y_m,
             travelled_m: t.travelled_m,
             driving: driving.clone(),
-            left_m: following.then(|| stack.truth.side_nearest(Side::Left)).flatten(),
-            right_m: center.then(|| stack.truth.side_nearest(Side::Right)).flatten(),
+            left_m: following.then(|| truth.side_nearest(Side::Left)).flatten(),
+            right_m: center.then(|| truth.side_nearest(Side::Right)).flatten(),
             bumps: t.contact_onsets,
         };
         metrics.add(&sample);
@@ -537,7 +544,7 @@ async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
             // Once every component has stopped (the top stops its children after it reports
             // giving up): none may drive after the board's stop.
             stack.supervisor.shutdown().await;
-            let stopped_in_s = crate::ending::stop_on_board(&stack.sim.motor_board()).await;
+            let stopped_in_s = stack.stop_on_board().await;
             let ended = Ended::GaveUp {
                 at_s,
                 supervisor: e.supervisor,

@@ -24,7 +24,7 @@ pub mod ros2;
 mod tools;
 
 pub use param::{ParamAction, ParamOptions, param};
-pub use robot::{FALLBACK, Hardware, ROBOT_TOP, RobotOptions, RobotReport, robot};
+pub use robot::{FALLBACK, ROBOT_TOP, RobotOptions, RobotReport, robot};
 pub use tools::{
     EchoOptions, ListOptions, StateOptions, SwitchOptions, WireOptions, echo, list, parse_change, state,
     switch, wire,
