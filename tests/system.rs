@@ -22,7 +22,7 @@ fn a_table_that_names_a_component_twice_or_badly_is_refused_with_the_key() {
     // A mode may name only components of the system, when the system has a master.
     let missing = "[[system.components]]\nname = \"nomad200\"\n[[system.components]]\nname = \"master\"\n";
     let e = Config::from_toml(missing, "missing.toml").expect_err("no behaviours").to_string();
-    assert!(e.contains("executive.modes.") && e.contains("is not a component of the system"), "{e}");
+    assert!(e.contains("params.master.modes.") && e.contains("is not a component of the system"), "{e}");
 }
 
 /// A wiring its entry asks for that cannot be made stops the system it started and names the

@@ -137,7 +137,7 @@ fn catalog(acts: Option<&Arc<Mutex<Vec<Act>>>>, steps: &Arc<Mutex<Vec<Step>>>) -
         c.register_untimed("nomad200", Place::Robot, |parts, _| {
             let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
             Ok(Nomad200::new(
-                parts.config.robot.clone(),
+                parts.config.robot(),
                 boards.params.clone(),
                 boards.sensors.clone(),
                 boards.motors.clone(),
@@ -145,20 +145,16 @@ fn catalog(acts: Option<&Arc<Mutex<Vec<Act>>>>, steps: &Arc<Mutex<Vec<Step>>>) -
         });
     }
     let s = Arc::clone(steps);
-    c.register_untimed("wallfollow", Place::Robot, move |parts, _| {
-        let inner = WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() };
+    c.register_untimed("wallfollow", Place::Robot, move |parts, spec| {
+        let inner = WallFollow { params: parts.params(spec)?, robot: parts.robot_name().into() };
         Ok(Traced { inner, steps: Arc::clone(&s) })
     });
     let s = Arc::clone(steps);
-    c.register_untimed("centerfollow", Place::Robot, move |parts, _| {
-        let inner = CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() };
+    c.register_untimed("centerfollow", Place::Robot, move |parts, spec| {
+        let inner = CenterFollow { params: parts.params(spec)?, robot: parts.robot_name().into() };
         Ok(Traced { inner, steps: Arc::clone(&s) })
     });
-    c.register_untimed("master", Place::Executive, |parts, _| {
-        let mut params = parts.config.executive.clone();
-        params.robot = parts.robot_name().into();
-        Ok(Master::new(params))
-    });
+    c.register_untimed("master", Place::Executive, |parts, _| Ok(Master::new(parts.config.executive())));
     c
 }
 
@@ -364,7 +360,7 @@ async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     };
     let acts = Arc::new(Mutex::new(Vec::new()));
     let steps = Arc::new(Mutex::new(Vec::new()));
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let stack = Stack::builder(&config, world)
         .catalog(catalog(Some(&acts), &steps))
@@ -408,7 +404,7 @@ async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     };
     stack.shutdown().await;
     let acts: Vec<Act> = acts.into_iter().filter(|a| a.at >= from).collect();
-    let m = attribute(&acts, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+    let m = attribute(&acts, &steps, max_v, max_w, Duration::from_secs_f64(config.robot().cmd_timeout_s));
     Ok(SenseToAct {
         duration_s,
         commands_received: acts.len() as u64,
@@ -447,7 +443,7 @@ impl PeerBehaviours {
             anyhow::bail!("the robot's services {missing:?} did not appear within 30 s");
         }
         let mut config = Config::default();
-        config.robot.name = robot.to_string();
+        config.rename_component(orsa::config::Config::default().robot_name(), robot);
         let steps = Arc::new(Mutex::new(Vec::new()));
         let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
         let supervisor = System::builder(&config)
@@ -514,13 +510,13 @@ pub(crate) async fn across(
     }
     let config = Config::default();
     let acts = Arc::new(Mutex::new(Vec::new()));
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let steps = Arc::new(Mutex::new(Vec::new()));
     let robot_stack = Stack::builder(&config, World::palazzina()?)
         .catalog(catalog(Some(&acts), &steps))
         .robot(TIMED_SIM)
-        .select(&[config.robot.name.as_str()])
+        .select(&[config.robot_name()])
         .supervisor("bench-robot")
         .on_event(count_restarts(&restarts))
         .start_on(registry)
@@ -588,7 +584,8 @@ pub(crate) async fn across(
             };
         let steps: Vec<Step> = wire_steps.iter().map(step_from_wire).collect();
         let taken: Vec<Act> = taken.into_iter().filter(|a| a.at >= from).collect();
-        let m = attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+        let m =
+            attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot().cmd_timeout_s));
         let sense = SenseToAct {
             duration_s,
             commands_received: taken.len() as u64,

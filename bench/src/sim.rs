@@ -209,7 +209,7 @@ fn raw_timers(
     tasks: &mut Vec<tokio::task::JoinHandle<()>>,
     tick: impl Fn(u8) -> bool + Clone + Send + 'static,
 ) {
-    let p = config.robot.push_periods();
+    let p = config.robot().push_periods();
     for (kind, period) in
         [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
     {

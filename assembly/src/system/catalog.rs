@@ -15,7 +15,7 @@ use orsa_actors::supervision::ChildSpec;
 use orsa_executive::Master;
 use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
 use orsa_hardware::faulty::{FaultyMotorBoard, FaultySensorBoard};
-use orsa_hardware::server::Nomad200;
+use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
 use orsa_reactive::{CenterFollow, WallFollow};
@@ -51,7 +51,13 @@ pub struct Parts<'a> {
 impl Parts<'_> {
     /// The robot server's name, as every client of it addresses it.
     pub fn robot_name(&self) -> &str {
-        &self.config.robot.name
+        self.config.robot_name()
+    }
+
+    /// The parameters of the component `spec` describes, from its `[params.NAME]` table
+    /// (defaults where it has none); unknown keys and bad values are errors that name the key.
+    pub fn params<P: serde::de::DeserializeOwned>(&self, spec: &ComponentSpec) -> Result<P, String> {
+        self.config.params_of(&spec.name)
     }
 }
 
@@ -130,38 +136,33 @@ impl Catalog {
         // the kind for any robot, `nomad200` is the thesis' name for it.
         for kind in ["robot", "nomad200"] {
             c.register(kind, Place::Robot, |parts, spec| {
-                no_params(spec)?;
                 let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
-                let server = Nomad200::new(
-                    parts.config.robot.clone(),
+                let params = ServerParams { name: spec.name.clone(), ..parts.params(spec)? };
+                Ok(Nomad200::new(
+                    params,
                     boards.params.clone(),
                     boards.sensors.clone(),
                     boards.motors.clone(),
-                );
-                Ok(server)
+                ))
             });
         }
         c.register("wallfollow", Place::Robot, |parts, spec| {
-            no_params(spec)?;
-            Ok(WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() })
+            Ok(WallFollow { params: parts.params(spec)?, robot: parts.robot_name().into() })
         });
         c.register("centerfollow", Place::Robot, |parts, spec| {
-            no_params(spec)?;
-            Ok(CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() })
+            Ok(CenterFollow { params: parts.params(spec)?, robot: parts.robot_name().into() })
         });
         c.register("master", Place::Executive, |parts, spec| {
-            no_params(spec)?;
-            let mut params = parts.config.executive.clone();
+            let mut params: orsa_executive::ExecutiveParams = parts.params(spec)?;
             params.robot = parts.robot_name().into();
-            let cmd_timeout_s = parts.config.robot.cmd_timeout_s;
+            let cmd_timeout_s = parts.config.robot().cmd_timeout_s;
             let check: orsa_actors::param::Check<_> =
                 Arc::new(move |p| crate::config::switch_step_fits(p, cmd_timeout_s));
             Ok(Master { params, check: Some(check) })
         });
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
         c.register_untimed("planner", Place::Executive, |parts, spec| {
-            no_params(spec)?;
-            let p = &parts.config.planner;
+            let p: orsa_planner::PlannerParams = parts.params(spec)?;
             Ok(Planner {
                 mission: p.mission_for(parts.duration_s),
                 executive: orsa_interfaces::executive::NAME.into(),
@@ -273,19 +274,4 @@ impl Catalog {
         let kind = self.kinds.get(spec.kind()).ok_or_else(|| error("no such kind in the catalog".into()))?;
         (kind.make)(registry, parts, spec, handler_timeout).map_err(error)
     }
-}
-
-/// Built-in kinds take their parameters from their own table of the config.
-fn no_params(spec: &ComponentSpec) -> Result<(), String> {
-    if spec.params.is_empty() {
-        Ok(())
-    } else {
-        Err(format!("a built-in kind takes its parameters from the [{}] table, not from params", spec.kind()))
-    }
-}
-
-/// Reads a kind's own parameters from its entry's `params` (unknown keys and bad values are
-/// errors that name the key), or their defaults where the entry has none.
-pub fn params<P: serde::de::DeserializeOwned>(spec: &ComponentSpec) -> Result<P, String> {
-    toml::Value::Table(spec.params.clone()).try_into::<P>().map_err(|e| format!("params: {}", e.message()))
 }

@@ -28,7 +28,7 @@ pub mod live_params;
 pub mod robots;
 pub mod spec;
 
-pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, SIM, params};
+pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, SIM};
 pub use robots::{Robot, RobotError, RobotHandle, RobotSetup};
 pub use spec::{ComponentSpec, Place, SystemSpec};
 

@@ -145,7 +145,7 @@ impl Robot {
         let mut robot = Robot::new(
             AnySensorBoard::Sim(sim.sensor_board()),
             AnyMotorBoard::Sim(sim.motor_board()),
-            config.sim.robot_params(config.robot.push_periods()),
+            config.sim.robot_params(config.robot().push_periods()),
             (),
         );
         robot.truth = Some(sim.truth());
@@ -250,7 +250,7 @@ pub(crate) fn ros2(setup: &RobotSetup<'_>) -> Result<Robot, String> {
     Ok(Robot::new(
         AnySensorBoard::Ros2(sensors),
         AnyMotorBoard::Ros2(motors),
-        config.ros2.base.robot_params(config.robot.push_periods()),
+        config.ros2.base.robot_params(config.robot().push_periods()),
         Ros2Robot { base, publisher },
     ))
 }

@@ -255,9 +255,9 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let mut ticks = tokio::time::interval_at(start + period, period);
     let mut watch = integrity::Watch::new(
         stack.board_faults.clone(),
-        Duration::from_secs_f64(opts.config.robot.cmd_timeout_s),
+        Duration::from_secs_f64(opts.config.robot().cmd_timeout_s),
     );
-    let behaviours = opts.config.executive.behaviours();
+    let behaviours = opts.config.executive().behaviours();
     let behaviours: Vec<&str> = behaviours.iter().map(String::as_str).collect();
     let check_every = ((1.0 / opts.sample_period_s).round() as u64).max(1);
     // What may end the run before its time: a signal, or the top supervisor giving up.
@@ -352,7 +352,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         }
         hours.take(simulated_s, &stack.registry, &metrics, &events, None);
     }
-    let robot = opts.config.robot.name.as_str();
+    let robot = opts.config.robot_name();
     // A robot server the supervisor gave up on has no counters to give: the report says how
     // the run ended, and its safety figures are zero.
     let safety =

@@ -259,12 +259,12 @@ pub fn executive(args: ExecutiveOptions) -> anyhow::Result<crate::ending::Outcom
                 let noting = exchange::RecordingTransport::new(zenoh, Arc::clone(tap), clock);
                 registry.set_transport(Arc::new(noting));
             }
-            let robot = config.robot.name.as_str();
+            let robot = config.robot_name();
             let mut needed = vec![
                 nomad200::DISTANCEIR.on(robot).untyped(),
                 nomad200::NAVIGATIONVELOCITY.on(robot).untyped(),
             ];
-            for b in config.executive.behaviours() {
+            for b in config.executive().behaviours() {
                 needed.push(ServiceAddr::new(&b, "state"));
                 needed.push(ServiceAddr::new(&b, "wiring"));
             }
@@ -297,7 +297,7 @@ pub fn executive(args: ExecutiveOptions) -> anyhow::Result<crate::ending::Outcom
                 .await
                 .context("starting the executive")?;
             supervisor = Some(system.supervisor);
-            eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
+            eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot_name());
             plan_started_at = plan.as_ref().map(|_| registry.now());
             if let (Some(r), Some(plan), Some(at)) = (&recording, &plan, plan_started_at) {
                 use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, FaultsStarted};
@@ -339,7 +339,7 @@ pub fn executive(args: ExecutiveOptions) -> anyhow::Result<crate::ending::Outcom
                 );
                 let wiring = orsa_actors::wiring::WiringMaster::new(&registry);
                 let mut all_unwired = true;
-                for b in config.executive.behaviours() {
+                for b in config.executive().behaviours() {
                     let unwired = tokio::time::timeout(
                         Duration::from_secs(1),
                         wiring.disconnect(&b, orsa_interfaces::behaviour::VEL),

@@ -80,7 +80,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
     let drive = setup::robot(&args, &checked, clock)?;
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let boards = BoardFaults::new(args.seed);
     let robot_boards = drive.boards(&boards);
     let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));

@@ -39,10 +39,10 @@ impl Checked {
         };
         let config = load_config(&args.config)?;
         if let Some(mode) = &args.fallback
-            && !config.executive.modes.contains_key(mode)
+            && !config.executive().modes.contains_key(mode)
         {
-            let known: Vec<&String> = config.executive.modes.keys().collect();
-            bail!("--fallback {mode}: no such mode in executive.modes (known: {known:?})");
+            let known: Vec<String> = config.executive().modes.keys().cloned().collect();
+            bail!("--fallback {mode}: no such mode in the master's modes (known: {known:?})");
         }
         let duration = args.duration.map(|d| secs(d, "--duration")).transpose()?;
         args.catalog.check_robot(&args.hardware).context("--hardware")?;
@@ -65,7 +65,7 @@ impl Checked {
             Some(p) => p.display().to_string(),
             None => "palazzina (built in)".to_string(),
         };
-        let lease = config.link.lease(config.robot.cmd_timeout_s);
+        let lease = config.link.lease(config.robot().cmd_timeout_s);
         Ok(Checked { world, world_label, config, duration, plan, lease })
     }
 }
@@ -130,7 +130,7 @@ impl Faces {
         config: &Config,
         robot: &Robot,
     ) -> anyhow::Result<()> {
-        let name = &config.robot.name;
+        let name = &config.robot_name();
         if args.ros2 {
             let face =
                 ros2::RobotRos2::start(registry, transport, name, &robot.params, &config.ros2, args.domain)
