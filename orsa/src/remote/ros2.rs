@@ -12,7 +12,7 @@
 //! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` | -> `teleop`, stamped on arrival |
 //!
 //! `orsa robot --hardware ros2` is the other way round ([`BaseLink`]): a ROS 2 robot's scan and
-//! odometry feed orsa's boards ([`Ros2Base`]) and its commands go out as Twist.
+//! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as Twist.
 
 use crate::config::Ros2Params;
 use orsa_actors::push_timed::PushTimedClient;
@@ -181,7 +181,7 @@ impl RobotRos2 {
 }
 
 /// The link to a ROS 2 base (`orsa robot --hardware ros2`): the node that reads its scan and
-/// odometry into the [`Ros2Base`] and publishes its velocity commands.
+/// odometry into the [`Ros2Base`](orsa_hardware::ros2base::Ros2Base) and publishes its velocity commands.
 pub struct BaseLink {
     node: Ros2Node,
     _subscriptions: Vec<Ros2Subscription>,
