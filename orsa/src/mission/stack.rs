@@ -8,7 +8,7 @@
 //! ```no_run
 //! # async fn demo() -> Result<(), orsa::mission::stack::StackError> {
 //! use orsa::config::Config;
-//! use orsa_hardware::world::World;
+//! use orsa::hardware::world::World;
 //! let config = Config::default();
 //! let stack = orsa::mission::stack::Stack::builder(&config, World::palazzina().unwrap()).seed(7).start().await?;
 //! // ... talk to its components through stack.registry; stack.truth() is the simulator's truth
