@@ -145,7 +145,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
     let report = ending::report(&ended, end_s, &registry, &events.lock(), plan, link, links);
     ending::write_report(args.report.as_deref(), &report)?;
     ending::finish_recording(recording)?;
-    Ok(crate::ending::Outcome::of(&ended))
+    crate::ending::Outcome::of(&ended)
 }
 
 /// What the supervisors' events go to: the recording, the live view, the watch on the top

@@ -6,7 +6,7 @@ use super::ExecutiveOptions;
 use crate::config::Config;
 use crate::remote::{FALLBACK, exchange, load_config, open, secs, wait_for};
 use anyhow::bail;
-use orsa_actors::{Clock, Registry, ServiceAddr};
+use orsa_actors::{Registry, ServiceAddr};
 use orsa_hardware::faulty::BoardFaults;
 use orsa_interfaces::nomad200;
 use orsa_net::ZenohTransport;
