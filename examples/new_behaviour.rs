@@ -10,7 +10,8 @@
 //! contact, a wireable `vel` port and a `status` push. It knows the robot only by its interface.
 //!
 //! Adding it to the mission takes the registration in [`catalog`] and the config in [`CONFIG`]:
-//! a `[system]` entry (with its own `params`), an executive mode that uses it, and a mission that
+//! a `[system]` entry, its parameters in `[params.wander]` (read the way every kind reads its own),
+//! an executive mode that uses it, and a mission that
 //! runs that mode. Nothing in orsa changes. Run it with
 //! `cargo run --release --example new_behaviour`; the tests run it too.
 
@@ -22,7 +23,7 @@ use orsa::hardware::world::World;
 use orsa::interfaces::nomad200::{NavigationVelocity, RobotParams};
 use orsa::mission::{self, RunOptions};
 use orsa::reactive::harness::{Behaviour, Controller, Scan, Seen, Step};
-use orsa::system::{Catalog, ComponentSpec, Parts, Place, params};
+use orsa::system::{Catalog, ComponentSpec, Parts, Place};
 use parking_lot::Mutex;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -33,21 +34,23 @@ pub const CONFIG: &str = r#"
 name = "nomad200"
 [[system.components]]
 name = "wander"
-params = { speed_m_s = 0.2 }
 [[system.components]]
 name = "master"
 [[system.components]]
 name = "planner"
 
-[executive.modes.wander]
+[params.wander]
+speed_m_s = 0.2
+
+[params.master.modes.wander]
 behaviours = ["wander"]
 rules = [{ drive = "wander" }]
 
-[planner]
+[params.planner]
 mission = [{ mode = "wander" }]
 "#;
 
-/// Wander's parameters (`params` of its `[system]` entry).
+/// Wander's parameters (its `[params.wander]` table).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WanderParams {
@@ -113,7 +116,7 @@ impl Controller for Wander {
 pub fn catalog() -> Catalog {
     let mut catalog = Catalog::builtin();
     catalog.register("wander", Place::Robot, |parts: &Parts<'_>, spec: &ComponentSpec| {
-        Ok(Behaviour::<Wander> { params: params(spec)?, robot: parts.robot_name().into() })
+        Ok(Behaviour::<Wander> { params: parts.params(spec)?, robot: parts.robot_name().into() })
     });
     catalog
 }

@@ -38,7 +38,7 @@ pub struct Seen {
 /// seconds with `seed`, asking the robot server what it is as the mission starts.
 pub async fn run(seed: u64, duration_s: f64) -> Result<Seen, Box<dyn std::error::Error>> {
     let config = Config::from_toml(CONFIG, "config/diffbot.toml")?;
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let mut opts = RunOptions::new(World::palazzina()?, "palazzina (built in)", config, seed, duration_s);
     let asked: Arc<Mutex<Option<tokio::task::JoinHandle<Option<RobotParams>>>>> = Arc::default();
     let slot = asked.clone();

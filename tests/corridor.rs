@@ -1,11 +1,9 @@
 //! Whole-stack scenarios on the simulator, on tokio's paused clock.
 
 use orsa::config::Config;
+use orsa::mission::stack::Stack;
 use orsa::mission::{self, RunOptions};
-use orsa::system::{RobotBoards, System};
 use orsa_actors::{Clock, Registry};
-use orsa_hardware::faulty::BoardFaults;
-use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
 use std::time::Duration;
 
@@ -29,17 +27,13 @@ async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor()
         "the test's config",
     )
     .expect("config");
-    let sim = SimRobot::spawn(
-        SimNomad200::new(World::palazzina().expect("world"), config.sim.clone(), 7).expect("sim"),
-        clock,
-    );
-    let truth = sim.truth();
-    let system = System::builder(&config)
-        .robot(RobotBoards::simulated(&sim, &config, &BoardFaults::new(7)))
-        .start(&registry)
+    let stack = Stack::builder(&config, World::palazzina().expect("world"))
+        .seed(7)
+        .start_on(&registry)
         .await
-        .expect("system");
-    assert_eq!(system.components, ["nomad200", "centerfollow"]);
+        .expect("stack");
+    assert_eq!(stack.components, ["nomad200", "centerfollow"]);
+    let truth = stack.truth().expect("the simulator has a truth").clone();
 
     let start = truth.truth();
     let mut worst_offset: f64 = 0.0;
@@ -53,6 +47,14 @@ async fn a_pattern_only_behaviour_drives_the_robot_down_the_reference_corridor()
     assert!(end.x_m - start.x_m > 8.0, "drove {:.2} m along the corridor", end.x_m - start.x_m);
     assert!(worst_offset < 0.35, "strayed {worst_offset:.2} m from the centre line");
     assert_eq!(end.contact_onsets, 0);
+}
+
+fn wf(c: &Config) -> orsa_reactive::wallfollow::WallFollowParams {
+    c.params_of("wallfollow").expect("wall following's parameters")
+}
+
+fn cf(c: &Config) -> orsa_reactive::centerfollow::CenterFollowParams {
+    c.params_of("centerfollow").expect("center following's parameters")
 }
 
 fn options(seed: u64, duration_s: f64) -> RunOptions {
@@ -90,8 +92,8 @@ async fn the_mission_uses_both_behaviours() {
 async fn with_hysteresis_wall_following_holds_its_clearance_and_the_thesis_rule_does_not() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let thesis = Config::load(&root.join("config/thesis.toml")).expect("the shipped thesis config");
-    assert!(thesis.executive.modes["patrol"].rules.iter().all(|r| !r.holds_on()));
-    assert!(Config::default().executive.modes["patrol"].rules[0].holds_on());
+    assert!(thesis.executive().modes["patrol"].rules.iter().all(|r| !r.holds_on()));
+    assert!(Config::default().executive().modes["patrol"].rules[0].holds_on());
     let world = || World::palazzina().expect("world");
     let held = mission::run(options(2, 3600.0)).await.expect("run");
     let original = mission::run(RunOptions::new(world(), "palazzina", thesis, 2, 3600.0)).await.expect("run");
@@ -112,10 +114,11 @@ async fn with_hysteresis_wall_following_holds_its_clearance_and_the_thesis_rule_
 /// A configuration mistake is reported with the file, the line and the key.
 #[test]
 fn config_errors_name_file_line_and_key() {
-    let e = Config::from_toml("[executive]\nsubscribe_every = 0\n", "bad.toml").expect_err("invalid");
-    assert_eq!(e.to_string(), "bad.toml: executive.subscribe_every: must be at least 1");
-    let e = Config::from_toml("[centerfollow]\nv_max_m_s = \"fast\"\n", "bad.toml").expect_err("invalid");
-    assert!(e.to_string().starts_with("bad.toml:2:"), "{e}");
+    let e = Config::from_toml("\n[params.master]\nsubscribe_every = 0\n", "bad.toml").expect_err("invalid");
+    assert_eq!(e.to_string(), "bad.toml:2:1: params.master.subscribe_every: must be at least 1");
+    let e =
+        Config::from_toml("[params.centerfollow]\nv_max_m_s = \"fast\"\n", "bad.toml").expect_err("invalid");
+    assert!(e.to_string().starts_with("bad.toml:1:1: params.centerfollow.v_max_m_s: invalid type"), "{e}");
 }
 
 /// A deadlock is got out of. With the recovery turned off (`[*.unstick] enabled = false`), seed
@@ -127,7 +130,7 @@ fn config_errors_name_file_line_and_key() {
 #[tokio::test(start_paused = true)]
 async fn a_robot_caught_between_a_wall_and_waiting_people_gets_out() {
     let config = Config::default();
-    assert!(config.centerfollow.unstick.enabled && config.wallfollow.unstick.enabled);
+    assert!(cf(&config).unstick.enabled && wf(&config).unstick.enabled);
     let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 8, 1200.0);
     let out = mission::run(opts).await.expect("run");
     assert_eq!(out.report.bumps, 0);
@@ -141,15 +144,15 @@ async fn a_robot_caught_between_a_wall_and_waiting_people_gets_out() {
     assert!(out.report.distance_m > 250.0, "{} m", out.report.distance_m);
 }
 
-/// Holding the walls' direction through odometry (`[centerfollow.walls]`, on by default)
+/// Holding the walls' direction through odometry (`[params.centerfollow.walls]`, on by default)
 /// keeps the robot nearer the centre than the ring's angle alone: on seed 2, a quarter of an
 /// hour, the mean offset falls from 5.1 cm to 3.7 cm (EXPERIMENTS.md has the hour on ten
 /// seeds), touching nothing.
 #[tokio::test(start_paused = true)]
 async fn holding_the_walls_direction_keeps_the_robot_nearer_the_centre() {
-    let mut ring_only = Config::default();
-    assert!(ring_only.centerfollow.walls.enabled);
-    ring_only.centerfollow.walls.enabled = false;
+    assert!(cf(&Config::default()).walls.enabled);
+    let ring_only = Config::default().with_sets(&["centerfollow.walls.enabled=false".into()]).expect("set");
+    assert!(!cf(&ring_only).walls.enabled);
     let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", ring_only, 2, 900.0);
     let plain = mission::run(opts).await.expect("run");
     let held = mission::run(options(2, 900.0)).await.expect("run");
@@ -172,11 +175,11 @@ async fn holding_the_walls_direction_keeps_the_robot_nearer_the_centre() {
 #[tokio::test(start_paused = true)]
 async fn following_the_wall_alone_it_holds_twenty_centimetres_and_touches_nobody() {
     let config = Config::from_toml(
-        "[planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 1560 }]\n",
+        "[params.planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 1560 }]\n",
         "wf.toml",
     )
     .expect("config");
-    assert!(config.wallfollow.share_gaps && config.wallfollow.unstick.enabled);
+    assert!(wf(&config).share_gaps && wf(&config).unstick.enabled);
     let opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, 1560.0);
     let out = mission::run(opts).await.expect("run");
     assert_eq!(out.report.behaviour_share.get("wallfollow").copied(), Some(1.0));
@@ -197,8 +200,8 @@ async fn following_the_wall_alone_it_holds_twenty_centimetres_and_touches_nobody
 async fn touching_something_the_behaviour_backs_out_on_the_contact_event() {
     let run = |recovery: bool| {
         let toml = format!(
-            "[wallfollow]\nshare_gaps = false\n[wallfollow.unstick]\nenabled = {recovery}\n\
-             [planner]\nmission = [{{ mode = \"follow_left_wall\", for_s = 1800 }}]\n"
+            "[params.wallfollow]\nshare_gaps = false\n[params.wallfollow.unstick]\nenabled = {recovery}\n\
+             [params.planner]\nmission = [{{ mode = \"follow_left_wall\", for_s = 1800 }}]\n"
         );
         let config = Config::from_toml(&toml, "contact.toml").expect("config");
         mission::run(RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, 1800.0))

@@ -2,13 +2,11 @@
 //! goals, their events, and the wiring invariant, watched through a tap on the registry.
 
 use orsa::config::Config;
-use orsa::system::{RobotBoards, System};
+use orsa::mission::stack::Stack;
 use orsa_actors::event::{EventClient, EventMode};
 use orsa_actors::query::QueryClient;
 use orsa_actors::tap::Tap;
 use orsa_actors::{Clock, Registry, Timestamp};
-use orsa_hardware::faulty::BoardFaults;
-use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
 use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus};
 use parking_lot::Mutex;
@@ -56,16 +54,12 @@ async fn master_runs_goals_reports_them_and_never_wires_two_behaviours() {
         "the test's config",
     )
     .expect("config");
-    let sim = SimRobot::spawn(
-        SimNomad200::new(World::palazzina().expect("world"), config.sim.clone(), 11).expect("sim"),
-        clock,
-    );
-    let truth = sim.truth();
-    let _system = System::builder(&config)
-        .robot(RobotBoards::simulated(&sim, &config, &BoardFaults::new(11)))
-        .start(&registry)
+    let stack = Stack::builder(&config, World::palazzina().expect("world"))
+        .seed(11)
+        .start_on(&registry)
         .await
-        .expect("system");
+        .expect("stack");
+    let truth = stack.truth().expect("the simulator has a truth").clone();
 
     let goals = QueryClient::<Goal, GoalReply>::connect(&registry, executive::GOAL.on(executive::NAME))
         .expect("goal");

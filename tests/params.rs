@@ -157,7 +157,7 @@ async fn a_restarted_behaviour_keeps_what_was_set_and_the_master_takes_new_rules
             let now = params.get("centerfollow.v_max_m_s").await.map(|p| p[0].value.clone());
             log.lock().push(format!("after the restart: {now:?}"));
             // The master's rules: a hand-over threshold, and a switch step the robot's command
-            // timeout does not allow (checked as the config file is, against [robot]).
+            // timeout does not allow (checked as the config file is, against the robot server's cmd_timeout_s).
             let rule = "master.modes.patrol.rules.0.when.0.below_m";
             let set = params.set(rule, json!(0.6)).await.map(|p| p.value);
             log.lock().push(format!("rule: {set:?}"));
@@ -173,7 +173,8 @@ async fn a_restarted_behaviour_keeps_what_was_set_and_the_master_takes_new_rules
     assert_eq!(said[2], "after the restart: Ok(Number(0.12))");
     assert_eq!(said[3], "rule: Ok(Number(0.6))");
     assert!(
-        said[4].contains("executive.switch_step_s") && said[4].contains("robot.cmd_timeout_s"),
+        said[4].contains("switch_step_s: 5 s")
+            && said[4].contains("the robot server's cmd_timeout_s = 0.5 s"),
         "{}",
         said[4]
     );

@@ -154,7 +154,8 @@ async fn a_what_if_with_the_recorded_config_differs_in_nothing() {
 fn wall_following_directly(rec: &Recording, config: &Config, until: u64) -> Vec<(f64, f64)> {
     let robot = rec.answers.robotparams.front().expect("the robot's parameters were recorded");
     let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
-    let mut ctl = WallFollower::new(config.wallfollow, ring);
+    let mut ctl =
+        WallFollower::new(config.params_of("wallfollow").expect("wall following's parameters"), ring);
     let computed: std::collections::BTreeSet<u64> = rec.outputs["wallfollow/status"]
         .iter()
         .map(|m| {

@@ -107,7 +107,7 @@ fn orsa_replay_what_if_reports_and_draws_and_refuses_bad_flags() {
     for (args, says) in [
         (vec!["replay", &rec, "--plot", "x.svg"], "--plot draws a what-if"),
         (vec!["replay", &rec, "--set", "wallfollow.target_m=-1"], "wallfollow.target_m"),
-        (vec!["replay", &rec, "--set", "nonsense"], "section.key=value"),
+        (vec!["replay", &rec, "--set", "nonsense"], "table.key=value"),
         (vec!["replay", "/no/such/file.mcap"], "/no/such/file.mcap"),
     ] {
         let out = orsa(&args);

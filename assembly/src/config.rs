@@ -19,21 +19,16 @@ use std::path::Path;
 pub const DEFAULT_CONFIG: &str = include_str!("../../config/orsa.toml");
 
 /// Everything a stack needs besides the world and the seed.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+///
+/// Two kinds of table: the process-level ones (`[sim]`, `[supervision]`, `[link]`, `[ros2]`,
+/// and `[system]`, which says what runs), and one `[params.NAME]` per component, by its name in
+/// the system, for every kind alike: the robot server, the behaviours, the master and the
+/// planner read theirs from there as a user's own kind does.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
-    /// The robot server component (`[robot]`).
-    pub robot: ServerParams,
     /// The simulated robot (`[sim]`).
     pub sim: SimConfig,
-    /// Wall following (`[wallfollow]`).
-    pub wallfollow: WallFollowParams,
-    /// Center following (`[centerfollow]`).
-    pub centerfollow: CenterFollowParams,
-    /// The master (`[executive]`).
-    pub executive: ExecutiveParams,
-    /// The deliberative layer (`[planner]`).
-    pub planner: PlannerParams,
     /// How the stack's supervisor restarts what fails (`[supervision]`).
     pub supervision: SupervisionParams,
     /// How the robot watches its executive across processes (`[link]`).
@@ -42,7 +37,91 @@ pub struct Config {
     pub system: crate::system::SystemSpec,
     /// The robot as a ROS 2 node, and a ROS 2 robot as orsa's hardware (`[ros2]`).
     pub ros2: Ros2Params,
+    /// Each component's parameters, by its name in the system (`[params.NAME]`). At load, a
+    /// built-in kind's table is checked and written out in full, its defaults included.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub params: BTreeMap<String, toml::Table>,
 }
+
+impl Default for Config {
+    /// The corridor mission, every parameter at its default.
+    fn default() -> Self {
+        let mut c = Config {
+            sim: Default::default(),
+            supervision: Default::default(),
+            link: Default::default(),
+            system: Default::default(),
+            ros2: Default::default(),
+            params: BTreeMap::new(),
+        };
+        if let Err(e) = c.complete_params() {
+            // The defaults of every built-in kind are valid (the shipped file's test holds it).
+            tracing::error!("the default parameters do not check: {}", e.1);
+        }
+        c
+    }
+}
+
+/// The tables a built-in kind's parameters had before they moved to `[params.NAME]`.
+const MOVED_TABLES: [(&str, &str); 5] = [
+    ("robot", "the robot server"),
+    ("wallfollow", "wall following"),
+    ("centerfollow", "center following"),
+    ("executive", "the master"),
+    ("planner", "the planner"),
+];
+
+/// The built-in kinds whose parameters the config checks at load: the kind, the name its
+/// validators give the table in messages, and how to read, check and write them out in full.
+type Complete = fn(&toml::Table) -> Result<toml::Table, String>;
+
+fn typed<P: serde::de::DeserializeOwned + Serialize>(
+    table: &toml::Table,
+    check: impl Fn(&P) -> Result<(), String>,
+) -> Result<toml::Table, String> {
+    // Read from text, so that an error has a place: the key it is at.
+    let text = toml::to_string(table).map_err(|e| format!("cannot write the parameters: {e}"))?;
+    let p: P = toml::from_str(&text).map_err(|e| {
+        let message = e.message().trim().replace('\n', " ");
+        match e.span().and_then(|s| key_at(&text, s.start)) {
+            Some(key) if !message.contains(&format!("`{key}`")) => format!("{key}: {message}"),
+            _ => message,
+        }
+    })?;
+    check(&p)?;
+    toml::Table::try_from(&p).map_err(|e| format!("cannot write the parameters back: {e}"))
+}
+
+/// The dotted key of the line at `offset` in `text` (a TOML document of `key = value` lines
+/// under `[table]` headers), if that line holds a key.
+fn key_at(text: &str, offset: usize) -> Option<String> {
+    let start = text[..offset.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[start..].lines().next()?.trim();
+    let (key, _) = line.split_once('=')?;
+    let table = text[..start].lines().rev().find_map(|l| {
+        let l = l.trim();
+        l.strip_prefix('[').and_then(|l| l.strip_suffix(']')).map(str::to_string)
+    });
+    let key = key.trim().trim_matches('"');
+    Some(match table {
+        Some(t) => format!("{t}.{key}"),
+        None => key.to_string(),
+    })
+}
+
+fn builtin(kind: &str) -> Option<(&'static str, Complete)> {
+    Some(match kind {
+        "robot" | "nomad200" => ("robot", |t| typed::<ServerParams>(t, ServerParams::validate)),
+        "wallfollow" => ("wallfollow", |t| typed::<WallFollowParams>(t, WallFollowParams::validate)),
+        "centerfollow" => ("centerfollow", |t| typed::<CenterFollowParams>(t, CenterFollowParams::validate)),
+        "master" => ("executive", |t| typed::<ExecutiveParams>(t, ExecutiveParams::validate)),
+        "planner" => ("planner", |t| typed::<PlannerParams>(t, |_| Ok(()))),
+        _ => return None,
+    })
+}
+
+/// The robot server's kinds.
+const ROBOT_KINDS: [&str; 2] = ["robot", "nomad200"];
 
 /// The robot as a ROS 2 node (`orsa robot --ros2`), and a ROS 2 robot behind orsa's boards
 /// (`orsa robot --hardware ros2`). See `docs/ros2.md`.
@@ -98,7 +177,7 @@ pub fn switch_step_fits(executive: &ExecutiveParams, cmd_timeout_s: f64) -> Resu
     let step = executive.switch_step_s;
     if 2.0 * step > cmd_timeout_s {
         return Err(format!(
-            "executive.switch_step_s: {step} s is too long for robot.cmd_timeout_s = {cmd_timeout_s} s: a \
+            "switch_step_s: {step} s is too long for the robot server's cmd_timeout_s = {cmd_timeout_s} s: a \
              hand-over leaves the motors without a driver for up to two steps"
         ));
     }
@@ -313,15 +392,40 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 impl Config {
     /// Parses and checks a configuration; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| {
-            let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-            ConfigError::Parse {
-                origin: origin.to_string(),
-                line,
-                column,
-                message: e.message().trim().to_string(),
+        let at = |offset: usize, message: String| {
+            let (line, column) = line_col(text, offset);
+            ConfigError::Parse { origin: origin.to_string(), line, column, message }
+        };
+        let mut config: Config = toml::from_str(text).map_err(|e| {
+            // A table that moved says where it went.
+            let moved = toml::from_str::<toml::Table>(text).ok().and_then(|top| {
+                MOVED_TABLES
+                    .iter()
+                    .find(|(t, _)| top.contains_key(*t))
+                    .map(|(t, what)| (table_offset(text, t), *t, *what))
+            });
+            match moved {
+                Some((offset, table, what)) => at(
+                    offset,
+                    format!(
+                        "[{table}]: the parameters of {what} are in [params.NAME] now, NAME being its \
+                         component's name in [system] (e.g. [params.{}])",
+                        default_name(table)
+                    ),
+                ),
+                None => at(e.span().map_or(0, |s| s.start), e.message().trim().to_string()),
             }
         })?;
+        if let Err((name, message)) = config.complete_params() {
+            // The line of the component's table, the key in the message.
+            let offset = toml::from_str::<Places>(text)
+                .ok()
+                .and_then(|p| p.params.get(&name).map(|s| s.span().start))
+                .unwrap_or(0);
+            // The line of the table (its header or its first key), from its first column.
+            let line_start = text[..offset.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+            return Err(at(line_start, message));
+        }
         config.validate().map_err(|message| ConfigError::Invalid { origin: origin.to_string(), message })?;
         Ok(config)
     }
@@ -333,19 +437,120 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
-    /// This configuration with `sets` applied, each `section.key=value` (the value in TOML:
-    /// `0.3`, `true`, `"text"`, `[1, 2]`; a bare word is taken as a string). The result is
-    /// checked as a file is; an error names the `--set` it comes from.
+    /// Checks the parameters of every component of a built-in kind and writes them out in
+    /// full (defaults included); refuses a `[params.NAME]` for a component the system does not
+    /// have. The error names the component and the key.
+    fn complete_params(&mut self) -> Result<(), (String, String)> {
+        if let Some(name) = self.params.keys().find(|n| !self.system.has(n)) {
+            return Err((
+                name.clone(),
+                format!("params.{name}: '{name}' is not a component of the system (system.components)"),
+            ));
+        }
+        for c in &self.system.components {
+            let Some((table, complete)) = builtin(c.kind()) else { continue };
+            let given = self.params.get(&c.name).cloned().unwrap_or_default();
+            let full = complete(&given).map_err(|m| {
+                // The validators name their keys after the kind's old table.
+                let m = m.strip_prefix(&format!("{table}.")).unwrap_or(&m);
+                let keyed = m.split_once(": ").is_some_and(|(key, _)| !key.is_empty() && !key.contains(' '));
+                let message =
+                    if keyed { format!("params.{}.{m}", c.name) } else { format!("params.{}: {m}", c.name) };
+                (c.name.clone(), message)
+            })?;
+            self.params.insert(c.name.clone(), full);
+        }
+        Ok(())
+    }
+
+    /// The parameters of the component `name` (its `[params.NAME]`, defaults where it has
+    /// none); an error names the key.
+    pub fn params_of<P: serde::de::DeserializeOwned>(&self, name: &str) -> Result<P, String> {
+        let table = self.params.get(name).cloned().unwrap_or_default();
+        toml::Value::Table(table)
+            .try_into::<P>()
+            .map_err(|e: toml::de::Error| format!("params.{name}: {}", e.message().trim().replace('\n', " ")))
+    }
+
+    /// Renames the component `from` to `to`: its entry in the system (its kind stays what it
+    /// was), its parameters and its place in the supervision subtrees.
+    pub fn rename_component(&mut self, from: &str, to: &str) {
+        for c in self.system.components.iter_mut().filter(|c| c.name == from) {
+            c.kind = Some(c.kind().to_string());
+            c.name = to.to_string();
+        }
+        if let Some(p) = self.params.remove(from) {
+            self.params.insert(to.to_string(), p);
+        }
+        for t in self.supervision.subtrees.values_mut() {
+            t.members.iter_mut().filter(|m| *m == from).for_each(|m| *m = to.to_string());
+        }
+    }
+
+    /// The first component of the system of one of `kinds`.
+    fn of_kind(&self, kinds: &[&str]) -> Option<&crate::system::ComponentSpec> {
+        self.system.components.iter().find(|c| kinds.contains(&c.kind()))
+    }
+
+    /// The parameters of the component `name` as a built-in kind reads them; its defaults if
+    /// they do not read (they did at load: only code that edits `params` can break them).
+    fn builtin_params<P: serde::de::DeserializeOwned + Default>(&self, name: &str) -> P {
+        self.params_of(name).unwrap_or_else(|e| {
+            tracing::error!("{e}: taking the defaults");
+            P::default()
+        })
+    }
+
+    /// The robot server's name in the system (the first component of kind `robot` or
+    /// `nomad200`; `nomad200` if there is none): every client addresses the robot by it.
+    pub fn robot_name(&self) -> &str {
+        self.of_kind(&ROBOT_KINDS).map_or("nomad200", |c| c.name.as_str())
+    }
+
+    /// The robot server's parameters, named after it.
+    pub fn robot(&self) -> ServerParams {
+        let name = self.robot_name().to_string();
+        ServerParams { name: name.clone(), ..self.builtin_params(&name) }
+    }
+
+    /// The master's parameters (the first component of kind `master`; the defaults if the
+    /// system has none), addressing the robot server by its name.
+    pub fn executive(&self) -> ExecutiveParams {
+        let mut p: ExecutiveParams = match self.of_kind(&["master"]) {
+            Some(c) => self.builtin_params(&c.name),
+            None => ExecutiveParams::default(),
+        };
+        p.robot = self.robot_name().to_string();
+        p
+    }
+
+    /// The planner's parameters (the first component of kind `planner`; the defaults if the
+    /// system has none).
+    pub fn planner(&self) -> PlannerParams {
+        match self.of_kind(&["planner"]) {
+            Some(c) => self.builtin_params(&c.name),
+            None => PlannerParams::default(),
+        }
+    }
+
+    /// This configuration with `sets` applied, each `table.key=value` (the value in TOML:
+    /// `0.3`, `true`, `"text"`, `[1, 2]`; a bare word is taken as a string). `table` is a
+    /// process-level table (`sim`, `supervision`, `link`, `ros2`) or a component's name
+    /// (`wallfollow.v_max_m_s=0.2` sets `[params.wallfollow]`). The result is checked as a
+    /// file is; an error names the `--set` it comes from.
     pub fn with_sets(&self, sets: &[String]) -> Result<Config, String> {
         let mut table =
             toml::Table::try_from(self).map_err(|e| format!("cannot write the configuration: {e}"))?;
         for set in sets {
             let err = |m: String| format!("--set {set}: {m}");
             let (path, value) =
-                set.split_once('=').ok_or_else(|| err("write it as section.key=value".into()))?;
-            let keys: Vec<&str> = path.trim().split('.').collect();
+                set.split_once('=').ok_or_else(|| err("write it as table.key=value".into()))?;
+            let mut keys: Vec<&str> = path.trim().split('.').collect();
             if keys.iter().any(|k| k.is_empty()) {
-                return Err(err(format!("'{path}' is not a key path such as wallfollow.distance_m")));
+                return Err(err(format!("'{path}' is not a key path such as wallfollow.target_m")));
+            }
+            if self.system.has(keys[0]) {
+                keys.insert(0, "params");
             }
             let value = value.trim();
             let value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
@@ -362,24 +567,33 @@ impl Config {
             }
             at.insert(last.to_string(), value);
         }
-        let config: Config = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
+        let mut config: Config = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
             format!("--set {}: {}", sets.join(" --set "), e.message().trim())
         })?;
+        config.complete_params().map_err(|(_, m)| format!("--set {}: {m}", sets.join(" --set ")))?;
         config.validate().map_err(|m| format!("--set {}: {m}", sets.join(" --set ")))?;
         Ok(config)
     }
 
-    /// Checks every table; the message names the key.
+    /// Checks every table, and the parameters of every built-in component against the rest;
+    /// the message names the key.
     pub fn validate(&self) -> Result<(), String> {
-        self.robot.validate()?;
         self.sim.validate().map_err(|e| format!("sim.{}: {}", e.key, e.problem))?;
-        self.wallfollow.validate()?;
-        self.centerfollow.validate()?;
-        self.executive.validate()?;
         self.supervision.validate()?;
-        self.link.validate(self.robot.cmd_timeout_s)?;
         self.ros2.validate()?;
-        switch_step_fits(&self.executive, self.robot.cmd_timeout_s)?;
+        // Kinds are checked against the catalog when the system starts (a program may add its own).
+        self.system.validate(|_| true, &[])?;
+        let robot = self.robot();
+        let robot_at = format!("params.{}", robot.name);
+        self.link
+            .validate(robot.cmd_timeout_s)
+            .map_err(|m| m.replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s")))?;
+        if let Some(master) = self.of_kind(&["master"]) {
+            switch_step_fits(&self.executive(), robot.cmd_timeout_s).map_err(|m| {
+                format!("params.{}.{m}", master.name)
+                    .replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s"))
+            })?;
+        }
         // A subtree is a child of the top supervisor beside the components in no subtree: their
         // names must differ. (Members that are not components of the system are left out: a
         // process starts the subtrees of the components it hosts.)
@@ -391,22 +605,59 @@ impl Config {
                 c.name, c.name
             ));
         }
-        // Kinds are checked against the catalog when the system starts (a program may add its own).
-        self.system.validate(|_| true, &[])?;
-        let modes: Vec<&str> = self.executive.modes.keys().map(String::as_str).collect();
-        self.planner.validate(&modes)?;
+        let executive = self.executive();
+        let master = self.of_kind(&["master"]).map_or("master", |c| c.name.as_str());
+        let modes: Vec<&str> = executive.modes.keys().map(String::as_str).collect();
+        if let Some(planner) = self.of_kind(&["planner"]) {
+            self.planner().validate(&modes).map_err(|m| {
+                format!("params.{}.{}", planner.name, m.strip_prefix("planner.").unwrap_or(&m))
+            })?;
+        }
         // The behaviours a master arbitrates must be components of the system.
-        if self.system.components.iter().any(|c| c.kind() == "master") {
-            for (mode, m) in &self.executive.modes {
+        if self.of_kind(&["master"]).is_some() {
+            for (mode, m) in &executive.modes {
                 if let Some(b) = m.behaviours.iter().find(|b| !self.system.has(b)) {
                     return Err(format!(
-                        "executive.modes.{mode}.behaviours: '{b}' is not a component of the system \
+                        "params.{master}.modes.{mode}.behaviours: '{b}' is not a component of the system \
                          (system.components)"
                     ));
                 }
             }
         }
         Ok(())
+    }
+}
+
+/// Where the `[params.NAME]` tables of a config file start, to name the line of an error
+/// found after parsing.
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct Places {
+    params: BTreeMap<String, toml::Spanned<toml::Value>>,
+}
+
+/// Where the top-level table `table` first appears in `text` (its header, or a dotted key).
+fn table_offset(text: &str, table: &str) -> usize {
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        let l = line.trim_start();
+        let is_it = [format!("[{table}]"), format!("[{table}."), format!("{table}."), format!("{table} =")]
+            .iter()
+            .any(|p| l.starts_with(p.as_str()));
+        if is_it {
+            return offset + (line.len() - l.len());
+        }
+        offset += line.len();
+    }
+    0
+}
+
+/// The component a moved table's parameters now go under, in the default system.
+fn default_name(table: &str) -> &str {
+    match table {
+        "robot" => "nomad200",
+        "executive" => "master",
+        other => other,
     }
 }
 
@@ -433,78 +684,135 @@ mod tests {
         assert!(Config::from_toml("[ros2.base]\nwheels = 2\n", "t.toml").is_err(), "unknown keys are errors");
     }
 
+    fn wf(c: &Config) -> WallFollowParams {
+        c.params_of("wallfollow").expect("wall following's parameters")
+    }
+
+    fn cf(c: &Config) -> CenterFollowParams {
+        c.params_of("centerfollow").expect("center following's parameters")
+    }
+
+    /// `c` with the parameters of `names` taken from `from`.
+    fn with_params_of(c: &Config, from: &Config, names: &[&str]) -> Config {
+        let mut c = c.clone();
+        for n in names {
+            c.params.insert(n.to_string(), from.params[*n].clone());
+        }
+        c
+    }
+
     #[test]
     fn the_previous_default_file_parses_and_differs_only_in_the_behaviours() {
         let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
         let c = Config::load(&root.join("config/previous-default.toml")).expect("parses");
-        assert_ne!(c.centerfollow, Config::default().centerfollow);
-        assert_ne!(c.wallfollow, Config::default().wallfollow);
-        assert!(!c.centerfollow.dead_end_turn && Config::default().centerfollow.dead_end_turn);
-        assert!(!c.wallfollow.share_gaps && !c.wallfollow.limit_approach);
-        let mut same = c.clone();
-        same.centerfollow = Config::default().centerfollow;
-        same.wallfollow = Config::default().wallfollow;
-        assert_eq!(same, Config::default(), "nothing else differs");
+        let d = Config::default();
+        assert_ne!(cf(&c), cf(&d));
+        assert_ne!(wf(&c), wf(&d));
+        assert!(!cf(&c).dead_end_turn && cf(&d).dead_end_turn);
+        assert!(!wf(&c).share_gaps && !wf(&c).limit_approach);
+        assert_eq!(with_params_of(&c, &d, &["wallfollow", "centerfollow"]), d, "nothing else differs");
     }
 
     #[test]
     fn the_held_walls_and_the_approach_limit_are_on_by_default_and_checked() {
         let d = Config::default();
-        assert!(d.centerfollow.walls.enabled && d.wallfollow.limit_approach && d.wallfollow.share_gaps);
-        let e = Config::from_toml("[wallfollow]\nshare_gaps = \"yes\"\n", "w.toml").expect_err("not a bool");
-        assert!(e.to_string().starts_with("w.toml:2:") && e.to_string().contains("bool"), "{e}");
-        let c = Config::from_toml("[centerfollow.walls]\nenabled = false\n", "w.toml").expect("parses");
+        assert!(cf(&d).walls.enabled && wf(&d).limit_approach && wf(&d).share_gaps);
+        let e = Config::from_toml("[params.wallfollow]\nshare_gaps = \"yes\"\n", "w.toml")
+            .expect_err("not a bool");
+        assert!(e.to_string().starts_with("w.toml:1:") && e.to_string().contains("bool"), "{e}");
+        let c =
+            Config::from_toml("[params.centerfollow.walls]\nenabled = false\n", "w.toml").expect("parses");
         let mut same = c.clone();
-        same.centerfollow.walls.enabled = true;
-        assert_eq!(same, Config::default(), "only the one key differs");
-        let e = Config::from_toml("[wallfollow]\nlimit_approach = 1\n", "w.toml").expect_err("not a bool");
-        assert!(e.to_string().starts_with("w.toml:2:") && e.to_string().contains("bool"), "{e}");
-        let e = Config::from_toml("[centerfollow.walls]\nnear = 0.4\n", "w.toml").expect_err("unknown key");
-        assert!(e.to_string().starts_with("w.toml:2:1:") && e.to_string().contains("near"), "{e}");
-        let e = Config::from_toml("[centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");
-        assert_eq!(e.to_string(), "w.toml: centerfollow.walls.hold_s: must be a positive number");
+        let mut walls = cf(&c);
+        walls.walls.enabled = true;
+        same.params.insert("centerfollow".into(), toml::Table::try_from(walls).expect("writes"));
+        assert_eq!(same, d, "only the one key differs");
+        let e =
+            Config::from_toml("[params.wallfollow]\nlimit_approach = 1\n", "w.toml").expect_err("not a bool");
+        assert!(e.to_string().starts_with("w.toml:1:") && e.to_string().contains("bool"), "{e}");
+        let e = Config::from_toml("[params.centerfollow.walls]\nnear = 0.4\n", "w.toml")
+            .expect_err("unknown key");
+        assert!(e.to_string().starts_with("w.toml:1:") && e.to_string().contains("near"), "{e}");
+        let e =
+            Config::from_toml("[params.centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");
+        assert_eq!(e.to_string(), "w.toml:1:1: params.centerfollow.walls.hold_s: must be a positive number");
     }
 
     #[test]
     fn a_set_changes_one_key_and_is_checked_as_the_file_is() {
         let base = Config::default();
         let c = base.with_sets(&["wallfollow.v_max_m_s=0.2".into()]).expect("accepted");
-        assert_eq!(c.wallfollow.v_max_m_s, 0.2);
-        assert_eq!(Config { wallfollow: base.wallfollow, ..c.clone() }, base, "nothing else changed");
+        assert_eq!(wf(&c).v_max_m_s, 0.2);
+        assert_eq!(with_params_of(&c, &base, &["wallfollow"]), base, "nothing else changed");
+        let c = base.with_sets(&["sim.step_s=0.02".into()]).expect("a process-level table");
+        assert_eq!(c.sim.step_s, 0.02);
         let e = base.with_sets(&["wallfollow.no_such_key=1".into()]).expect_err("refused");
         assert!(e.contains("--set wallfollow.no_such_key=1") && e.contains("no_such_key"), "{e}");
         let e = base.with_sets(&["wallfollow.v_max_m_s=-1".into()]).expect_err("refused");
-        assert!(e.contains("wallfollow.v_max_m_s"), "{e}");
-        assert!(base.with_sets(&["wallfollow".into()]).expect_err("refused").contains("section.key=value"));
+        assert!(e.contains("params.wallfollow.v_max_m_s"), "{e}");
+        assert!(base.with_sets(&["wallfollow".into()]).expect_err("refused").contains("table.key=value"));
         let e = base.with_sets(&["wallfollow.v_max_m_s.x=1".into()]).expect_err("refused");
-        assert!(e.contains("'wallfollow.v_max_m_s' is a value"), "{e}");
+        assert!(e.contains("'params.wallfollow.v_max_m_s' is a value"), "{e}");
+        let e = base.with_sets(&["ghost.x=1".into()]).expect_err("neither a table nor a component");
+        assert!(e.contains("ghost"), "{e}");
+    }
+
+    /// Every kind reads its parameters from `[params.NAME]`: two components of one kind have
+    /// their own, and a table for a component the system does not have is refused.
+    #[test]
+    fn each_component_has_its_own_parameters_by_name() {
+        let text = "[[system.components]]\nname = \"nomad200\"\n[[system.components]]\nname = \"slow\"\n\
+                    kind = \"wallfollow\"\n[[system.components]]\nname = \"fast\"\nkind = \"wallfollow\"\n\
+                    [params.slow]\nv_max_m_s = 0.1\n[params.fast]\nv_max_m_s = 0.3\n";
+        let c = Config::from_toml(text, "two.toml").expect("parses");
+        let (slow, fast): (WallFollowParams, WallFollowParams) =
+            (c.params_of("slow").expect("slow"), c.params_of("fast").expect("fast"));
+        assert_eq!((slow.v_max_m_s, fast.v_max_m_s), (0.1, 0.3));
+        assert_eq!(slow.target_m, WallFollowParams::default().target_m, "written out in full");
+        let e = Config::from_toml("[params.ghost]\nx = 1\n", "g.toml").expect_err("no such component");
+        assert_eq!(
+            e.to_string(),
+            "g.toml:1:1: params.ghost: 'ghost' is not a component of the system (system.components)"
+        );
+        // The old tables say where their keys went.
+        let e = Config::from_toml("\n[wallfollow]\ntarget_m = 0.2\n", "old.toml").expect_err("moved");
+        assert!(
+            e.to_string().starts_with("old.toml:2:") && e.to_string().contains("[params.wallfollow]"),
+            "{e}"
+        );
+        let e = Config::from_toml("[robot]\ncmd_timeout_s = 0.5\n", "old.toml").expect_err("moved");
+        assert!(e.to_string().contains("[params.nomad200]"), "{e}");
     }
 
     #[test]
     fn errors_name_the_place_and_the_key() {
-        let e = Config::from_toml("[wallfollow]\ntarget_m = 0.2\nk_dd = 3.0\n", "my.toml")
+        let e = Config::from_toml("[params.wallfollow]\ntarget_m = 0.2\nk_dd = 3.0\n", "my.toml")
             .expect_err("unknown key");
         let text = e.to_string();
-        assert!(text.starts_with("my.toml:3:1:") && text.contains("k_dd"), "{text}");
-        let e = Config::from_toml("[wallfollow.loops]\nk_alpha = 2.0\n", "my.toml").expect_err("bad sign");
-        assert_eq!(e.to_string(), "my.toml: wallfollow.k_alpha: must be a negative number");
-        let e = Config::from_toml("[robot]\ncmd_timeout_s = -1\n", "my.toml").expect_err("bad value");
-        assert!(e.to_string().contains("robot.cmd_timeout_s"), "{e}");
-        let e = Config::from_toml("[planner]\nmission = [{ mode = \"dance\" }]\n", "my.toml")
+        assert!(text.starts_with("my.toml:1:1: params.wallfollow: unknown field `k_dd`"), "{text}");
+        let e =
+            Config::from_toml("[params.wallfollow.loops]\nk_alpha = 2.0\n", "my.toml").expect_err("bad sign");
+        assert_eq!(e.to_string(), "my.toml:1:1: params.wallfollow.k_alpha: must be a negative number");
+        let e =
+            Config::from_toml("[params.nomad200]\ncmd_timeout_s = -1\n", "my.toml").expect_err("bad value");
+        assert!(e.to_string().contains("params.nomad200.cmd_timeout_s"), "{e}");
+        let e = Config::from_toml("[params.planner]\nmission = [{ mode = \"dance\" }]\n", "my.toml")
             .expect_err("bad mode");
-        assert!(e.to_string().contains("planner.mission[0].mode: 'dance'"), "{e}");
-        let e = Config::from_toml("[executive.modes.x]\nbehaviours = [\"teleop\"]\n", "m.toml")
+        assert!(e.to_string().contains("params.planner.mission[0].mode: 'dance'"), "{e}");
+        let e = Config::from_toml("[params.master.modes.x]\nbehaviours = [\"teleop\"]\n", "m.toml")
             .expect_err("unknown");
         assert!(e.to_string().contains("'teleop'"), "{e}");
         let e = Config::from_toml("[link]\nlease_s = 0.8\n", "m.toml").expect_err("lease too long");
         assert!(
-            e.to_string().contains("link.lease_s: must be more than 0 and at most robot.cmd_timeout_s"),
+            e.to_string()
+                .contains("link.lease_s: must be more than 0 and at most params.nomad200.cmd_timeout_s"),
             "{e}"
         );
         let e = Config::from_toml("[link]\nheartbeat_period_s = 0.2\n", "m.toml").expect_err("too slow");
         assert!(e.to_string().contains("at least twice link.heartbeat_period_s"), "{e}");
-        let e = Config::from_toml("[executive]\nswitch_step_s = 0.3\n", "m.toml").expect_err("step too long");
-        assert!(e.to_string().starts_with("m.toml: executive.switch_step_s: 0.3 s is too long"), "{e}");
+        let e =
+            Config::from_toml("[params.master]\nswitch_step_s = 0.3\n", "m.toml").expect_err("step too long");
+        assert!(e.to_string().starts_with("m.toml: params.master.switch_step_s: 0.3 s is too long"), "{e}");
         let e = Config::from_toml(
             "[supervision.subtrees.a]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\n\
              [supervision.subtrees.b]\nmembers = [\"wallfollow\"]\nmax_restarts = 1\nperiod_s = 60\n",

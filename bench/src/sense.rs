@@ -34,14 +34,17 @@ use super::net::{PeerReply, PeerRequest, WireStep};
 use super::{SenseToAct, say, stats};
 use anyhow::{Context as _, anyhow};
 use orsa::config::Config;
+use orsa::mission::stack::Stack;
+use orsa::system::Robot;
 use orsa::system::{Catalog, Place, System};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryClient;
 use orsa_actors::{Clock, Component, ComponentError, Ctx, Empty, Registry, Timestamp};
 use orsa_executive::Master;
+use orsa_hardware::any::AnyMotorBoard;
 use orsa_hardware::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState};
 use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::{SimMotorBoard, SimNomad200, SimRobot, SimSensorBoard};
+use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
 use orsa_interfaces::behaviour::BehaviourStatus;
 use orsa_interfaces::nomad200::SafetyCounters;
@@ -76,8 +79,11 @@ pub(crate) struct Step {
     pub(crate) w: f64,
 }
 
+/// The bench's robot kind: the simulator behind [`TimedMotors`].
+const TIMED_SIM: &str = "timed-sim";
+
 /// A motor board that notes when each velocity command arrives.
-#[derive(Clone)]
+#[derive(Debug, Clone)]
 pub(crate) struct TimedMotors<M> {
     inner: M,
     clock: Clock,
@@ -112,33 +118,43 @@ impl<M: MotorBoard> MotorBoard for TimedMotors<M> {
 /// The bench's catalog: the robot server on a motor board that notes each command (if this
 /// process hosts the robot), both behaviours traced, and the master; all without the handler
 /// timeout, as measured since the bench began.
-fn catalog(
-    robot: Option<(SimSensorBoard, TimedMotors<SimMotorBoard>)>,
-    steps: &Arc<Mutex<Vec<Step>>>,
-) -> Catalog {
+fn catalog(acts: Option<&Arc<Mutex<Vec<Act>>>>, steps: &Arc<Mutex<Vec<Step>>>) -> Catalog {
     let mut c = Catalog::builtin();
-    if let Some((sensors, motors)) = robot {
-        c.register_untimed("nomad200", Place::Robot, move |parts, _| {
-            let config = parts.config;
-            let params = config.sim.robot_params(config.robot.push_periods());
-            Ok(Nomad200::new(config.robot.clone(), params, sensors.clone(), motors.clone()))
+    if let Some(acts) = acts {
+        // The simulator, its motor board noting when each command arrives: a robot kind of
+        // the bench's own.
+        let acts = Arc::clone(acts);
+        c.register_robot(TIMED_SIM, move |setup| {
+            let sim = SimNomad200::new(setup.world.clone(), setup.config.sim.clone(), setup.seed)
+                .map_err(|e| format!("simulator: {e}"))?;
+            let mut robot = Robot::simulated(SimRobot::spawn(sim, setup.clock), setup.config);
+            let timed =
+                TimedMotors { inner: robot.motors.clone(), clock: setup.clock, acts: Arc::clone(&acts) };
+            robot.motors = AnyMotorBoard::other(timed);
+            Ok(robot)
+        });
+        // The robot server with no handler timeout: a loaded machine must not restart it.
+        c.register_untimed("nomad200", Place::Robot, |parts, _| {
+            let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
+            Ok(Nomad200::new(
+                parts.config.robot(),
+                boards.params.clone(),
+                boards.sensors.clone(),
+                boards.motors.clone(),
+            ))
         });
     }
     let s = Arc::clone(steps);
-    c.register_untimed("wallfollow", Place::Robot, move |parts, _| {
-        let inner = WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() };
+    c.register_untimed("wallfollow", Place::Robot, move |parts, spec| {
+        let inner = WallFollow { params: parts.params(spec)?, robot: parts.robot_name().into() };
         Ok(Traced { inner, steps: Arc::clone(&s) })
     });
     let s = Arc::clone(steps);
-    c.register_untimed("centerfollow", Place::Robot, move |parts, _| {
-        let inner = CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() };
+    c.register_untimed("centerfollow", Place::Robot, move |parts, spec| {
+        let inner = CenterFollow { params: parts.params(spec)?, robot: parts.robot_name().into() };
         Ok(Traced { inner, steps: Arc::clone(&s) })
     });
-    c.register_untimed("master", Place::Executive, |parts, _| {
-        let mut params = parts.config.executive.clone();
-        params.robot = parts.robot_name().into();
-        Ok(Master::new(params))
-    });
+    c.register_untimed("master", Place::Executive, |parts, _| Ok(Master::new(parts.config.executive())));
     c
 }
 
@@ -342,23 +358,19 @@ async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     } else {
         None
     };
-    let sim = SimNomad200::new(world, config.sim.clone(), 1).map_err(|e| anyhow!("simulator: {e}"))?;
-    let sim = SimRobot::spawn(sim, clock);
     let acts = Arc::new(Mutex::new(Vec::new()));
     let steps = Arc::new(Mutex::new(Vec::new()));
-    let motors = TimedMotors { inner: sim.motor_board(), clock, acts: Arc::clone(&acts) };
-    let robot_params = config.sim.robot_params(config.robot.push_periods());
-    let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
-    let supervisor = System::builder(&config)
-        .catalog(catalog(Some((sim.sensor_board(), motors)), &steps))
+    let stack = Stack::builder(&config, world)
+        .catalog(catalog(Some(&acts), &steps))
+        .robot(TIMED_SIM)
         .duration(duration_s)
         .on_event(count_restarts(&restarts))
-        .start(&registry)
+        .start_on(&registry)
         .await
-        .context("starting the stack")?
-        .supervisor;
+        .context("starting the stack")?;
+    let (max_v, max_w) = (stack.robot.params.max_v_m_s, stack.robot.params.max_omega_rad_s);
 
     // The first second brings everything up and gets the robot moving; it is not measured.
     let settle = Duration::from_secs(1);
@@ -390,12 +402,9 @@ async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
         }
         None => None,
     };
-    supervisor.shutdown().await;
-    if let Err(e) = sim.shutdown().await {
-        tracing::warn!("simulator task ended badly: {e}");
-    }
+    stack.shutdown().await;
     let acts: Vec<Act> = acts.into_iter().filter(|a| a.at >= from).collect();
-    let m = attribute(&acts, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+    let m = attribute(&acts, &steps, max_v, max_w, Duration::from_secs_f64(config.robot().cmd_timeout_s));
     Ok(SenseToAct {
         duration_s,
         commands_received: acts.len() as u64,
@@ -434,7 +443,7 @@ impl PeerBehaviours {
             anyhow::bail!("the robot's services {missing:?} did not appear within 30 s");
         }
         let mut config = Config::default();
-        config.robot.name = robot.to_string();
+        config.rename_component(orsa::config::Config::default().robot_name(), robot);
         let steps = Arc::new(Mutex::new(Vec::new()));
         let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
         let supervisor = System::builder(&config)
@@ -500,26 +509,20 @@ pub(crate) async fn across(
         anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
     }
     let config = Config::default();
-    let clock = registry.clock();
-    let sim = SimNomad200::new(World::palazzina()?, config.sim.clone(), 1)
-        .map_err(|e| anyhow!("simulator: {e}"))?;
-    let sim = SimRobot::spawn(sim, clock);
     let acts = Arc::new(Mutex::new(Vec::new()));
-    let motors = TimedMotors { inner: sim.motor_board(), clock, acts: Arc::clone(&acts) };
-    let robot_params = config.sim.robot_params(config.robot.push_periods());
-    let (max_v, max_w) = (robot_params.max_v_m_s, robot_params.max_omega_rad_s);
-    let robot = config.robot.name.clone();
+    let robot = config.robot_name().to_string();
     let restarts = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let steps = Arc::new(Mutex::new(Vec::new()));
-    let robot_sup = System::builder(&config)
-        .catalog(catalog(Some((sim.sensor_board(), motors)), &steps))
-        .select(&[config.robot.name.as_str()])
+    let robot_stack = Stack::builder(&config, World::palazzina()?)
+        .catalog(catalog(Some(&acts), &steps))
+        .robot(TIMED_SIM)
+        .select(&[config.robot_name()])
         .supervisor("bench-robot")
         .on_event(count_restarts(&restarts))
-        .start(registry)
+        .start_on(registry)
         .await
-        .context("starting the robot")?
-        .supervisor;
+        .context("starting the robot")?;
+    let (max_v, max_w) = (robot_stack.robot.params.max_v_m_s, robot_stack.robot.params.max_omega_rad_s);
 
     let out = async {
         match control
@@ -581,7 +584,8 @@ pub(crate) async fn across(
             };
         let steps: Vec<Step> = wire_steps.iter().map(step_from_wire).collect();
         let taken: Vec<Act> = taken.into_iter().filter(|a| a.at >= from).collect();
-        let m = attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot.cmd_timeout_s));
+        let m =
+            attribute(&taken, &steps, max_v, max_w, Duration::from_secs_f64(config.robot().cmd_timeout_s));
         let sense = SenseToAct {
             duration_s,
             commands_received: taken.len() as u64,
@@ -598,10 +602,7 @@ pub(crate) async fn across(
         Ok((sense, switch))
     }
     .await;
-    robot_sup.shutdown().await;
-    if let Err(e) = sim.shutdown().await {
-        tracing::warn!("simulator task ended badly: {e}");
-    }
+    robot_stack.shutdown().await;
     out
 }
 

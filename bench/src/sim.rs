@@ -26,6 +26,7 @@ use orsa::config::Config;
 use orsa::mission::stack::Stack;
 use orsa::mission::{self, RunOptions};
 use orsa_actors::supervision::SupervisorEventKind;
+use orsa_hardware::sim::SimRobot;
 use orsa_hardware::world::World;
 use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef};
 use std::sync::Arc;
@@ -208,7 +209,7 @@ fn raw_timers(
     tasks: &mut Vec<tokio::task::JoinHandle<()>>,
     tick: impl Fn(u8) -> bool + Clone + Send + 'static,
 ) {
-    let p = config.robot.push_periods();
+    let p = config.robot().push_periods();
     for (kind, period) in
         [p.distanceir_s, p.distanceson_s, p.bumpers_s, p.basestate_s].into_iter().enumerate()
     {
@@ -503,12 +504,21 @@ pub(crate) fn scale(n: usize, warm_s: f64, measure_s: f64) -> anyhow::Result<Sca
         let startup_wall_s = up.elapsed().as_secs_f64();
         let rss_after = rss_mib();
         tokio::time::sleep(Duration::from_secs_f64(warm_s)).await;
-        let steps0: Vec<u64> = stacks.iter().map(|s| s.sim.steps()).collect();
+        let sims = stacks
+            .iter()
+            .map(|s| s.robot.handle::<SimRobot>().context("the stack's robot is not the simulator"))
+            .collect::<anyhow::Result<Vec<&SimRobot>>>()?;
+        let truths = stacks
+            .iter()
+            .map(|s| s.truth().context("the stack's robot has no truth"))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let steps0: Vec<u64> = sims.iter().map(|s| s.steps()).collect();
         let (wall, sim) = (Instant::now(), tokio::time::Instant::now());
         tokio::time::sleep(Duration::from_secs_f64(measure_s)).await;
         let (wall_s, simulated_s) = (wall.elapsed().as_secs_f64(), sim.elapsed().as_secs_f64());
-        let steps: Vec<u64> = stacks.iter().zip(&steps0).map(|(s, s0)| s.sim.steps() - s0).collect();
-        let distance: f64 = stacks.iter().map(|s| s.truth.truth().travelled_m).sum();
+        let steps: Vec<u64> = sims.iter().zip(&steps0).map(|(s, s0)| s.steps() - s0).collect();
+        let distance: f64 = truths.iter().map(|t| t.truth().travelled_m).sum();
+        drop((sims, truths));
         let down = Instant::now();
         futures::future::join_all(stacks.into_iter().map(Stack::shutdown)).await;
         let shutdown_wall_s = down.elapsed().as_secs_f64();

@@ -20,7 +20,7 @@
 //! sensor time and a replay decides the same. In the config file:
 //!
 //! ```toml
-//! [executive.modes.patrol]
+//! [params.master.modes.patrol]
 //! behaviours = ["wallfollow", "centerfollow"]
 //! rules = [
 //!   # the thesis' trigger: something within 0.50 m in front -> wall following ...

@@ -7,7 +7,7 @@
 //! executive.
 //!
 //! ```toml
-//! [planner]
+//! [params.planner]
 //! mission = [
 //!   { mode = "follow_left_wall", for_s = 120 },
 //!   { mode = "patrol", for_s = 3600 },
@@ -51,7 +51,7 @@ pub struct MissionStep {
     pub for_s: Option<f64>,
 }
 
-/// Configuration of the planner (the `[planner]` table).
+/// Configuration of the planner (the planner's `[params.planner]` table).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerParams {

@@ -17,7 +17,7 @@
 //! thesis' single-window controller.
 //!
 //! The wall angle can also be held through odometry where the ring sees no flat wall (beside a
-//! person, a recess), `[centerfollow.walls]`, on by default: see [`crate::walldir`].
+//! person, a recess), `[params.centerfollow.walls]`, on by default: see [`crate::walldir`].
 //!
 //! Sound handling of what the original leaves open: with only one side in range the robot keeps
 //! its heading parallel to that side's wall (zero lateral error); with neither it goes straight.
@@ -30,7 +30,7 @@ use orsa_actors::Timestamp;
 use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE};
 use serde::{Deserialize, Serialize};
 
-/// Parameters of center following (the `[centerfollow]` table of the config file).
+/// Parameters of center following (the `[params.centerfollow]` table of the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CenterFollowParams {

@@ -42,7 +42,7 @@ use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE, ring_angle_rad};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
-/// Parameters of wall following (the `[wallfollow]` table of the config file).
+/// Parameters of wall following (the `[params.wallfollow]` table of the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WallFollowParams {

@@ -177,7 +177,7 @@ pub fn view_setup(
     truth: bool,
 ) -> ViewSetup {
     ViewSetup {
-        robot: config.robot.name.clone(),
+        robot: config.robot_name().to_string(),
         master: orsa_interfaces::executive::NAME.to_owned(),
         world,
         body_radius_m: config.sim.body.radius_m,

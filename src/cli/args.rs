@@ -40,10 +40,11 @@ pub(crate) struct RobotArgs {
     /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
     pub(crate) domain: u32,
-    /// The robot to drive: the simulated Nomad 200, or a ROS 2 robot that publishes a laser
-    /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
-    #[arg(long, value_enum, default_value_t = Hardware::Sim)]
-    pub(crate) hardware: Hardware,
+    /// The robot to drive, a robot kind of the catalog: `sim` (the simulator, the robot the
+    /// config's [sim] describes) or `ros2` (a ROS 2 robot that publishes a laser scan and
+    /// odometry and takes Twist commands, described by the config's [ros2.base]).
+    #[arg(long, value_name = "KIND", default_value = orsa::system::SIM)]
+    pub(crate) hardware: String,
     /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
     /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = orsa::live::DEFAULT_ADDR,
@@ -68,29 +69,12 @@ impl From<RobotArgs> for orsa::remote::RobotOptions {
             record: a.record,
             ros2: a.ros2,
             domain: a.domain,
-            hardware: a.hardware.into(),
+            hardware: a.hardware,
+            catalog: orsa::system::Catalog::builtin(),
             foxglove: a.foxglove,
             net: a.net.into(),
             config: a.shared.config,
             report: a.shared.report,
-        }
-    }
-}
-
-/// The robot `orsa robot` drives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum Hardware {
-    /// The simulated Nomad 200 in the world file.
-    Sim,
-    /// A ROS 2 robot on the zenoh network (rmw_zenoh): its scan and odometry in, Twist out.
-    Ros2,
-}
-
-impl From<Hardware> for orsa::remote::Hardware {
-    fn from(a: Hardware) -> Self {
-        match a {
-            Hardware::Sim => orsa::remote::Hardware::Sim,
-            Hardware::Ros2 => orsa::remote::Hardware::Ros2,
         }
     }
 }

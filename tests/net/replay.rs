@@ -79,7 +79,7 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
     let mission = temp("replay-mission.toml");
     std::fs::write(
         &mission,
-        "[planner]\nmission = [{mode=\"patrol\",for_s=3},{mode=\"follow_left_wall\",for_s=3},{mode=\"patrol\",for_s=30}]\n",
+        "[params.planner]\nmission = [{mode=\"patrol\",for_s=3},{mode=\"follow_left_wall\",for_s=3},{mode=\"patrol\",for_s=30}]\n",
     )
     .expect("write the mission");
     let plan = temp("replay-plan.toml");

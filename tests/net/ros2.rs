@@ -100,7 +100,7 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
 async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
     let sys = System::new("ros2base");
     let config = std::env::temp_dir().join(format!("orsa-test-{}-ros2base.toml", std::process::id()));
-    std::fs::write(&config, "[planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 600 }]\n")
+    std::fs::write(&config, "[params.planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 600 }]\n")
         .expect("write the config");
     let report = report_path("ros2base");
     let robot = sys.robot(&["--hardware", "ros2", "--report", report.to_str().expect("utf-8")]);

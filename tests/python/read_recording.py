@@ -19,6 +19,14 @@ REQUIRED = ["orsa", "wire", "process", "world", "world_toml", "seed", "duration_
             "config_toml", "hosted", "robot", "clock", "clock_origin_ns"]
 
 
+
+def robot_name(config):
+    """The robot server's name: the first component of kind robot or nomad200 in [system]."""
+    for c in config.get("system", {}).get("components", []):
+        if c.get("kind", c["name"]) in ("robot", "nomad200"):
+            return c["name"]
+    return "nomad200"
+
 def main(path):
     with open(path, "rb") as f:
         reader = make_reader(f)
@@ -59,7 +67,7 @@ def main(path):
         "seed": int(meta["seed"]),
         "process": meta["process"],
         "clock": meta["clock"],
-        "robot_name": config["robot"]["name"],
+        "robot_name": robot_name(config),
         "config_sections": sorted(config),
         "world_name": world.get("name"),
         "hosted": meta["hosted"].split(","),

@@ -57,13 +57,21 @@ def periods_ms(times):
     return [(b - a) / 1e6 for a, b in zip(times, times[1:])]
 
 
+
+def robot_name(config):
+    """The robot server's name: the first component of kind robot or nomad200 in [system]."""
+    for c in config.get("system", {}).get("components", []):
+        if c.get("kind", c["name"]) in ("robot", "nomad200"):
+            return c["name"]
+    return "nomad200"
+
 def main(path):
     with open(path, "rb") as f:
         reader = make_reader(f)
         meta = next(m for m in reader.iter_metadata() if m.name == "run").metadata
         world = tomllib.loads(meta["world_toml"])
         config = tomllib.loads(meta["config_toml"])
-        robot = config["robot"]["name"]
+        robot = robot_name(config)
         protobuf = DecoderFactory()
         views, json_msgs = {}, {}
         for schema, channel, message in reader.iter_messages(log_time_order=True):

@@ -177,7 +177,7 @@ fn hosted(config: &crate::config::Config, place: Place) -> Vec<String> {
 /// names it.
 fn behaviours(config: &crate::config::Config) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
-    for mode in config.executive.modes.values() {
+    for mode in config.executive().modes.values() {
         for b in &mode.behaviours {
             if config.system.has(b) && !out.contains(b) {
                 out.push(b.clone());
@@ -196,7 +196,7 @@ fn master_services(config: &crate::config::Config) -> Vec<ServiceAddr> {
 /// The robot server's Send and push services and the behaviours' status pushes, which every
 /// process that runs them offers to a plan.
 fn robot_and_behaviour_services(config: &crate::config::Config) -> Vec<ServiceAddr> {
-    let robot = config.robot.name.as_str();
+    let robot = config.robot_name();
     let mut services: Vec<ServiceAddr> =
         ["navigationvelocity", "teleop", "distanceir", "distanceson", "bumpers", "basestate"]
             .iter()
@@ -513,7 +513,7 @@ sigma_m = 0.02
         let text = "[[system.components]]\nname = \"nomad200\"\n\
                     [[system.components]]\nname = \"wander\"\n\
                     [[system.components]]\nname = \"master\"\n\
-                    [executive.modes.wander]\nbehaviours = [\"wander\"]\nrules = [{ drive = \"wander\" }]\n";
+                    [params.master.modes.wander]\nbehaviours = [\"wander\"]\nrules = [{ drive = \"wander\" }]\n";
         let config = crate::config::Config::from_toml(text, "wander.toml").expect("config");
         let targets = PlanTargets::for_stack(&config);
         assert_eq!(targets.components, ["nomad200", "wander", "master"]);

@@ -6,6 +6,7 @@
 //! corridor mission's five kinds; adding a behaviour is one [`Catalog::register`] and one entry
 //! in the config (see `examples/new_behaviour.rs`).
 
+use super::robots::{MakeRobot, Robot, RobotError, RobotSetup};
 use super::spec::{ComponentSpec, Place};
 use crate::config::Config;
 use orsa_actors::Registry;
@@ -13,9 +14,8 @@ use orsa_actors::component::{Component, ComponentHandle};
 use orsa_actors::supervision::ChildSpec;
 use orsa_executive::Master;
 use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
-use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
-use orsa_hardware::server::Nomad200;
-use orsa_hardware::sim::SimRobot;
+use orsa_hardware::faulty::{FaultyMotorBoard, FaultySensorBoard};
+use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
 use orsa_reactive::{CenterFollow, WallFollow};
@@ -23,7 +23,10 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The robot's boards, for the process that hosts the robot server.
+/// The simulator's robot kind, the one `orsa run` and the whole-stack tests drive.
+pub const SIM: &str = "sim";
+
+/// The robot's boards, for the process that hosts the robot server ([`Robot::boards`]).
 #[derive(Debug, Clone)]
 pub struct RobotBoards {
     /// The sensor board, behind the fault switch.
@@ -32,28 +35,6 @@ pub struct RobotBoards {
     pub motors: FaultyMotorBoard<AnyMotorBoard>,
     /// The robot's geometry, limits and sensor layout.
     pub params: RobotParams,
-}
-
-impl RobotBoards {
-    /// The boards of a simulated robot, behind `faults`, described by `config`.
-    pub fn simulated(sim: &SimRobot, config: &Config, faults: &BoardFaults) -> Self {
-        RobotBoards {
-            sensors: FaultySensorBoard::new(AnySensorBoard::Sim(sim.sensor_board()), faults.clone()),
-            motors: FaultyMotorBoard::new(AnyMotorBoard::Sim(sim.motor_board()), faults.clone()),
-            params: config.sim.robot_params(config.robot.push_periods()),
-        }
-    }
-
-    /// The boards of a ROS 2 base (`orsa robot --hardware ros2`), behind `faults`, described
-    /// by the config's `[ros2.base]`.
-    pub fn ros2(base: &orsa_hardware::ros2base::Ros2Base, config: &Config, faults: &BoardFaults) -> Self {
-        let (sensors, motors) = base.boards();
-        RobotBoards {
-            sensors: FaultySensorBoard::new(AnySensorBoard::Ros2(sensors), faults.clone()),
-            motors: FaultyMotorBoard::new(AnyMotorBoard::Ros2(motors), faults.clone()),
-            params: config.ros2.base.robot_params(config.robot.push_periods()),
-        }
-    }
 }
 
 /// What a kind's maker has to make a component from.
@@ -70,7 +51,13 @@ pub struct Parts<'a> {
 impl Parts<'_> {
     /// The robot server's name, as every client of it addresses it.
     pub fn robot_name(&self) -> &str {
-        &self.config.robot.name
+        self.config.robot_name()
+    }
+
+    /// The parameters of the component `spec` describes, from its `[params.NAME]` table
+    /// (defaults where it has none); unknown keys and bad values are errors that name the key.
+    pub fn params<P: serde::de::DeserializeOwned>(&self, spec: &ComponentSpec) -> Result<P, String> {
+        self.config.params_of(&spec.name)
     }
 }
 
@@ -114,10 +101,20 @@ impl Kind {
     }
 }
 
-/// Every kind of component a system can be made of.
-#[derive(Debug, Clone, Default)]
+/// Every kind of component a system can be made of, and every kind of robot it can run on.
+#[derive(Clone, Default)]
 pub struct Catalog {
     kinds: BTreeMap<String, Kind>,
+    robots: BTreeMap<String, Arc<MakeRobot>>,
+}
+
+impl std::fmt::Debug for Catalog {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Catalog")
+            .field("kinds", &self.kinds.keys().collect::<Vec<_>>())
+            .field("robots", &self.robots.keys().collect::<Vec<_>>())
+            .finish()
+    }
 }
 
 impl Catalog {
@@ -129,45 +126,43 @@ impl Catalog {
     /// The corridor mission's kinds: `robot` or `nomad200` (the robot server, on the robot's
     /// boards, whatever the robot),
     /// `wallfollow`, `centerfollow` (behaviours, on the robot), `master` and `planner` (with
-    /// the executive).
+    /// the executive); and the robot kinds `sim` (the simulator, the robot of `[sim]`) and
+    /// `ros2` (a ROS 2 base, `[ros2.base]`).
     pub fn builtin() -> Self {
         let mut c = Catalog::empty();
+        c.register_robot(SIM, super::robots::simulated);
+        c.register_robot("ros2", super::robots::ros2);
         // The robot server, on whatever robot this process has the boards of: `robot` names
         // the kind for any robot, `nomad200` is the thesis' name for it.
         for kind in ["robot", "nomad200"] {
             c.register(kind, Place::Robot, |parts, spec| {
-                no_params(spec)?;
                 let boards = parts.robot.ok_or("this process has no robot boards to serve")?;
-                let server = Nomad200::new(
-                    parts.config.robot.clone(),
+                let params = ServerParams { name: spec.name.clone(), ..parts.params(spec)? };
+                Ok(Nomad200::new(
+                    params,
                     boards.params.clone(),
                     boards.sensors.clone(),
                     boards.motors.clone(),
-                );
-                Ok(server)
+                ))
             });
         }
         c.register("wallfollow", Place::Robot, |parts, spec| {
-            no_params(spec)?;
-            Ok(WallFollow { params: parts.config.wallfollow, robot: parts.robot_name().into() })
+            Ok(WallFollow { params: parts.params(spec)?, robot: parts.robot_name().into() })
         });
         c.register("centerfollow", Place::Robot, |parts, spec| {
-            no_params(spec)?;
-            Ok(CenterFollow { params: parts.config.centerfollow, robot: parts.robot_name().into() })
+            Ok(CenterFollow { params: parts.params(spec)?, robot: parts.robot_name().into() })
         });
         c.register("master", Place::Executive, |parts, spec| {
-            no_params(spec)?;
-            let mut params = parts.config.executive.clone();
+            let mut params: orsa_executive::ExecutiveParams = parts.params(spec)?;
             params.robot = parts.robot_name().into();
-            let cmd_timeout_s = parts.config.robot.cmd_timeout_s;
+            let cmd_timeout_s = parts.config.robot().cmd_timeout_s;
             let check: orsa_actors::param::Check<_> =
                 Arc::new(move |p| crate::config::switch_step_fits(p, cmd_timeout_s));
             Ok(Master { params, check: Some(check) })
         });
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
         c.register_untimed("planner", Place::Executive, |parts, spec| {
-            no_params(spec)?;
-            let p = &parts.config.planner;
+            let p: orsa_planner::PlannerParams = parts.params(spec)?;
             Ok(Planner {
                 mission: p.mission_for(parts.duration_s),
                 executive: orsa_interfaces::executive::NAME.into(),
@@ -219,6 +214,40 @@ impl Catalog {
         self
     }
 
+    /// Adds (or replaces) the robot kind `kind`: `make` brings its robot up from what the
+    /// process knows (see [`robots`](super::robots)).
+    pub fn register_robot(
+        &mut self,
+        kind: &str,
+        make: impl Fn(&RobotSetup<'_>) -> Result<Robot, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.robots.insert(kind.to_string(), Arc::new(make));
+        self
+    }
+
+    /// The names of every robot kind.
+    pub fn robot_kinds(&self) -> Vec<String> {
+        self.robots.keys().cloned().collect()
+    }
+
+    /// Whether `kind` is a robot kind of this catalog, or why not (naming the known ones).
+    pub fn check_robot(&self, kind: &str) -> Result<(), RobotError> {
+        if self.robots.contains_key(kind) {
+            Ok(())
+        } else {
+            Err(RobotError::Unknown { kind: kind.into(), known: self.robot_kinds().join(", ") })
+        }
+    }
+
+    /// Brings up a robot of kind `kind`.
+    pub fn start_robot(&self, kind: &str, setup: &RobotSetup<'_>) -> Result<Robot, RobotError> {
+        self.check_robot(kind)?;
+        let mut robot =
+            (self.robots[kind])(setup).map_err(|message| RobotError::Make { kind: kind.into(), message })?;
+        robot.kind = kind.into();
+        Ok(robot)
+    }
+
     /// The kind called `kind`.
     pub fn get(&self, kind: &str) -> Option<&Kind> {
         self.kinds.get(kind)
@@ -245,19 +274,4 @@ impl Catalog {
         let kind = self.kinds.get(spec.kind()).ok_or_else(|| error("no such kind in the catalog".into()))?;
         (kind.make)(registry, parts, spec, handler_timeout).map_err(error)
     }
-}
-
-/// Built-in kinds take their parameters from their own table of the config.
-fn no_params(spec: &ComponentSpec) -> Result<(), String> {
-    if spec.params.is_empty() {
-        Ok(())
-    } else {
-        Err(format!("a built-in kind takes its parameters from the [{}] table, not from params", spec.kind()))
-    }
-}
-
-/// Reads a kind's own parameters from its entry's `params` (unknown keys and bad values are
-/// errors that name the key), or their defaults where the entry has none.
-pub fn params<P: serde::de::DeserializeOwned>(spec: &ComponentSpec) -> Result<P, String> {
-    toml::Value::Table(spec.params.clone()).try_into::<P>().map_err(|e| format!("params: {}", e.message()))
 }

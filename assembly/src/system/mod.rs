@@ -20,13 +20,16 @@
 //! is enough: a restarted server does not force its clients to restart.
 //!
 //! Modules: [`spec`] (the `[system]` table), [`catalog`] (kinds and how to make them),
+//! [`robots`] (robot kinds: the robot a process drives, its boards and what it is),
 //! [`live_params`] (the system's live parameters by name, for `orsa param` and Foxglove).
 
 pub mod catalog;
 pub mod live_params;
+pub mod robots;
 pub mod spec;
 
-pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, params};
+pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, SIM};
+pub use robots::{Robot, RobotError, RobotHandle, RobotSetup};
 pub use spec::{ComponentSpec, Place, SystemSpec};
 
 use crate::config::Config;

@@ -9,7 +9,9 @@
 //! place = "robot"                   # which process hosts it when the system is split
 //! state = "active"                  # main state set once it is up (for systems without a master)
 //! wire = { vel = "nomad200/navigationvelocity" }   # ports connected once it is up
-//! params = { speed_m_s = 0.2 }      # the kind's own parameters
+//!
+//! [params.wanderer]                 # its parameters, by its name (every kind alike)
+//! speed_m_s = 0.2
 //! ```
 
 use orsa_actors::ServiceAddr;
@@ -55,22 +57,12 @@ pub struct ComponentSpec {
     /// Ports to connect once the system is up: port name to `component/service`.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub wire: BTreeMap<String, String>,
-    /// The kind's own parameters (built-in kinds take theirs from their own table instead).
-    #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
-    pub params: toml::Table,
 }
 
 impl ComponentSpec {
     /// A component of the kind of its name, with nothing else set.
     pub fn named(name: &str) -> Self {
-        ComponentSpec {
-            name: name.into(),
-            kind: None,
-            place: None,
-            state: None,
-            wire: BTreeMap::new(),
-            params: toml::Table::new(),
-        }
+        ComponentSpec { name: name.into(), kind: None, place: None, state: None, wire: BTreeMap::new() }
     }
 
     /// Its kind: the one given, or its name.

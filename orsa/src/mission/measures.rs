@@ -32,9 +32,9 @@ impl Measures {
             hours: Hours::new(opts.figures_every_s, opts.sample_period_s, &stack.registry),
             watch: integrity::Watch::new(
                 stack.board_faults.clone(),
-                Duration::from_secs_f64(opts.config.robot.cmd_timeout_s),
+                Duration::from_secs_f64(opts.config.robot().cmd_timeout_s),
             ),
-            behaviours: opts.config.executive.behaviours(),
+            behaviours: opts.config.executive().behaviours(),
             check_every: ((1.0 / opts.sample_period_s).round() as u64).max(1),
         }
     }
@@ -63,8 +63,8 @@ impl Measures {
             y_m: t.y_m,
             travelled_m: t.travelled_m,
             driving: driving.map(str::to_owned),
-            left_m: following.then(|| stack.truth.side_nearest(Side::Left)).flatten(),
-            right_m: center.then(|| stack.truth.side_nearest(Side::Right)).flatten(),
+            left_m: following.then(|| super::stack::truth_of(stack).side_nearest(Side::Left)).flatten(),
+            right_m: center.then(|| super::stack::truth_of(stack).side_nearest(Side::Right)).flatten(),
             bumps: t.contact_onsets,
         };
         self.metrics.add(&sample);

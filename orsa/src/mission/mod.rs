@@ -203,6 +203,13 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let stack =
         Stack::start_with(opts.catalog, opts.world, &opts.config, opts.seed, opts.duration_s, tap, on_event)
             .await?;
+    if stack.truth().is_none() {
+        let kind = stack.robot.kind.clone();
+        stack.shutdown().await;
+        return Err(MissionError::Invalid(format!(
+            "the mission is measured against the simulator's truth; robot kind '{kind}' has none"
+        )));
+    }
     let mut driving = Driving::watch(&stack)?;
     for o in &mut observers {
         o.on_start(&stack);
@@ -232,7 +239,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         }
         events.drain(&mut observers);
         driving.update();
-        let truth = stack.truth.truth();
+        let truth = stack::truth_of(&stack).truth();
         let t_s = k as f64 * opts.sample_period_s;
         let tick = Tick { k, t_s, truth: &truth, driving: driving.now(), stack: &stack };
         for o in &mut observers {
@@ -250,7 +257,7 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
         events.drain(&mut observers);
         measures.last_row(simulated_s, &stack, &events.all);
     }
-    let safety = safety_counters(&stack, &opts.config.robot.name, &ended).await?;
+    let safety = safety_counters(&stack, opts.config.robot_name(), &ended).await?;
     let delivery = integrity::DeliveryReport::from_ledger(&stack.registry);
     driving.update();
     let (held, measured) = measures.finish(&stack, driving.now()).await;
@@ -426,7 +433,7 @@ async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
             // Once every component has stopped (the top stops its children after it reports
             // giving up): none may drive after the board's stop.
             stack.supervisor.shutdown().await;
-            let stopped_in_s = crate::ending::stop_on_board(&stack.sim.motor_board()).await;
+            let stopped_in_s = stack.stop_on_board().await;
             let ended = Ended::GaveUp {
                 at_s,
                 supervisor: e.supervisor,

@@ -129,11 +129,11 @@ impl RunObserver for Recorder {
     }
 
     fn on_start(&mut self, stack: &Stack) {
-        self.0.truth(truth_sample(&stack.truth.truth(), &stack.truth));
+        self.0.truth(truth_sample(&super::stack::truth_of(stack).truth(), super::stack::truth_of(stack)));
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, &tick.stack.truth));
+        self.0.truth(truth_sample(tick.truth, &super::stack::truth_of(tick.stack)));
     }
 
     fn on_end(&mut self, outcome: &mut super::RunOutcome) {
@@ -151,11 +151,11 @@ impl RunObserver for LiveView {
     }
 
     fn on_start(&mut self, stack: &Stack) {
-        self.0.truth(truth_sample(&stack.truth.truth(), &stack.truth));
+        self.0.truth(truth_sample(&super::stack::truth_of(stack).truth(), super::stack::truth_of(stack)));
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, &tick.stack.truth));
+        self.0.truth(truth_sample(tick.truth, &super::stack::truth_of(tick.stack)));
     }
 }
 

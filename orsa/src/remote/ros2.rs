@@ -19,7 +19,7 @@ use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::send::SendClient;
 use orsa_actors::service::PushTimedService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
-use orsa_hardware::ros2base::{Odom, Ros2Base, Scan, SendCommand};
+use orsa_hardware::ros2base::{Odom, Scan};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
 };
@@ -187,36 +187,18 @@ pub struct BaseLink {
     _subscriptions: Vec<Ros2Subscription>,
 }
 
-/// Where the base's command publisher goes once the node is up, and the function the base's
-/// motor board sends its commands through (nothing is sent before).
-pub fn command_slot(
-    clock: orsa_actors::Clock,
-) -> (Arc<std::sync::OnceLock<Ros2Publisher<Twist>>>, SendCommand) {
-    let slot: Arc<std::sync::OnceLock<Ros2Publisher<Twist>>> = Arc::default();
-    let s = Arc::clone(&slot);
-    let send: SendCommand = Arc::new(move |v, w| {
-        if let Some(p) = s.get() {
-            let mut t = Twist::default();
-            t.linear.x = v;
-            t.angular.z = w;
-            p.publish(&t, clock.now().0);
-        }
-    });
-    (slot, send)
-}
-
 impl BaseLink {
     /// Joins the base's ROS 2 graph (`domain`, node from `ros2`): its scans and odometry feed
     /// `base`, stamped with their arrival on `registry`'s clock (the base's clock need not agree
-    /// with this one); its command publisher fills `slot`.
+    /// with this one); its command publisher becomes `robot`'s.
     pub async fn connect(
         registry: &Registry,
         transport: &orsa_net::ZenohTransport,
         ros2: &Ros2Params,
         domain: u32,
-        base: &Ros2Base,
-        slot: &std::sync::OnceLock<Ros2Publisher<Twist>>,
+        robot: &orsa_assembly::system::robots::Ros2Robot,
     ) -> anyhow::Result<Self> {
+        let base = &robot.base;
         let p = &ros2.base;
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
@@ -248,9 +230,7 @@ impl BaseLink {
             })
             .await?;
         let publisher = node.publisher::<Twist>(&p.cmd_vel_topic, Qos::Default).await?;
-        if slot.set(publisher).is_err() {
-            anyhow::bail!("the ROS 2 base is connected already");
-        }
+        robot.connect_publisher(publisher).map_err(anyhow::Error::msg)?;
         Ok(BaseLink { node, _subscriptions: vec![scan, odom] })
     }
 

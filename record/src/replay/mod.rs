@@ -221,10 +221,11 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         Some(c) => c,
         None => recorded_config(rec)?,
     };
-    if config.robot.name != rec.meta.robot {
+    if config.robot_name() != rec.meta.robot {
         return Err(ReplayError::Config(format!(
             "robot.name: the recording's robot server is '{}', and the configuration names '{}'",
-            rec.meta.robot, config.robot.name
+            rec.meta.robot,
+            config.robot_name()
         )));
     }
     let Some(robot) = config.system.components.iter().find(|c| c.name == rec.meta.robot) else {
@@ -263,7 +264,7 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         asked: Default::default(),
     });
     let mut catalog = Catalog::builtin();
-    let params = config.robot.clone();
+    let params = config.robot().clone();
     catalog.register(robot.kind(), crate::system::Place::Robot, move |_, _| {
         Ok(standin::RecordedRobot { params: params.clone(), playback: Arc::clone(&playback) })
     });

@@ -41,7 +41,7 @@ pub(super) async fn ended(
 async fn unwire_all(registry: &Registry, config: &Config) -> bool {
     let wiring = orsa_actors::wiring::WiringMaster::new(registry);
     let mut all_unwired = true;
-    for b in config.executive.behaviours() {
+    for b in config.executive().behaviours() {
         let unwired = tokio::time::timeout(
             Duration::from_secs(1),
             wiring.disconnect(&b, orsa_interfaces::behaviour::VEL),

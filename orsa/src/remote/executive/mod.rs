@@ -108,7 +108,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
             .await
             .context("starting the executive")?;
         supervisor = Some(system.supervisor);
-        eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot.name);
+        eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot_name());
         (plan_started_at, plan_task) =
             setup::start_plan(&registry, &checked, &recording, transport, &link_log, &boards);
         anyhow::Ok(crate::ending::until_end(Some(checked.duration), &top).await)

@@ -96,10 +96,10 @@ pub(super) async fn join<'t>(
         let noting = exchange::RecordingTransport::new(zenoh, Arc::clone(tap), registry.clock());
         registry.set_transport(Arc::new(noting));
     }
-    let robot = config.robot.name.as_str();
+    let robot = config.robot_name();
     let mut needed =
         vec![nomad200::DISTANCEIR.on(robot).untyped(), nomad200::NAVIGATIONVELOCITY.on(robot).untyped()];
-    for b in config.executive.behaviours() {
+    for b in config.executive().behaviours() {
         needed.push(ServiceAddr::new(&b, "state"));
         needed.push(ServiceAddr::new(&b, "wiring"));
     }

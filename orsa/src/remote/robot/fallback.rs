@@ -37,8 +37,8 @@ async fn start_fallback(
     config: &Config,
     mode: &str,
 ) -> anyhow::Result<ComponentHandle<Master>> {
-    let mut exec = config.executive.clone();
-    exec.robot = config.robot.name.clone();
+    let mut exec = config.executive().clone();
+    exec.robot = config.robot_name().to_string();
     let master = orsa_actors::component::spawn(registry, FALLBACK, Master::new(exec)).await?;
     let goals = orsa_actors::query::QueryClient::<Goal, GoalReply>::connect(
         registry,

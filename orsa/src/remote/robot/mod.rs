@@ -18,7 +18,7 @@ use crate::system::{Place, System};
 use anyhow::{Context as _, bail};
 use orsa_actors::{Clock, Registry};
 use orsa_hardware::faulty::BoardFaults;
-use setup::{Checked, Drive, Faces};
+use setup::{Checked, Faces};
 use std::path::PathBuf;
 use std::sync::Arc;
 use watchdog::{RobotEvent, Watchdog, Watched};
@@ -54,23 +54,18 @@ pub struct RobotOptions {
     pub ros2: bool,
     /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
     pub domain: u32,
-    /// The robot to drive: the simulated Nomad 200, or a ROS 2 robot that publishes a laser
-    /// scan and odometry and takes Twist commands, described by the config's [ros2.base].
-    pub hardware: Hardware,
+    /// The robot to drive: a robot kind of `catalog` (`sim`: the simulator, the robot the
+    /// config's `[sim]` describes; `ros2`: a ROS 2 robot that publishes a laser scan and
+    /// odometry and takes Twist commands, described by the config's `[ros2.base]`).
+    pub hardware: String,
+    /// The kinds of robot and of component this process can make (default:
+    /// [`Catalog::builtin`](crate::system::Catalog::builtin)).
+    pub catalog: crate::system::Catalog,
     /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
     /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
     pub foxglove: Option<std::net::SocketAddr>,
     /// Network.
     pub net: NetworkOptions,
-}
-
-/// The robot `orsa robot` drives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Hardware {
-    /// The simulated Nomad 200 in the world file.
-    Sim,
-    /// A ROS 2 robot on the zenoh network (rmw_zenoh): its scan and odometry in, Twist out.
-    Ros2,
 }
 
 /// `orsa robot`.
@@ -84,14 +79,13 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let config = &checked.config;
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
-    let drive = Drive::choose(&args, &checked, clock)?;
-    let robot = config.robot.name.clone();
+    let drive = setup::robot(&args, &checked, clock)?;
+    let robot = config.robot_name().to_string();
     let boards = BoardFaults::new(args.seed);
-    let robot_boards = drive.boards(config, &boards)?;
-    let robot_params = robot_boards.params.clone();
+    let robot_boards = drive.boards(&boards);
     let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
     let sink = Arc::clone(&supervisor_events);
-    let builder = System::builder(config).only(Place::Robot);
+    let builder = System::builder(config).catalog(args.catalog.clone()).only(Place::Robot);
     let recording = setup::start_recording(&registry, &args, &checked, &builder)?;
     let live = crate::live::serve_process(
         &registry,
@@ -137,7 +131,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
         let t = open(&registry, &args.net, "robot", None).await?;
         eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
         let transport = &*transport.insert(t);
-        faces.join(&registry, transport, &args, config, &robot_params, &drive).await?;
+        faces.join(&registry, transport, &args, config, &drive).await?;
 
         let (ev_tx, ev_rx) = tokio::sync::mpsc::unbounded_channel::<RobotEvent>();
         let _beats = watchdog::listen(transport, &ev_tx).await?;
@@ -185,7 +179,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
             if let Some(s) = &supervisor {
                 s.shutdown().await;
             }
-            let stopped_in = drive.stop_on_board().await;
+            let stopped_in = drive.stop_on_board(crate::ending::STOP_WAIT).await;
             crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, stopped_in)
         }
         Ok(stop) => crate::ending::ended(stop, at_s, None),
@@ -208,13 +202,8 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     if let Some(s) = supervisor {
         s.shutdown().await;
     }
-    if let Some(sim) = drive.sim {
-        let _ = sim.shutdown().await;
-    }
-    if let Some(base) = &drive.ros2_base {
-        // The server has stopped the base; nothing drives it from here on.
-        base.close();
-    }
+    // The server has stopped the motors; nothing drives the robot from here on.
+    drive.shutdown().await;
     let ros2 = faces.report();
     drop(faces);
     registry.set_tap(None);

@@ -1,20 +1,17 @@
 //! Setting the robot process up: checking its arguments before anything starts, choosing the
-//! robot it drives (the simulator or a ROS 2 base), opening its recording, joining ROS 2 (its
+//! robot it drives (a robot kind of its catalog: the simulator, a ROS 2 base, a user's own), opening its recording, joining ROS 2 (its
 //! own node with `--ros2`, the base's topics with `--hardware ros2`) and starting its fault plan.
 
+use super::RobotOptions as RobotArgs;
 use super::watchdog::RobotEvent;
-use super::{Hardware, RobotOptions as RobotArgs};
 use crate::config::Config;
 use crate::remote::{load_config, ros2, secs};
-use crate::system::RobotBoards;
+use crate::system::robots::Ros2Robot;
+use crate::system::{Robot, RobotSetup};
 use anyhow::{Context as _, bail};
 use orsa_actors::{Clock, Registry};
 use orsa_hardware::faulty::BoardFaults;
-use orsa_hardware::ros2base::Ros2Base;
-use orsa_hardware::sim::{SimNomad200, SimRobot};
 use orsa_hardware::world::World;
-use orsa_net::ros2::Ros2Publisher;
-use orsa_net::ros2::msg::Twist;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -42,13 +39,14 @@ impl Checked {
         };
         let config = load_config(&args.config)?;
         if let Some(mode) = &args.fallback
-            && !config.executive.modes.contains_key(mode)
+            && !config.executive().modes.contains_key(mode)
         {
-            let known: Vec<&String> = config.executive.modes.keys().collect();
-            bail!("--fallback {mode}: no such mode in executive.modes (known: {known:?})");
+            let known: Vec<String> = config.executive().modes.keys().cloned().collect();
+            bail!("--fallback {mode}: no such mode in the master's modes (known: {known:?})");
         }
         let duration = args.duration.map(|d| secs(d, "--duration")).transpose()?;
-        if args.ros2 && args.hardware == Hardware::Ros2 {
+        args.catalog.check_robot(&args.hardware).context("--hardware")?;
+        if args.ros2 && args.hardware == "ros2" {
             bail!(
                 "--ros2 with --hardware ros2: the robot's own topics (/scan, /odom, /cmd_vel) would be \
                  the base's; drive a ROS 2 robot, or be one"
@@ -67,53 +65,15 @@ impl Checked {
             Some(p) => p.display().to_string(),
             None => "palazzina (built in)".to_string(),
         };
-        let lease = config.link.lease(config.robot.cmd_timeout_s);
+        let lease = config.link.lease(config.robot().cmd_timeout_s);
         Ok(Checked { world, world_label, config, duration, plan, lease })
     }
 }
 
-/// The robot the process drives: the simulator, or a ROS 2 base (one of the two).
-pub(super) struct Drive {
-    pub(super) sim: Option<SimRobot>,
-    pub(super) ros2_base: Option<Ros2Base>,
-    /// Where the base's command publisher goes once the robot is on the network.
-    pub(super) base_slot: Option<Arc<std::sync::OnceLock<Ros2Publisher<Twist>>>>,
-}
-
-impl Drive {
-    /// The robot `args.hardware` says.
-    pub(super) fn choose(args: &RobotArgs, checked: &Checked, clock: Clock) -> anyhow::Result<Self> {
-        let (sim, ros2_base, base_slot) = match args.hardware {
-            Hardware::Sim => {
-                let sim = SimNomad200::new(checked.world.clone(), checked.config.sim.clone(), args.seed)
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
-                (Some(SimRobot::spawn(sim, clock)), None, None)
-            }
-            Hardware::Ros2 => {
-                let (slot, send) = ros2::command_slot(clock);
-                (None, Some(Ros2Base::new(checked.config.ros2.base.clone(), clock, send)), Some(slot))
-            }
-        };
-        Ok(Drive { sim, ros2_base, base_slot })
-    }
-
-    /// Its boards, behind the fault switch `boards`.
-    pub(super) fn boards(&self, config: &Config, boards: &BoardFaults) -> anyhow::Result<RobotBoards> {
-        Ok(match (&self.sim, &self.ros2_base) {
-            (Some(sim), _) => RobotBoards::simulated(sim, config, boards),
-            (None, Some(base)) => RobotBoards::ros2(base, config, boards),
-            (None, None) => bail!("the robot has neither a simulator nor a ROS 2 base"),
-        })
-    }
-
-    /// Stops the motors on the board, once nothing drives any more; how long it took.
-    pub(super) async fn stop_on_board(&self) -> Option<f64> {
-        match (&self.sim, &self.ros2_base) {
-            (Some(sim), _) => crate::ending::stop_on_board(&sim.motor_board()).await,
-            (None, Some(base)) => crate::ending::stop_on_board(&base.boards().1).await,
-            (None, None) => None,
-        }
-    }
+/// Brings up the robot `args.hardware` names, from `args.catalog`.
+pub(super) fn robot(args: &RobotArgs, checked: &Checked, clock: Clock) -> anyhow::Result<Robot> {
+    let setup = RobotSetup { config: &checked.config, world: &checked.world, seed: args.seed, clock };
+    Ok(args.catalog.start_robot(&args.hardware, &setup)?)
 }
 
 /// With `--record`: the recording of the process, set as `registry`'s tap.
@@ -168,20 +128,19 @@ impl Faces {
         transport: &orsa_net::ZenohTransport,
         args: &RobotArgs,
         config: &Config,
-        robot_params: &orsa_interfaces::nomad200::RobotParams,
-        drive: &Drive,
+        robot: &Robot,
     ) -> anyhow::Result<()> {
-        let robot = &config.robot.name;
+        let name = &config.robot_name();
         if args.ros2 {
             let face =
-                ros2::RobotRos2::start(registry, transport, robot, robot_params, &config.ros2, args.domain)
+                ros2::RobotRos2::start(registry, transport, name, &robot.params, &config.ros2, args.domain)
                     .await
                     .context("joining ROS 2 (--ros2)")?;
             eprintln!("robot: on ROS 2 domain {} as node {}", args.domain, config.ros2.node);
             self.ros2_face = Some(face);
         }
-        if let (Some(b), Some(slot)) = (&drive.ros2_base, &drive.base_slot) {
-            let link = ros2::BaseLink::connect(registry, transport, &config.ros2, args.domain, b, slot)
+        if let Some(base) = robot.handle::<Ros2Robot>() {
+            let link = ros2::BaseLink::connect(registry, transport, &config.ros2, args.domain, base)
                 .await
                 .context("joining the ROS 2 base (--hardware ros2)")?;
             eprintln!(
