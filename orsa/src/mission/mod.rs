@@ -10,7 +10,9 @@
 //! real time, and tests call it directly.
 
 pub mod integrity;
+mod measures;
 pub mod metrics;
+pub mod observe;
 pub mod report;
 pub mod stack;
 
@@ -18,16 +20,18 @@ pub mod stack;
 pub use orsa_record::recording;
 
 use crate::config::Config;
-use metrics::{Metrics, Sample};
+use measures::{End, Measures};
+use metrics::Metrics;
+pub use observe::{RunObserver, RunTap, Tick};
 use orsa_actors::push_newest::PushNewestClient;
 use orsa_actors::query::QueryClient;
 use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
+use orsa_actors::tap::Tap;
 use orsa_actors::{Empty, Sink, Update};
-use orsa_hardware::sim::Side;
 use orsa_hardware::world::World;
 use orsa_interfaces::executive::{self, WiringChange};
 use orsa_interfaces::nomad200::{self, SafetyCounters};
-use report::{Ended, Report, SafetyFigures};
+use report::{Ended, Report};
 use stack::{Stack, StackError};
 use std::sync::Arc;
 use std::time::Duration;
@@ -78,6 +82,9 @@ pub struct RunOptions {
     /// Serve the run's views live (`--foxglove`): this tap is given every message and the
     /// ground truth, as a recording is.
     pub live: Option<Arc<crate::live::tap::LiveTap>>,
+    /// A program's own observers of the run, told of it after the built-in ones (see
+    /// [`observe`](self::observe) and [`RunOptions::observe`]).
+    pub observers: Vec<Box<dyn RunObserver>>,
 }
 
 /// See [`RunOptions::on_start`].
@@ -111,7 +118,14 @@ impl RunOptions {
             interrupt: None,
             on_start: None,
             live: None,
+            observers: Vec::new(),
         }
+    }
+
+    /// Attaches `observer` to the run (after those attached before it).
+    pub fn observe(mut self, observer: impl RunObserver + 'static) -> Self {
+        self.observers.push(Box::new(observer));
+        self
     }
 }
 
@@ -163,7 +177,105 @@ fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
 }
 
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.
+///
+/// The run itself brings the stack up, ticks the sampling clock, ends at its duration, on an
+/// interrupt or when the top supervisor gives up, and shuts the stack down; its recording,
+/// live view, fault plan, progress reports and a program's own observers are
+/// [`RunObserver`]s told of each step (see [`observe`]).
 pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
+    check(&opts)?;
+    let mut observers = observers(&mut opts)?;
+    let (ev_tx, mut events) = Events::new();
+    // The top supervisor giving up ends the run (its children are gone).
+    let (gave_up_tx, gave_up_rx) = tokio::sync::watch::channel(None::<SupervisorEvent>);
+    let taps: Vec<Arc<dyn RunTap>> = observers.iter().filter_map(|o| o.tap()).collect();
+    let tap = taps.iter().fold(None, |all, t| crate::live::tap::both(all, Some(t.clone() as Arc<dyn Tap>)));
+    let on_event = move |e: SupervisorEvent| {
+        for t in &taps {
+            t.supervisor_event(&e);
+        }
+        if e.kind == SupervisorEventKind::GaveUp && e.supervisor == crate::system::TOP_SUPERVISOR {
+            let _ = gave_up_tx.send(Some(e.clone()));
+        }
+        // The receiver lives until the run ends.
+        let _ = ev_tx.send(e);
+    };
+    let stack =
+        Stack::start_with(opts.catalog, opts.world, &opts.config, opts.seed, opts.duration_s, tap, on_event)
+            .await?;
+    if stack.truth().is_none() {
+        let kind = stack.robot.kind.clone();
+        stack.shutdown().await;
+        return Err(MissionError::Invalid(format!(
+            "the mission is measured against the simulator's truth; robot kind '{kind}' has none"
+        )));
+    }
+    let mut driving = Driving::watch(&stack)?;
+    for o in &mut observers {
+        o.on_start(&stack);
+    }
+    let measuring = measures::Options {
+        config: &opts.config,
+        sample_period_s: opts.sample_period_s,
+        figures_every_s: opts.figures_every_s,
+        keep_series: opts.keep_series,
+    };
+    let mut measures = Measures::new(&measuring, &stack);
+    let period = Duration::from_secs_f64(opts.sample_period_s);
+    let samples = (opts.duration_s / opts.sample_period_s).round() as u64;
+    let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
+    let early = early(opts.interrupt.take(), gave_up_rx);
+    tokio::pin!(early);
+    let (mut ended, mut simulated_s) = (Ended::Completed, opts.duration_s);
+    for k in 1..=samples {
+        tokio::select! {
+            biased;
+            _ = ticks.tick() => {}
+            why = &mut early => {
+                simulated_s = (k - 1) as f64 * opts.sample_period_s;
+                ended = stop_early(&stack, why, simulated_s).await;
+                break;
+            }
+        }
+        events.drain(&mut observers);
+        driving.update();
+        let truth = stack::truth_of(&stack).truth();
+        let t_s = k as f64 * opts.sample_period_s;
+        let tick = Tick { k, t_s, truth: &truth, driving: driving.now(), stack: &stack };
+        for o in &mut observers {
+            o.on_tick(&tick);
+        }
+        if let Some(last) = measures.tick(k, &truth, driving.now(), &stack).await {
+            events.drain(&mut observers);
+            measures.row(&last, &stack, &events.all);
+        }
+    }
+    for o in &mut observers {
+        o.on_stop(&stack, simulated_s);
+    }
+    if measures.last_row_due(simulated_s) {
+        events.drain(&mut observers);
+        measures.last_row(simulated_s, &stack, &events.all);
+    }
+    let safety = safety_counters(&stack, opts.config.robot_name(), &ended).await?;
+    let delivery = integrity::DeliveryReport::from_ledger(&stack.registry);
+    driving.update();
+    let (held, measured) = measures.finish(&stack, driving.now()).await;
+    drop(driving);
+    stack.shutdown().await;
+    events.drain(&mut observers);
+    let end =
+        End { world_label: opts.world_label, seed: opts.seed, simulated_s, ended, safety, delivery, held };
+    let (report, metrics) = measured.report(end, &events.all);
+    let mut outcome = RunOutcome { report, metrics, supervisor_events: events.all, recording: None };
+    for o in &mut observers {
+        o.on_end(&mut outcome);
+    }
+    Ok(outcome)
+}
+
+/// Refuses options no run can be made of.
+fn check(opts: &RunOptions) -> Result<(), MissionError> {
     if !(opts.duration_s.is_finite() && opts.duration_s > 0.0) {
         return Err(MissionError::Invalid(format!(
             "duration must be a positive number of seconds, not {}",
@@ -176,348 +288,125 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
             opts.figures_every_s
         )));
     }
-    let recording = match &opts.record {
-        Some(path) => {
-            let views = recording::view_setup(&opts.config, Some(opts.world.clone()), true);
-            Some(Arc::new(recording::McapTap::create(path, run_meta(&opts)?.to_metadata(), Some(views))?))
+    Ok(())
+}
+
+/// The observers the options ask for (fault plan, `on_start`, recording, live view,
+/// progress), then the program's own.
+fn observers(opts: &mut RunOptions) -> Result<Vec<Box<dyn RunObserver>>, MissionError> {
+    let mut all: Vec<Box<dyn RunObserver>> = Vec::new();
+    if let Some(plan) = opts.faults.clone() {
+        all.push(Box::new(observe::FaultPlanRun::new(plan, opts.duration_s)));
+    }
+    if let Some(f) = opts.on_start.take() {
+        all.push(Box::new(observe::StartHook(Some(f))));
+    }
+    if let Some(path) = &opts.record {
+        let views = recording::view_setup(&opts.config, Some(opts.world.clone()), true);
+        let tap = recording::McapTap::create(path, run_meta(opts)?.to_metadata(), Some(views))?;
+        all.push(Box::new(observe::Recorder(Arc::new(tap))));
+    }
+    if let Some(live) = opts.live.take() {
+        all.push(Box::new(observe::LiveView(live)));
+    }
+    if let Some(report) = opts.progress.clone() {
+        let every = ((opts.progress_every_s / opts.sample_period_s).round() as u64).max(1);
+        all.push(Box::new(observe::Progress { report, every }));
+    }
+    all.append(&mut opts.observers);
+    Ok(all)
+}
+
+/// The supervisors' events of a run, as they arrive.
+struct Events {
+    rx: mpsc::UnboundedReceiver<SupervisorEvent>,
+    /// Every one so far.
+    all: Vec<SupervisorEvent>,
+}
+
+impl Events {
+    fn new() -> (mpsc::UnboundedSender<SupervisorEvent>, Events) {
+        let (tx, rx) = mpsc::unbounded_channel();
+        (tx, Events { rx, all: Vec::new() })
+    }
+
+    /// Takes those that arrived, and tells `observers` of them.
+    fn drain(&mut self, observers: &mut [Box<dyn RunObserver>]) {
+        while let Ok(e) = self.rx.try_recv() {
+            for o in observers.iter_mut() {
+                o.on_supervisor_event(&e);
+            }
+            self.all.push(e);
         }
-        None => None,
+    }
+}
+
+/// Which behaviour drives the motors, as the executive says.
+struct Driving {
+    rx: mpsc::UnboundedReceiver<Update<WiringChange>>,
+    /// Held for the subscription.
+    _client: PushNewestClient<WiringChange>,
+    now: Option<String>,
+}
+
+impl Driving {
+    fn watch(stack: &Stack) -> Result<Self, MissionError> {
+        let (tx, rx) = mpsc::unbounded_channel::<Update<WiringChange>>();
+        let client = PushNewestClient::connect_to(
+            &stack.registry,
+            executive::DRIVING.on(executive::NAME),
+            Sink::channel(tx),
+        )?;
+        client.subscribe()?;
+        Ok(Driving { rx, _client: client, now: None })
+    }
+
+    /// Takes the changes that arrived.
+    fn update(&mut self) {
+        while let Ok(change) = self.rx.try_recv() {
+            self.now = change.driving.clone();
+        }
+    }
+
+    fn now(&self) -> Option<&str> {
+        self.now.as_deref()
+    }
+}
+
+/// What may end the run before its time: `interrupt`, or the top supervisor giving up.
+async fn early(
+    interrupt: Option<futures::future::BoxFuture<'static, String>>,
+    mut gave_up: tokio::sync::watch::Receiver<Option<SupervisorEvent>>,
+) -> Early {
+    let signal = async move {
+        match interrupt {
+            Some(i) => i.await,
+            None => std::future::pending().await,
+        }
     };
-    let (ev_tx, mut ev_rx) = mpsc::unbounded_channel::<SupervisorEvent>();
-    // The top supervisor giving up ends the run (its children are gone).
-    let (gave_up_tx, mut gave_up_rx) = tokio::sync::watch::channel(None::<SupervisorEvent>);
-    let ev_rec = recording.clone();
-    let live = opts.live.take();
-    let ev_live = live.clone();
-    let tap = crate::live::tap::both(
-        recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
-        live.clone().map(|l| l as Arc<dyn orsa_actors::tap::Tap>),
-    );
-    let stack = Stack::start_with(
-        opts.catalog,
-        opts.world,
-        &opts.config,
-        opts.seed,
-        opts.duration_s,
-        tap,
-        move |e| {
-            if let Some(r) = &ev_rec {
-                r.supervisor_event(&e);
-            }
-            if let Some(l) = &ev_live {
-                l.supervisor_event(&e);
-            }
-            if e.kind == SupervisorEventKind::GaveUp && e.supervisor == crate::system::TOP_SUPERVISOR {
-                let _ = gave_up_tx.send(Some(e.clone()));
-            }
-            // The receiver lives until the run ends.
-            let _ = ev_tx.send(e);
+    tokio::select! {
+        signal = signal => Early::Interrupted(signal),
+        e = gave_up.wait_for(Option::is_some) => match e.ok().and_then(|e| e.clone()) {
+            Some(e) => Early::GaveUp(e),
+            None => std::future::pending().await,
         },
-    )
-    .await?;
-    let Some(truth) = stack.truth().cloned() else {
-        let kind = stack.robot.kind.clone();
-        stack.shutdown().await;
-        return Err(MissionError::Invalid(format!(
-            "the mission is measured against the simulator's truth; robot kind '{kind}' has none"
-        )));
-    };
+    }
+}
 
-    let plan = opts.faults.clone().map(|plan| {
-        let targets = crate::faults::FaultTargets {
-            faults: stack.registry.faults(),
-            boards: stack.board_faults.clone(),
-            link: None,
-        };
-        tokio::spawn(crate::faults::run_plan(plan, targets, opts.duration_s))
-    });
-
-    if let Some(on_start) = opts.on_start.take() {
-        on_start(&stack.registry);
-    }
-
-    let (wtx, mut wrx) = mpsc::unbounded_channel::<Update<WiringChange>>();
-    let wiring = PushNewestClient::connect_to(
-        &stack.registry,
-        executive::DRIVING.on(executive::NAME),
-        Sink::channel(wtx),
-    )?;
-    wiring.subscribe()?;
-
-    let period = Duration::from_secs_f64(opts.sample_period_s);
-    let samples = (opts.duration_s / opts.sample_period_s).round() as u64;
-    let progress_every = ((opts.progress_every_s / opts.sample_period_s).round() as u64).max(1);
-    let mut metrics = Metrics::new(opts.sample_period_s).keeping_series(opts.keep_series);
-    let mut hours = Hours::new(opts.figures_every_s, opts.sample_period_s, &stack.registry);
-    let mut events = Vec::new();
-    let mut driving: Option<String> = None;
-    let start = tokio::time::Instant::now();
-    let mut ticks = tokio::time::interval_at(start + period, period);
-    let mut watch = integrity::Watch::new(
-        stack.board_faults.clone(),
-        Duration::from_secs_f64(opts.config.robot().cmd_timeout_s),
-    );
-    let behaviours = opts.config.executive().behaviours();
-    let behaviours: Vec<&str> = behaviours.iter().map(String::as_str).collect();
-    let check_every = ((1.0 / opts.sample_period_s).round() as u64).max(1);
-    // What may end the run before its time: a signal, or the top supervisor giving up.
-    let interrupt = opts.interrupt.take();
-    let early = async move {
-        let signal = async move {
-            match interrupt {
-                Some(i) => i.await,
-                None => std::future::pending().await,
-            }
-        };
-        tokio::select! {
-            signal = signal => Early::Interrupted(signal),
-            e = gave_up_rx.wait_for(Option::is_some) => match e.ok().and_then(|e| e.clone()) {
-                Some(e) => Early::GaveUp(e),
-                None => std::future::pending().await,
-            },
-        }
-    };
-    tokio::pin!(early);
-    let mut ended = Ended::Completed;
-    let mut simulated_s = opts.duration_s;
-    if let Some(r) = &recording {
-        r.truth(truth_sample(truth.truth(), &truth));
-    }
-    if let Some(l) = &live {
-        l.truth(truth_sample(truth.truth(), &truth));
-    }
-    for k in 1..=samples {
-        tokio::select! {
-            biased;
-            _ = ticks.tick() => {}
-            why = &mut early => {
-                simulated_s = (k - 1) as f64 * opts.sample_period_s;
-                ended = stop_early(&stack, why, simulated_s).await;
-                break;
-            }
-        }
-        while let Ok(change) = wrx.try_recv() {
-            driving = change.driving.clone();
-        }
-        let t = truth.truth();
-        let t_s = k as f64 * opts.sample_period_s;
-        if recording.is_some() || live.is_some() {
-            let sample = truth_sample(t, &truth);
-            if let Some(l) = &live {
-                l.truth(sample.clone());
-            }
-            if let Some(r) = &recording {
-                r.truth(sample);
-            }
-        }
-        watch.sample(t_s, opts.sample_period_s, t.v_m_s, t.omega_rad_s, driving.is_some());
-        if k % check_every == 0 {
-            watch.check_clients(&stack.registry, t_s);
-            watch.check_wiring(&stack.registry, &behaviours, driving.as_deref(), t_s).await;
-        }
-        let following = driving.is_some();
-        let center = driving.as_deref() == Some("centerfollow");
-        let sample = Sample {
-            t_s: k as f64 * opts.sample_period_s,
-            x_m: t.x_m,
-            y_m: t.y_m,
-            travelled_m: t.travelled_m,
-            driving: driving.clone(),
-            left_m: following.then(|| truth.side_nearest(Side::Left)).flatten(),
-            right_m: center.then(|| truth.side_nearest(Side::Right)).flatten(),
-            bumps: t.contact_onsets,
-        };
-        metrics.add(&sample);
-        hours.span.add(&sample);
-        if k % hours.every == 0 {
-            while let Ok(e) = ev_rx.try_recv() {
-                events.push(e);
-            }
-            hours.take(sample.t_s, &stack.registry, &metrics, &events, Some(&sample));
-        }
-        if k % progress_every == 0
-            && let Some(p) = &opts.progress
-        {
-            p(k as f64 * opts.sample_period_s);
-        }
-    }
-    if let Some(p) = plan {
-        p.abort();
-    }
-    // The span since the last row, if any (a run that is not a whole number of periods, or
-    // that ended early).
-    if hours.rows.last().is_none_or(|h| h.end_s < simulated_s - 1e-6) {
-        while let Ok(e) = ev_rx.try_recv() {
-            events.push(e);
-        }
-        hours.take(simulated_s, &stack.registry, &metrics, &events, None);
-    }
-    let robot = opts.config.robot_name();
-    // A robot server the supervisor gave up on has no counters to give: the report says how
-    // the run ended, and its safety figures are zero.
+/// The robot server's safety counters. A robot server the supervisor gave up on has no
+/// counters to give: the report says how the run ended, and its safety figures are zero.
+async fn safety_counters(stack: &Stack, robot: &str, ended: &Ended) -> Result<SafetyCounters, MissionError> {
     let safety =
         match QueryClient::<Empty, SafetyCounters>::connect(&stack.registry, nomad200::SAFETY.on(robot)) {
             Ok(c) => c.query(Empty {}, Some(Duration::from_secs(1))).await,
             Err(e) => Err(e),
         };
-    let safety = match (safety, &ended) {
-        (Ok(s), _) => s,
-        (Err(e), Ended::Completed) => return Err(e.into()),
+    match (safety, ended) {
+        (Ok(s), _) => Ok(s),
+        (Err(e), Ended::Completed) => Err(e.into()),
         (Err(e), _) => {
             tracing::warn!("the robot server's safety counters are lost with it: {e}");
-            SafetyCounters::default()
-        }
-    };
-    let faults_switch = stack.registry.faults();
-    let clock = stack.registry.clock();
-    let boards = stack.board_faults.clone();
-    let delivery = integrity::DeliveryReport::from_ledger(&stack.registry);
-    while let Ok(change) = wrx.try_recv() {
-        driving = change.driving.clone();
-    }
-    let held = watch.finish(&stack.registry, &behaviours, driving.as_deref()).await;
-    drop(wiring);
-    stack.shutdown().await;
-    while let Ok(e) = ev_rx.try_recv() {
-        events.push(e);
-    }
-    let restarts = events.iter().filter(|e| e.kind == SupervisorEventKind::Restarted).count() as u64;
-    let safety = SafetyFigures {
-        commands_applied: safety.applied,
-        stale_commands_refused: safety.stale_refused,
-        command_timeouts: safety.timeouts,
-        stale_commands_applied: safety.stale_applied,
-    };
-    let mut report = Report::new(opts.world_label, opts.seed, simulated_s, &metrics, restarts, safety);
-    report.ended = ended;
-    report.delivery = delivery;
-    report.integrity = held;
-    report.hours = hours.rows;
-    if let Some(plan) = &opts.faults {
-        let (by_child, restart_ms) = crate::faults::restarts_of(&events);
-        report.faults = Some(crate::faults::FaultsReport::new(
-            plan,
-            opts.duration_s,
-            &faults_switch,
-            &clock,
-            &boards,
-            by_child,
-            restart_ms,
-        ));
-        if let Some(f) = report.faults.as_mut() {
-            let (d, i) = (&report.delivery, &report.integrity);
-            f.loss = Some(crate::faults::LossFigures {
-                lost_must_arrive: d.lost_must_arrive,
-                lost: d.total.lost,
-                failed: d.total.failed,
-                duplicates: d.total.duplicates,
-                dropped_by_plan: d.total.dropped,
-                superseded: d.total.superseded,
-                subscription_mismatches: i.client_mismatches,
-                wiring_mismatches: i.wiring_mismatches,
-            });
-            f.safety = Some(crate::faults::FaultSafety {
-                bumps: report.bumps,
-                driven_unwired_s: i.driven_unwired_s,
-                driven_on_stale_command_s: i.driven_on_stale_command_s,
-                stale_commands_applied: report.safety.stale_commands_applied,
-            });
-        }
-    }
-    let recording = recording.and_then(|r| r.finish().transpose());
-    Ok(RunOutcome { report, metrics, supervisor_events: events, recording })
-}
-
-/// The truth `t` and the people `truth` knows of, for the recording's views.
-fn truth_sample(
-    t: orsa_hardware::sim::Truth,
-    truth: &orsa_hardware::sim::SimTruth,
-) -> crate::record::views::TruthSample {
-    let people = truth
-        .movers()
-        .into_iter()
-        .map(|m| crate::record::views::Person {
-            x_m: m.x_m,
-            y_m: m.y_m,
-            radius_m: m.radius_m,
-            yielding: m.yielding,
-        })
-        .collect();
-    crate::record::views::TruthSample {
-        at: t.stamp,
-        x_m: t.x_m,
-        y_m: t.y_m,
-        heading_rad: t.heading_rad,
-        people,
-    }
-}
-
-/// The report's hourly rows, as a run takes them.
-struct Hours {
-    /// Metric samples between two rows.
-    every: u64,
-    sample_period_s: f64,
-    /// The current span's measures.
-    span: Metrics,
-    /// Where the current span started, s, and the distance travelled then, m.
-    start: (f64, f64),
-    /// The ledger's totals at the start of the span: (lost that must arrive, all).
-    ledger_before: (u64, orsa_actors::ledger::DeliveryCounts),
-    rows: Vec<report::HourFigures>,
-}
-
-impl Hours {
-    fn new(every_s: f64, sample_period_s: f64, registry: &orsa_actors::Registry) -> Self {
-        let every = ((every_s / sample_period_s).round() as u64).max(1);
-        let d = integrity::DeliveryReport::from_ledger(registry);
-        Hours {
-            every,
-            sample_period_s,
-            span: Metrics::new(sample_period_s).keeping_series(false),
-            start: (0.0, 0.0),
-            ledger_before: (d.lost_must_arrive, d.total),
-            rows: Vec::new(),
-        }
-    }
-
-    /// Takes the row of the span ending now, at `end_s`, and starts the next one after `last`
-    /// (the sample that ended it; `None` at the end of the run).
-    fn take(
-        &mut self,
-        end_s: f64,
-        registry: &orsa_actors::Registry,
-        whole: &Metrics,
-        events: &[SupervisorEvent],
-        last: Option<&Sample>,
-    ) {
-        let (start_s, start_m) = self.start;
-        let mut row =
-            report::HourFigures::measures(end_s, end_s - start_s, &self.span, whole.distance_m - start_m);
-        (row.rss_kib, row.hwm_kib) = metrics::process_memory();
-        row.restarts = events.iter().filter(|e| e.kind == SupervisorEventKind::Restarted).count() as u64;
-        row.bumps = whole.bumps;
-        row.stalls = whole.stalls;
-        let d = integrity::DeliveryReport::from_ledger(registry);
-        let (must_before, before) = self.ledger_before;
-        row.lost_must_arrive = d.lost_must_arrive.saturating_sub(must_before);
-        row.lost = d.total.lost.saturating_sub(before.lost);
-        row.failed = d.total.failed.saturating_sub(before.failed);
-        row.duplicates = d.total.duplicates.saturating_sub(before.duplicates);
-        row.sizes = report::Sizes {
-            components: registry.components().len(),
-            services: registry.services().len(),
-            subscriptions: registry.clients().values().sum(),
-            ledger_services: registry.ledger().counts().len(),
-            tasks: tokio::runtime::Handle::current().metrics().num_alive_tasks(),
-            supervisor_events: events.len(),
-            fault_log: registry.faults().event_count(),
-            trajectory: whole.trajectory.len(),
-        };
-        self.rows.push(row);
-        self.ledger_before = (d.lost_must_arrive, d.total);
-        if let Some(last) = last {
-            self.span = Metrics::after(self.sample_period_s, last);
-            self.start = (last.t_s, last.travelled_m);
+            Ok(SafetyCounters::default())
         }
     }
 }

@@ -189,6 +189,12 @@ impl<'a> StackBuilder<'a> {
     }
 }
 
+/// The simulator's truth of a stack a mission runs on (the mission checks there is one as it
+/// starts, and refuses a robot without one).
+pub(crate) fn truth_of(stack: &Stack) -> &SimTruth {
+    stack.truth().expect("the mission checked at its start that its robot has a truth")
+}
+
 impl Stack {
     /// Starts describing a stack of `config` in `world`.
     pub fn builder(config: &Config, world: World) -> StackBuilder<'_> {

@@ -18,11 +18,13 @@
 
 /// What a process exchanged across processes, recorded: in the recording crate.
 pub use orsa_record::exchange;
+mod executive;
 mod param;
 mod robot;
 pub mod ros2;
 mod tools;
 
+pub use executive::{EXECUTIVE_TOP, ExecutiveOptions, ExecutiveReport, executive};
 pub use param::{ParamAction, ParamOptions, param};
 pub use robot::{FALLBACK, ROBOT_TOP, RobotOptions, RobotReport, robot};
 pub use tools::{
@@ -31,14 +33,12 @@ pub use tools::{
 };
 
 use crate::config::Config;
-use crate::system::{Place, System};
 use anyhow::{Context as _, bail};
 use orsa_actors::send::SendClient;
-use orsa_actors::{Clock, Registry, ServiceAddr};
-use orsa_interfaces::nomad200::{self, NavigationVelocity};
+use orsa_actors::{Registry, ServiceAddr};
+use orsa_interfaces::nomad200::NavigationVelocity;
 use orsa_net::{NetOptions, ZenohTransport};
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Duration;
 
 /// How a process joins the network (every networked process and tool).
@@ -64,33 +64,6 @@ impl NetworkOptions {
             heartbeat,
         }
     }
-}
-
-/// Options of `orsa executive`.
-#[derive(Debug)]
-pub struct ExecutiveOptions {
-    /// Configuration file (see config/orsa.toml): modes, rules, the planner's mission.
-    pub config: Option<PathBuf>,
-    /// Seconds of the default mission (patrol) and of the process (default: 3600).
-    pub duration: f64,
-    /// How long to wait for the robot's services to appear.
-    pub wait: f64,
-    /// Record this process here, as MCAP: its components' messages, and everything it
-    /// exchanged with the robot's services, when it crossed (what `orsa replay` feeds back).
-    pub record: Option<PathBuf>,
-    /// At exit (whatever ends it: its time, Ctrl-C or SIGTERM, its supervisor giving up, an
-    /// error), write a report here (JSON): how it ended, restarts and, with --faults, what was
-    /// injected, detected and restarted.
-    pub report: Option<PathBuf>,
-    /// Break this process on purpose as this fault plan says (see docs/faults.md): the master
-    /// and the planner, the master's push, and `link_cut` to the robot, teleop or tools. Its
-    /// clock starts when the executive's components are up.
-    pub faults: Option<PathBuf>,
-    /// Serve this process's views live to Foxglove (WebSocket) on ADDR (default
-    /// 127.0.0.1:8765: this host only; see the README). Anyone who can reach ADDR sees them.
-    pub foxglove: Option<std::net::SocketAddr>,
-    /// Network.
-    pub net: NetworkOptions,
 }
 
 /// Options of `orsa teleop`.
@@ -167,271 +140,6 @@ async fn until_stopped(duration: Option<Duration>) {
         _ = tokio::signal::ctrl_c() => {}
         () = limit => {}
     }
-}
-
-pub use crate::system::EXECUTIVE_TOP;
-
-/// What `orsa executive --report` writes at exit.
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub struct ExecutiveReport {
-    /// How the process ended (its figures cover the time up to then).
-    pub ended: crate::mission::report::Ended,
-    /// Seconds the process ran (its clock at the end).
-    pub duration_s: f64,
-    /// Restarts by the supervisors, all components together.
-    pub restarts: u64,
-    /// What link cuts kept from crossing.
-    pub link: orsa_net::LinkCutStats,
-    /// The delivery ledger across processes (see [`RobotReport::links`]).
-    #[serde(default)]
-    pub links: orsa_net::LinkLedger,
-    /// What the fault plan broke and how the executive came back (with `--faults`).
-    pub faults: Option<crate::faults::FaultsReport>,
-}
-
-/// `orsa executive`.
-pub fn executive(args: ExecutiveOptions) -> anyhow::Result<crate::ending::Outcome> {
-    use crate::mission::report::Ended;
-    let config = load_config(&args.config)?;
-    let duration = secs(args.duration, "--duration")?;
-    let wait = secs(args.wait, "--wait")?;
-    let plan = match &args.faults {
-        Some(p) => {
-            Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_executive(&config))?)
-        }
-        None => None,
-    };
-    for p in [args.record.as_ref(), args.report.as_ref()].into_iter().flatten() {
-        crate::output::ensure_parent(p)?;
-    }
-    runtime()?.block_on(async move {
-        let clock = Clock::start();
-        let registry = Registry::with_clock(clock);
-        let builder = System::builder(&config).only(Place::Executive).supervisor(EXECUTIVE_TOP);
-        let hosted: Vec<String> = builder.hosted()?.iter().map(|c| c.name.clone()).collect();
-        let recording = match &args.record {
-            Some(path) => {
-                // The executive simulates no world: the recording names none.
-                let meta = crate::record::RunMeta::describe(
-                    "executive",
-                    "(none: the robot's process simulates it)",
-                    None,
-                    0,
-                    args.duration,
-                    &config,
-                    hosted.clone(),
-                    true,
-                    clock.origin().as_nanos(),
-                    plan.as_ref(),
-                )
-                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-                let tap =
-                    Arc::new(crate::mission::recording::McapTap::create(path, meta.to_metadata(), None)?);
-                registry.set_tap(Some(tap.clone() as Arc<dyn orsa_actors::tap::Tap>));
-                Some(tap)
-            }
-            None => None,
-        };
-        let live = crate::live::serve_process(
-            &registry,
-            args.foxglove,
-            "executive",
-            crate::mission::recording::view_setup(&config, None, false),
-            recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
-            config.system.components.iter().map(|c| c.name.clone()).collect(),
-        )?;
-        let events_live = live.as_ref().map(crate::live::LiveView::tap);
-        let top = crate::ending::TopWatch::new(EXECUTIVE_TOP);
-        let events = Arc::new(parking_lot::Mutex::new(Vec::new()));
-        let boards = orsa_hardware::faulty::BoardFaults::new(0);
-        // From here on, every way out writes the report: what the run leaves is kept here.
-        let mut transport: Option<ZenohTransport> = None;
-        let mut supervisor = None;
-        let mut plan_task = None;
-        let mut plan_started_at = None;
-        let link_log = Arc::new(parking_lot::Mutex::new(Vec::<(f64, String, String)>::new()));
-        let run = async {
-            // The heartbeat tells the robot this process still drives it (see [link] in the config).
-            let beat = Duration::from_secs_f64(config.link.heartbeat_period_s);
-            let t = open(&registry, &args.net, "executive", Some(beat)).await?;
-            let transport = &*transport.insert(t);
-            if let (Some(tap), Some(zenoh)) = (&recording, registry.transport()) {
-                let noting = exchange::RecordingTransport::new(zenoh, Arc::clone(tap), clock);
-                registry.set_transport(Arc::new(noting));
-            }
-            let robot = config.robot_name();
-            let mut needed = vec![
-                nomad200::DISTANCEIR.on(robot).untyped(),
-                nomad200::NAVIGATIONVELOCITY.on(robot).untyped(),
-            ];
-            for b in config.executive().behaviours() {
-                needed.push(ServiceAddr::new(&b, "state"));
-                needed.push(ServiceAddr::new(&b, "wiring"));
-            }
-            wait_for(transport, &needed, wait).await?;
-            // A robot driving its fallback mode stops it when it sees this process; two masters
-            // never wire at once.
-            let fallback = orsa_interfaces::executive::GOAL.on(FALLBACK).untyped();
-            if !transport.wait_gone(&fallback, wait).await {
-                bail!("the robot's fallback master is still running after {:.1} s", wait.as_secs_f64());
-            }
-            if let Some(tap) = &recording {
-                use crate::record::events::{SYSTEM_STARTING, SYSTEM_STARTING_TYPE, SystemStarting};
-                tap.note(SYSTEM_STARTING, SYSTEM_STARTING_TYPE, registry.now(), &SystemStarting { hosted });
-            }
-            let events_tap = recording.clone();
-            let (top_sink, sink) = (top.clone(), Arc::clone(&events));
-            let system = builder
-                .duration(args.duration)
-                .on_event(move |e| {
-                    if let Some(r) = &events_tap {
-                        r.supervisor_event(&e);
-                    }
-                    if let Some(l) = &events_live {
-                        l.supervisor_event(&e);
-                    }
-                    top_sink.see(&e);
-                    sink.lock().push(e);
-                })
-                .start(&registry)
-                .await
-                .context("starting the executive")?;
-            supervisor = Some(system.supervisor);
-            eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot_name());
-            plan_started_at = plan.as_ref().map(|_| registry.now());
-            if let (Some(r), Some(plan), Some(at)) = (&recording, &plan, plan_started_at) {
-                use crate::record::events::{FAULTS_STARTED, FAULTS_STARTED_TYPE, FaultsStarted};
-                r.note(FAULTS_STARTED, FAULTS_STARTED_TYPE, at, &FaultsStarted { faults: plan.faults.len() });
-            }
-            plan_task = plan.clone().map(|plan| {
-                let (t, log, r) = (transport.clone(), Arc::clone(&link_log), registry.clone());
-                let link: crate::faults::LinkSwitch = Arc::new(move |role: &str, cut: bool| {
-                    t.cut_link(role, cut);
-                    let at = r.clock().since_start(r.now()).as_secs_f64();
-                    let what = if cut { "link cut" } else { "link restored" };
-                    eprintln!("executive: [{at:.3} s] fault: {what} to {role}");
-                    log.lock().push((at, role.to_string(), what.to_string()));
-                });
-                let targets = crate::faults::FaultTargets {
-                    faults: registry.faults(),
-                    boards: boards.clone(),
-                    link: Some(link),
-                };
-                tokio::spawn(crate::faults::run_plan(plan, targets, duration.as_secs_f64()))
-            });
-            anyhow::Ok(crate::ending::until_end(Some(duration), &top).await)
-        };
-        // A signal while the executive waits for its robot or starts ends it too, with its
-        // report.
-        let run = crate::ending::or_signal(run).await;
-        if let Some(p) = plan_task {
-            p.abort();
-        }
-        let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
-        let mut unwired_all = true;
-        let ended = match run {
-            Ok(crate::ending::Stop::GaveUp(e)) => {
-                // The master is gone: no behaviour may go on driving without it. The robot
-                // stops its motors when this process leaves, and its watchdog stays armed.
-                eprintln!(
-                    "executive: [{at_s:.3} s] supervisor '{}' gave up ({}): unwiring the behaviours",
-                    e.supervisor, e.reason
-                );
-                let wiring = orsa_actors::wiring::WiringMaster::new(&registry);
-                let mut all_unwired = true;
-                for b in config.executive().behaviours() {
-                    let unwired = tokio::time::timeout(
-                        Duration::from_secs(1),
-                        wiring.disconnect(&b, orsa_interfaces::behaviour::VEL),
-                    )
-                    .await;
-                    if !matches!(unwired, Ok(Ok(()))) {
-                        all_unwired = false;
-                        eprintln!("executive: cannot unwire {b}: the robot stops when this process leaves");
-                    }
-                }
-                unwired_all = all_unwired;
-                crate::ending::ended(crate::ending::Stop::GaveUp(e), at_s, None)
-            }
-            Ok(stop) => crate::ending::ended(stop, at_s, None),
-            Err(e) => Ended::Failed { at_s, error: format!("{e:#}") },
-        };
-        match &ended {
-            Ended::Completed => {}
-            // The executive stops no motors itself (its report's `stopped_in_s` stays empty):
-            // the robot does, when it sees it go.
-            Ended::GaveUp { at_s, supervisor, child, reason, .. } => eprintln!(
-                "executive: gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed \
-                 once too often ({reason}); {}the robot stops as this process leaves",
-                if unwired_all {
-                    "the behaviours were unwired and "
-                } else {
-                    "not every behaviour could be unwired; "
-                }
-            ),
-            other => eprintln!("executive: {}", other.describe()),
-        }
-        if let Some(s) = supervisor {
-            s.shutdown().await;
-        }
-        registry.set_tap(None);
-        if let Some(live) = live {
-            let s = live.finish();
-            eprintln!("executive: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
-        }
-        let link = transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default();
-        let links = transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default();
-        if let Some(t) = transport {
-            t.close().await;
-        }
-        let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
-        let (restarts, restart_ms) = crate::faults::restarts_of(&events.lock());
-        let total_restarts = restarts.values().sum();
-        let faults = plan.as_ref().map(|plan| {
-            let plan_end =
-                end_s - plan_started_at.map_or(end_s, |t| registry.clock().since_start(t).as_secs_f64());
-            let mut report = crate::faults::FaultsReport::new(
-                plan,
-                plan_end,
-                &registry.faults(),
-                &registry.clock(),
-                &boards,
-                restarts,
-                restart_ms,
-            );
-            report.log.extend(link_log.lock().iter().cloned());
-            report.log.sort_by(|a, b| a.0.total_cmp(&b.0));
-            report
-        });
-        let report = ExecutiveReport {
-            ended: ended.clone(),
-            duration_s: end_s,
-            restarts: total_restarts,
-            link,
-            links,
-            faults,
-        };
-        if let Some(p) = &args.report {
-            std::fs::write(p, serde_json::to_string_pretty(&report)?)
-                .with_context(|| format!("{}: cannot write the report", p.display()))?;
-            eprintln!("executive: report: {}", p.display());
-        }
-        if let Some(tap) = recording {
-            match tap.finish() {
-                Ok(Some(r)) => {
-                    let total: u64 = r.messages.values().sum();
-                    eprintln!(
-                        "executive: record: {} ({total} messages on {} topics)",
-                        r.path.display(),
-                        r.messages.len()
-                    );
-                }
-                Ok(None) => {}
-                Err(e) => bail!("the executive stopped, but its recording failed: {e}"),
-            }
-        }
-        crate::ending::Outcome::of(&ended)
-    })
 }
 
 /// `orsa teleop`.

@@ -210,7 +210,6 @@ impl<'a> Watchdog<'a> {
 
     /// A process of role executive appeared.
     async fn executive_found(&mut self, zid: String) {
-        let registry = self.registry;
         self.departed.remove(&zid);
         // A new executive takes over: the fallback master goes first (the
         // executive waits for its services to disappear before it starts).
@@ -229,18 +228,25 @@ impl<'a> Watchdog<'a> {
             e.lost = false;
             e.deadline = tokio::time::Instant::now() + lease;
             let restore = e.restore.take();
-            executive_back(
-                registry,
-                &self.behaviours,
-                &self.motors_addr,
-                &zid,
-                restore,
-                &mut self.watched.links,
-                self.recording,
-            )
-            .await;
-            StopReport::driven_again(registry, &mut self.watched.stops);
+            self.rejoined(&zid, restore).await;
         }
+    }
+
+    /// Executive `zid`, lost, is back (its token appeared again, or its heartbeat was heard
+    /// again), with no fallback master running: it gets back `restore`, the behaviour it had
+    /// wired, and the stop it caused ends.
+    async fn rejoined(&mut self, zid: &str, restore: Option<String>) {
+        executive_back(
+            self.registry,
+            &self.behaviours,
+            &self.motors_addr,
+            zid,
+            restore,
+            &mut self.watched.links,
+            self.recording,
+        )
+        .await;
+        StopReport::driven_again(self.registry, &mut self.watched.stops);
     }
 
     /// An executive's process token disappeared.
@@ -279,7 +285,6 @@ impl<'a> Watchdog<'a> {
 
     /// A heartbeat of executive `zid` (not departed), which beats every `period_ms`.
     async fn beat(&mut self, zid: String, period_ms: u64) {
-        let registry = self.registry;
         let lease = self.lease;
         let e = self.executives.entry(zid.clone()).or_insert(Executive {
             deadline: tokio::time::Instant::now() + lease,
@@ -303,17 +308,7 @@ impl<'a> Watchdog<'a> {
                 eprintln!("robot: executive {zid} is heard again: stopping the fallback");
                 f.stop().await;
             }
-            executive_back(
-                registry,
-                &self.behaviours,
-                &self.motors_addr,
-                &zid,
-                restore,
-                &mut self.watched.links,
-                self.recording,
-            )
-            .await;
-            StopReport::driven_again(registry, &mut self.watched.stops);
+            self.rejoined(&zid, restore).await;
         }
     }
 
