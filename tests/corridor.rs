@@ -84,6 +84,34 @@ async fn the_mission_uses_both_behaviours() {
     assert_eq!(out.report.restarts, 0);
 }
 
+/// The thesis' measures are taken by kind, not by name: the same mission with its behaviours
+/// named `hug` (a `wallfollow`) and `middle` (a `centerfollow`) is the same run, and its report
+/// gives the same shares, clearance and offset, the names' shares under the new names.
+#[tokio::test(start_paused = true)]
+async fn behaviours_named_otherwise_are_measured_by_their_kind() {
+    let text = include_str!("../config/orsa.toml");
+    let renamed = text
+        .replace("wallfollow", "hug")
+        .replace("centerfollow", "middle")
+        .replace("name = \"hug\"", "name = \"hug\"\nkind = \"wallfollow\"")
+        .replace("name = \"middle\"", "name = \"middle\"\nkind = \"centerfollow\"");
+    let run = |config: Config| {
+        mission::run(RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, 240.0))
+    };
+    let named = run(Config::from_toml(text, "config/orsa.toml").expect("config")).await.expect("run").report;
+    let other =
+        run(Config::from_toml(&renamed, "the renamed config").expect("config")).await.expect("run").report;
+    assert!(named.kind_share.get("wallfollow").copied().unwrap_or(0.0) > 0.0, "{:?}", named.kind_share);
+    assert_eq!(other.kind_share, named.kind_share);
+    assert_eq!(other.behaviour_share.get("hug"), named.behaviour_share.get("wallfollow"));
+    assert_eq!(other.behaviour_share.get("middle"), named.behaviour_share.get("centerfollow"));
+    assert!(other.wallfollow.mean_clearance_m.is_some(), "{:?}", other.wallfollow);
+    assert!(other.centerfollow.mean_abs_offset_m.is_some(), "{:?}", other.centerfollow);
+    assert_eq!(other.wallfollow, named.wallfollow);
+    assert_eq!(other.centerfollow, named.centerfollow);
+    assert!(other.table().contains("time wall following"), "{}", other.table());
+}
+
 /// The default arbitration's hysteresis lets wall following follow walls: on seed 2's hour it
 /// drives far longer than under the thesis' rule alone (`config/thesis.toml`), where it only
 /// approaches and turns, and its mean clearance meets the 20 +- 2 cm target that the thesis'

@@ -18,6 +18,8 @@ pub(super) struct Measures {
     watch: integrity::Watch,
     /// The behaviours the executive's modes name.
     behaviours: Vec<String>,
+    /// Each component's kind, by its name in the system.
+    kinds: std::collections::BTreeMap<String, String>,
     /// Ticks between two checks of the clients and the wiring (one a second).
     check_every: u64,
 }
@@ -35,6 +37,13 @@ impl Measures {
                 Duration::from_secs_f64(opts.config.robot().cmd_timeout_s),
             ),
             behaviours: opts.config.executive().behaviours(),
+            kinds: opts
+                .config
+                .system
+                .components
+                .iter()
+                .map(|c| (c.name.clone(), c.kind().to_owned()))
+                .collect(),
             check_every: ((1.0 / opts.sample_period_s).round() as u64).max(1),
         }
     }
@@ -56,13 +65,15 @@ impl Measures {
             self.watch.check_wiring(&stack.registry, &behaviours, driving, t_s).await;
         }
         let following = driving.is_some();
-        let center = driving == Some("centerfollow");
+        let kind = driving.map(|d| self.kinds.get(d).map_or(d, String::as_str));
+        let center = kind == Some("centerfollow");
         let sample = Sample {
             t_s,
             x_m: t.x_m,
             y_m: t.y_m,
             travelled_m: t.travelled_m,
             driving: driving.map(str::to_owned),
+            kind: kind.map(str::to_owned),
             left_m: following.then(|| super::stack::truth_of(stack).side_nearest(Side::Left)).flatten(),
             right_m: center.then(|| super::stack::truth_of(stack).side_nearest(Side::Right)).flatten(),
             bumps: t.contact_onsets,

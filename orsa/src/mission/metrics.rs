@@ -34,6 +34,9 @@ pub struct Sample {
     pub travelled_m: f64,
     /// The behaviour wired to the motors, if any.
     pub driving: Option<String>,
+    /// Its kind in the catalog (the thesis' measures are taken by kind: the clearance while a
+    /// `wallfollow` drives, whatever it is named, the offset while a `centerfollow` does).
+    pub kind: Option<String>,
     /// Nearest obstacle in the left half-plane (needed while a behaviour drives), m.
     pub left_m: Option<f64>,
     /// Nearest obstacle in the right half-plane (needed while center following), m.
@@ -81,6 +84,8 @@ pub struct Metrics {
     last_t_s: Option<f64>,
     /// Seconds each behaviour (or "none") drove.
     pub driving_s: BTreeMap<String, f64>,
+    /// Seconds each kind of behaviour (or "none") drove.
+    pub kind_s: BTreeMap<String, f64>,
     /// Clearance while wall following.
     pub clearance: Stats,
     /// Signed offset while center following.
@@ -146,7 +151,9 @@ impl Metrics {
         self.last_t_s = Some(s.t_s);
         let who = s.driving.clone().unwrap_or_else(|| NONE.to_string());
         *self.driving_s.entry(who).or_insert(0.0) += dt;
-        match s.driving.as_deref() {
+        let kind = s.kind.clone().unwrap_or_else(|| NONE.to_string());
+        *self.kind_s.entry(kind).or_insert(0.0) += dt;
+        match s.kind.as_deref() {
             Some("wallfollow") => {
                 if let Some(c) = s.left_m {
                     self.clearance.add(c);
@@ -187,9 +194,19 @@ impl Metrics {
 
     /// Each behaviour's share of the time.
     pub fn shares(&self) -> BTreeMap<String, f64> {
-        let total: f64 = self.driving_s.values().sum();
-        self.driving_s.iter().map(|(k, v)| (k.clone(), if total > 0.0 { v / total } else { 0.0 })).collect()
+        fractions(&self.driving_s)
     }
+
+    /// Each kind of behaviour's share of the time.
+    pub fn kind_shares(&self) -> BTreeMap<String, f64> {
+        fractions(&self.kind_s)
+    }
+}
+
+/// Each entry's fraction of the sum.
+fn fractions(seconds: &BTreeMap<String, f64>) -> BTreeMap<String, f64> {
+    let total: f64 = seconds.values().sum();
+    seconds.iter().map(|(k, v)| (k.clone(), if total > 0.0 { v / total } else { 0.0 })).collect()
 }
 
 /// What the process holds in memory: (resident now, resident at its peak), KiB, from
@@ -223,6 +240,7 @@ mod tests {
             y_m: 0.0,
             travelled_m: travelled,
             driving: driving.map(str::to_string),
+            kind: driving.map(str::to_string),
             left_m: Some(if driving == Some("wallfollow") { 0.21 } else { 1.0 }),
             right_m: Some(0.8),
             bumps,

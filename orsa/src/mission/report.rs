@@ -82,6 +82,9 @@ pub struct HourFigures {
     pub distance_m: f64,
     /// Fraction of the span each behaviour drove.
     pub behaviour_share: BTreeMap<String, f64>,
+    /// Fraction of the span each kind of behaviour drove (the thesis' shares).
+    #[serde(default)]
+    pub kind_share: BTreeMap<String, f64>,
     /// Wall following in the span.
     pub wallfollow: WallFollowFigures,
     /// Center following in the span.
@@ -107,14 +110,16 @@ impl HourFigures {
             span_s,
             distance_m,
             behaviour_share: span.shares(),
+            kind_share: span.kind_shares(),
             wallfollow: WallFollowFigures::of(span),
             centerfollow: CenterFollowFigures::of(span),
             ..Default::default()
         }
     }
 
-    fn share(&self, who: &str) -> f64 {
-        self.behaviour_share.get(who).copied().unwrap_or(0.0)
+    /// The share of the time behaviours of `kind` drove.
+    fn share(&self, kind: &str) -> f64 {
+        self.kind_share.get(kind).copied().unwrap_or(0.0)
     }
 }
 
@@ -227,6 +232,10 @@ pub struct Report {
     pub stalls: u64,
     /// Fraction of the time each behaviour was wired to the motors (`none`: nothing was).
     pub behaviour_share: BTreeMap<String, f64>,
+    /// The same by kind of behaviour, whatever the components are named: the thesis' "time
+    /// center following" is the share of kind `centerfollow`.
+    #[serde(default)]
+    pub kind_share: BTreeMap<String, f64>,
     /// Wall following.
     pub wallfollow: WallFollowFigures,
     /// Center following.
@@ -277,6 +286,7 @@ impl Report {
                 .collect(),
             stalls: m.stalls,
             behaviour_share: m.shares(),
+            kind_share: m.kind_shares(),
             wallfollow: WallFollowFigures::of(m),
             centerfollow: CenterFollowFigures::of(m),
             restarts,
@@ -288,8 +298,9 @@ impl Report {
         }
     }
 
-    fn share(&self, who: &str) -> f64 {
-        self.behaviour_share.get(who).copied().unwrap_or(0.0)
+    /// The share of the time behaviours of `kind` drove.
+    fn share(&self, kind: &str) -> f64 {
+        self.kind_share.get(kind).copied().unwrap_or(0.0)
     }
 
     /// This report without what the process measured rather than the run: the wall-clock
@@ -311,6 +322,12 @@ impl Report {
             ("time center following".into(), "91.3 %".into(), pct(self.share("centerfollow"))),
             ("time wall following".into(), "8.7 %".into(), pct(self.share("wallfollow"))),
         ];
+        // Behaviours of kinds the thesis did not have, each by its kind.
+        for (kind, share) in &self.kind_share {
+            if !matches!(kind.as_str(), "centerfollow" | "wallfollow" | NONE) {
+                rows.push((format!("time {kind} driving"), "-".into(), pct(*share)));
+            }
+        }
         if self.share(NONE) > 0.0 {
             rows.push(("time with nothing wired".into(), "-".into(), pct(self.share(NONE))));
         }

@@ -97,7 +97,8 @@ pub(super) struct Watchdog<'a> {
     /// No heartbeat for this long: the executive is lost.
     lease: Duration,
     recording: &'a Option<Arc<crate::mission::recording::McapTap>>,
-    behaviours: [&'static str; 2],
+    /// The behaviours the executive's modes name, unwired when an executive is lost.
+    behaviours: Vec<String>,
     motors_addr: ServiceAddr,
     motors: SendClient<NavigationVelocity>,
     executives: std::collections::BTreeMap<String, Executive>,
@@ -117,7 +118,7 @@ impl<'a> Watchdog<'a> {
         robot: &str,
         watched: &'a mut Watched,
     ) -> anyhow::Result<Self> {
-        let behaviours = ["wallfollow", "centerfollow"];
+        let behaviours = config.executive().behaviours();
         let motors_addr = ServiceAddr::new(robot, "navigationvelocity");
         let motors = SendClient::<NavigationVelocity>::connect(registry, &motors_addr)?;
         Ok(Watchdog {
@@ -364,7 +365,7 @@ const UNWIRE_WAIT: Duration = Duration::from_millis(250);
 /// and when the first zero was handed to the robot server.
 async fn lose_executive(
     registry: &Registry,
-    behaviours: &[&str],
+    behaviours: &[String],
     motors: &SendClient<NavigationVelocity>,
     motors_addr: &ServiceAddr,
     zid: &str,
@@ -456,7 +457,7 @@ fn note_loss(
 /// The executive `zid`, lost, is heard again: gives it back the behaviour it had wired.
 async fn executive_back(
     registry: &Registry,
-    behaviours: &[&str],
+    behaviours: &[String],
     motors_addr: &ServiceAddr,
     zid: &str,
     restore: Option<String>,
@@ -468,7 +469,7 @@ async fn executive_back(
     let wiring = WiringMaster::new(registry);
     if let Some(b) = &restore {
         // Whatever a fallback wired goes first: never two behaviours on the motors.
-        for other in behaviours.iter().filter(|o| **o != b.as_str()) {
+        for other in behaviours.iter().filter(|o| *o != b) {
             if let Err(e) = wiring.disconnect(other, VEL).await {
                 tracing::warn!("robot: cannot unwire {other}: {e}");
             }
