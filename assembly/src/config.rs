@@ -94,12 +94,18 @@ impl Ros2Params {
 /// undone: that must fit in the robot's command timeout, or the watchdog stops the robot in the
 /// middle of every slow hand-over. (Checked for the file, and for every live set of the
 /// master's parameters.)
-pub fn switch_step_fits(executive: &ExecutiveParams, cmd_timeout_s: f64) -> Result<(), String> {
+pub fn switch_step_fits(
+    executive: &ExecutiveParams,
+    cmd_timeout_s: f64,
+) -> Result<(), orsa_actors::param::Invalid> {
     let step = executive.switch_step_s;
     if 2.0 * step > cmd_timeout_s {
-        return Err(format!(
-            "executive.switch_step_s: {step} s is too long for robot.cmd_timeout_s = {cmd_timeout_s} s: a \
-             hand-over leaves the motors without a driver for up to two steps"
+        return Err(orsa_actors::param::Invalid::new(
+            "executive.switch_step_s",
+            format!(
+                "{step} s is too long for robot.cmd_timeout_s = {cmd_timeout_s} s: a \
+                 hand-over leaves the motors without a driver for up to two steps"
+            ),
         ));
     }
     Ok(())
