@@ -297,7 +297,7 @@ mod tests {
         ] {
             let e = p.validate(&["patrol"]).expect_err("invalid");
             assert_eq!(e.key, key);
-            assert!(e.starts_with(key), "{e}");
+            assert!(e.to_string().starts_with(key), "{e}");
         }
         assert_eq!(PlannerParams::default().validate(&["patrol"]), Ok(()));
     }
