@@ -39,7 +39,7 @@ pub struct Config {
     /// How the robot watches its executive across processes (`[link]`).
     pub link: LinkParams,
     /// Which components run, where, in which state and wired how (`[system]`).
-    pub system: crate::system::SystemSpec,
+    pub system: crate::spec::SystemSpec,
     /// The robot as a ROS 2 node, and a ROS 2 robot as orsa's hardware (`[ros2]`).
     pub ros2: Ros2Params,
 }

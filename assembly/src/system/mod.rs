@@ -24,7 +24,8 @@
 
 pub mod catalog;
 pub mod live_params;
-pub mod spec;
+/// The `[system]` table (the crate's [`crate::spec`], which the config reads too).
+pub use crate::spec;
 
 pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, params};
 pub use spec::{ComponentSpec, Place, SystemSpec};
