@@ -16,7 +16,7 @@
 //! `cargo run --release --example new_behaviour`; the tests run it too.
 
 use orsa::actors::Registry;
-use orsa::actors::param::{PARAM, ParamReply, ParamRequest};
+use orsa::actors::param::{Invalid, PARAM, ParamReply, ParamRequest};
 use orsa::actors::query::QueryClient;
 use orsa::config::Config;
 use orsa::hardware::world::World;
@@ -67,12 +67,18 @@ impl Default for WanderParams {
 }
 
 impl orsa::actors::param::Parameters for WanderParams {
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), Invalid> {
         if !(self.speed_m_s > 0.0 && self.speed_m_s <= 1.0) {
-            return Err(format!("wander.speed_m_s: must be > 0 and at most 1 m/s, not {}", self.speed_m_s));
+            return Err(Invalid::new(
+                "wander.speed_m_s",
+                format!("must be > 0 and at most 1 m/s, not {}", self.speed_m_s),
+            ));
         }
         if !(self.gain_rad_s_m.is_finite() && self.gain_rad_s_m >= 0.0) {
-            return Err(format!("wander.gain_rad_s_m: must be finite and >= 0, not {}", self.gain_rad_s_m));
+            return Err(Invalid::new(
+                "wander.gain_rad_s_m",
+                format!("must be finite and >= 0, not {}", self.gain_rad_s_m),
+            ));
         }
         Ok(())
     }

@@ -133,6 +133,11 @@ struct Shell<M> {
 }
 
 /// A component's access to the system: everything it declares or connects goes through here.
+///
+/// Its methods come in five groups, one `impl` block each: who it is and the time
+/// ([`name`](Self::name), [`now`](Self::now)); its running instance (states, activities, what
+/// outlives a restart); serving (a server per pattern); using others' services (clients,
+/// events, subscriptions); and the wireable ports.
 pub struct Ctx<M> {
     shell: Arc<Shell<M>>,
 }
@@ -143,6 +148,7 @@ impl<M> Clone for Ctx<M> {
     }
 }
 
+/// Who it is and what time it is.
 impl<M: ractor::Message> Ctx<M> {
     fn new(registry: &Registry, name: &str) -> PatternResult<Self> {
         registry.register_component(name)?;
@@ -218,7 +224,11 @@ impl<M: ractor::Message> Ctx<M> {
     pub fn now(&self) -> Timestamp {
         self.shell.registry.now()
     }
+}
 
+/// Its running instance: the mailbox, the main states its master sets, the activities
+/// that die with the instance, and what outlives it.
+impl<M: ractor::Message> Ctx<M> {
     /// The component's mailbox (bound to the running instance).
     pub fn mailbox(&self) -> &Mailbox<M> {
         &self.shell.mailbox
@@ -244,6 +254,32 @@ impl<M: ractor::Message> Ctx<M> {
         self.shell.state.cancel_token()
     }
 
+    /// Runs `activity` as a task of the current instance: it is aborted when the instance
+    /// stops, fails or is killed, so a restarted component never runs it twice.
+    pub fn spawn_activity(&self, activity: impl Future<Output = ()> + Send + 'static) {
+        let handle = tokio::spawn(activity).abort_handle();
+        let mut activities = self.shell.activities.lock();
+        activities.retain(|a| !a.is_finished());
+        activities.push(handle);
+    }
+
+    fn end_activities(&self) {
+        for a in self.shell.activities.lock().drain(..) {
+            a.abort();
+        }
+    }
+
+    /// Something of the component's that outlives its instances: made by `make` the first time,
+    /// given back (the same value, e.g. an `Arc<Mutex<_>>`) to every later instance. This is where
+    /// a component keeps what a restart must not forget (a master's current goal).
+    pub fn keep<X: Clone + Send + Sync + 'static>(
+        &self,
+        key: &str,
+        make: impl FnOnce() -> X,
+    ) -> PatternResult<X> {
+        self.declared(format!("kept {key}"), || Ok(make()))
+    }
+
     /// Gets back what `key` declared before (same type), or makes and records it.
     fn declared<X: Clone + Send + Sync + 'static>(
         &self,
@@ -260,18 +296,11 @@ impl<M: ractor::Message> Ctx<M> {
         declared.insert(key, Arc::new(made.clone()));
         Ok(made)
     }
+}
 
-    /// Something of the component's that outlives its instances: made by `make` the first time,
-    /// given back (the same value, e.g. an `Arc<Mutex<_>>`) to every later instance. This is where
-    /// a component keeps what a restart must not forget (a master's current goal).
-    pub fn keep<X: Clone + Send + Sync + 'static>(
-        &self,
-        key: &str,
-        make: impl FnOnce() -> X,
-    ) -> PatternResult<X> {
-        self.declared(format!("kept {key}"), || Ok(make()))
-    }
-
+/// Serving: the server side of each communication pattern, declared once and given back to
+/// every later instance.
+impl<M: ractor::Message> Ctx<M> {
     /// Declares a Send service; each message arrives as `map(message)`.
     pub fn send_server<T: CommObject>(
         &self,
@@ -335,7 +364,11 @@ impl<M: ractor::Message> Ctx<M> {
             EventServer::register(&self.shell.registry, self.untyped(service), test)
         })
     }
+}
 
+/// Using others' services: clients, event activations and subscriptions (the latter two
+/// belong to the component and survive restarts of its instance).
+impl<M: ractor::Message> Ctx<M> {
     /// A Send client to `addr`.
     pub fn send_client<T: CommObject>(
         &self,
@@ -376,21 +409,6 @@ impl<M: ractor::Message> Ctx<M> {
             let client = EventClient::<P, E>::connect(&self.shell.registry, &addr)?;
             client.activate_to(mode, params, self.shell.mailbox.sink(map))
         })
-    }
-
-    /// Runs `activity` as a task of the current instance: it is aborted when the instance
-    /// stops, fails or is killed, so a restarted component never runs it twice.
-    pub fn spawn_activity(&self, activity: impl Future<Output = ()> + Send + 'static) {
-        let handle = tokio::spawn(activity).abort_handle();
-        let mut activities = self.shell.activities.lock();
-        activities.retain(|a| !a.is_finished());
-        activities.push(handle);
-    }
-
-    fn end_activities(&self) {
-        for a in self.shell.activities.lock().drain(..) {
-            a.abort();
-        }
     }
 
     /// Subscribes to a Push newest service; each update arrives as `map(update)`. The
@@ -441,7 +459,10 @@ impl<M: ractor::Message> Ctx<M> {
         }
         Ok(client)
     }
+}
 
+/// The ports a master wires to another component's service at run time.
+impl<M: ractor::Message> Ctx<M> {
     /// Declares (or gets back, still wired) a wireable Send port.
     pub fn send_port<T: CommObject>(&self, port: SendPortDesc<T>) -> PatternResult<SendPort<T>> {
         self.shell.wiring.send_port(port.name())

@@ -24,14 +24,14 @@
 //!   query is, so a replay can make the same request at the same instant.
 //!
 //! ```
-//! # use orsa_actors::param::{Parameters, ParamRequest, ParamTree};
+//! # use orsa_actors::param::{Invalid, Parameters, ParamRequest, ParamTree};
 //! # use serde::{Deserialize, Serialize};
 //! #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 //! #[serde(deny_unknown_fields)]
 //! struct Gains { k_p: f64, v_max_m_s: f64 }
 //! impl Parameters for Gains {
-//!     fn validate(&self) -> Result<(), String> {
-//!         if self.k_p > 0.0 { Ok(()) } else { Err(format!("k_p: must be positive, not {}", self.k_p)) }
+//!     fn validate(&self) -> Result<(), Invalid> {
+//!         if self.k_p > 0.0 { Ok(()) } else { Err(Invalid::new("k_p", format!("must be positive, not {}", self.k_p))) }
 //!     }
 //! }
 //! let gains = Gains { k_p: 1.5, v_max_m_s: 0.25 };
@@ -39,8 +39,8 @@
 //! assert_eq!(tree.get("").unwrap().len(), 2);
 //! let set = tree.set::<Gains>("k_p", serde_json::json!(2.0), &|_| Ok(())).unwrap();
 //! assert_eq!(set.k_p, 2.0);
-//! assert!(tree.set::<Gains>("k_p", serde_json::json!(-1.0), &|_| Ok(())).unwrap_err().contains("positive"));
-//! assert!(tree.set::<Gains>("k_q", serde_json::json!(1.0), &|_| Ok(())).unwrap_err().contains("no parameter"));
+//! assert!(tree.set::<Gains>("k_p", serde_json::json!(-1.0), &|_| Ok(())).unwrap_err().to_string().contains("positive"));
+//! assert!(tree.set::<Gains>("k_q", serde_json::json!(1.0), &|_| Ok(())).unwrap_err().to_string().contains("no parameter"));
 //! ```
 
 use crate::clock::Timestamp;
@@ -68,8 +68,94 @@ pub trait Parameters: Serialize + DeserializeOwned + Clone + PartialEq + Send + 
     /// `*` stands for any one key (`modes.*.behaviours`).
     const FIXED: &'static [&'static str] = &[];
 
-    /// The config file's checks of this table; the message names the key.
-    fn validate(&self) -> Result<(), String>;
+    /// The config file's checks of this table; the error names the key.
+    fn validate(&self) -> Result<(), Invalid>;
+}
+
+/// A parameter that is not valid: the key path that names it (`executive.modes.patrol.rules[0]
+/// .drive`, as the config file spells it) and why.
+///
+/// It reads as `key: reason` (only the reason if the key is empty). A validator that delegates to
+/// a sub-table's validator puts the table's key in front with [`Invalid::under`].
+///
+/// ```
+/// # use orsa_actors::param::Invalid;
+/// let e = Invalid::new("k_d", "must be a positive number").under("loops").under("wallfollow");
+/// assert_eq!(e.key, "wallfollow.loops.k_d");
+/// assert_eq!(e.to_string(), "wallfollow.loops.k_d: must be a positive number");
+/// assert_eq!(Invalid::new("0", "no sensor").under("rules").key, "rules.0");
+/// assert_eq!(Invalid::new("[0].when", "empty").under("rules").key, "rules[0].when");
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}", self.message())]
+pub struct Invalid {
+    /// The parameter (or table) at fault, its path as the config file spells it.
+    pub key: String,
+    /// Why it is refused (`must be a positive number`).
+    pub reason: String,
+}
+
+impl Invalid {
+    /// The parameter `key` is invalid because of `reason`.
+    pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Invalid {
+        Invalid { key: key.into(), reason: reason.into() }
+    }
+
+    /// The same error, its key read under the table `prefix` (`prefix.key`, `prefix[i]...` for
+    /// an index, `prefix` alone for an empty key).
+    #[must_use]
+    pub fn under(mut self, prefix: &str) -> Invalid {
+        if prefix.is_empty() {
+            return self;
+        }
+        self.key = if self.key.is_empty() {
+            prefix.to_string()
+        } else if self.key.starts_with('[') {
+            format!("{prefix}{}", self.key)
+        } else {
+            format!("{prefix}.{}", self.key)
+        };
+        self
+    }
+
+    fn message(&self) -> String {
+        if self.key.is_empty() { self.reason.clone() } else { format!("{}: {}", self.key, self.reason) }
+    }
+}
+
+/// The message as a user reads it (for callers that still carry errors as text).
+impl From<Invalid> for String {
+    fn from(e: Invalid) -> String {
+        e.to_string()
+    }
+}
+
+/// Why a [`ParamTree`] refused a get or a set; each names the parameter.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Refused {
+    /// The parameter struct does not encode as JSON.
+    #[error("the parameters do not encode: {0}")]
+    Encode(String),
+    /// There is no parameter (or table) of that name.
+    #[error("no parameter '{0}'")]
+    NoParameter(String),
+    /// The name is a table's: a set names one parameter.
+    #[error("'{0}' is a table, not a parameter: set one of its parameters")]
+    Table(String),
+    /// The parameter is read only when the component starts.
+    #[error("{0}: read only when the component starts; set it in the config file and restart")]
+    Fixed(String),
+    /// The new value does not read back as the parameter struct (wrong type, unknown field).
+    #[error("{name}: {error}")]
+    Decode {
+        /// The parameter set.
+        name: String,
+        /// What the deserializer said.
+        error: String,
+    },
+    /// The new value reads, but the table's checks refuse it.
+    #[error(transparent)]
+    Invalid(#[from] Invalid),
 }
 
 /// A request to a component's [`PARAM`] service.
@@ -173,8 +259,8 @@ fn leaves(value: &Value, path: &mut String, out: &mut Vec<(String, Value)>) {
 
 impl ParamTree {
     /// The tree of `params`.
-    pub fn of<P: Parameters>(params: &P) -> Result<ParamTree, String> {
-        let root = serde_json::to_value(params).map_err(|e| format!("the parameters do not encode: {e}"))?;
+    pub fn of<P: Parameters>(params: &P) -> Result<ParamTree, Refused> {
+        let root = serde_json::to_value(params).map_err(|e| Refused::Encode(e.to_string()))?;
         Ok(ParamTree { root, fixed: P::FIXED })
     }
 
@@ -183,7 +269,7 @@ impl ParamTree {
     }
 
     /// Every parameter named `name` or under it; an error if there is none.
-    pub fn get(&self, name: &str) -> Result<Vec<Param>, String> {
+    pub fn get(&self, name: &str) -> Result<Vec<Param>, Refused> {
         let mut all = Vec::new();
         leaves(&self.root, &mut String::new(), &mut all);
         let found: Vec<Param> = all
@@ -192,7 +278,7 @@ impl ParamTree {
             .map(|(n, value)| Param { fixed: self.is_fixed(&n), name: n, value })
             .collect();
         if found.is_empty() {
-            return Err(format!("no parameter '{name}'"));
+            return Err(Refused::NoParameter(name.to_string()));
         }
         Ok(found)
     }
@@ -203,17 +289,15 @@ impl ParamTree {
         &self,
         name: &str,
         value: Value,
-        check: &dyn Fn(&P) -> Result<(), String>,
-    ) -> Result<P, String> {
+        check: &dyn Fn(&P) -> Result<(), Invalid>,
+    ) -> Result<P, Refused> {
         let leaf = match self.get(name) {
             Ok(found) if found.len() == 1 && found[0].name == name => found.into_iter().next(),
-            Ok(_) => return Err(format!("'{name}' is a table, not a parameter: set one of its parameters")),
+            Ok(_) => return Err(Refused::Table(name.to_string())),
             Err(e) => return Err(e),
         };
         if leaf.is_some_and(|p| p.fixed) {
-            return Err(format!(
-                "{name}: read only when the component starts; set it in the config file and restart"
-            ));
+            return Err(Refused::Fixed(name.to_string()));
         }
         let mut root = self.root.clone();
         let mut slot = &mut root;
@@ -223,10 +307,11 @@ impl ParamTree {
                 Value::Array(items) => key.parse::<usize>().ok().and_then(|i| items.get_mut(i)),
                 _ => None,
             }
-            .ok_or_else(|| format!("no parameter '{name}'"))?;
+            .ok_or_else(|| Refused::NoParameter(name.to_string()))?;
         }
         *slot = value;
-        let params: P = serde_json::from_value(root).map_err(|e| format!("{name}: {e}"))?;
+        let params: P = serde_json::from_value(root)
+            .map_err(|e| Refused::Decode { name: name.to_string(), error: e.to_string() })?;
         params.validate()?;
         check(&params)?;
         Ok(params)
@@ -234,7 +319,7 @@ impl ParamTree {
 }
 
 /// A check the system adds to a component's own (what depends on other tables of the config).
-pub type Check<P> = Arc<dyn Fn(&P) -> Result<(), String> + Send + Sync>;
+pub type Check<P> = Arc<dyn Fn(&P) -> Result<(), Invalid> + Send + Sync>;
 
 /// A component's parameters while it runs (see [`Ctx::parameters`]): the values every instance
 /// starts from, and the answers to its [`PARAM`] service.
@@ -281,17 +366,17 @@ impl<P: Parameters> LiveParams<P> {
         let mut current = self.current.lock();
         let tree = match ParamTree::of(&*current) {
             Ok(t) => t,
-            Err(e) => return (ParamReply { params: Vec::new(), refused: Some(e) }, None),
+            Err(e) => return (ParamReply { params: Vec::new(), refused: Some(e.to_string()) }, None),
         };
         match request {
             ParamRequest::Get { name } => match tree.get(name) {
                 Ok(params) => (ParamReply { params, refused: None }, None),
-                Err(e) => (ParamReply { params: Vec::new(), refused: Some(e) }, None),
+                Err(e) => (ParamReply { params: Vec::new(), refused: Some(e.to_string()) }, None),
             },
             ParamRequest::Set { name, value } => {
                 let old = tree.get(name).unwrap_or_default();
                 match tree.set::<P>(name, value.clone(), &*self.check) {
-                    Err(e) => (ParamReply { params: old, refused: Some(e) }, None),
+                    Err(e) => (ParamReply { params: old, refused: Some(e.to_string()) }, None),
                     Ok(params) => {
                         let now_tree = ParamTree::of(&params);
                         let new = now_tree.and_then(|t| t.get(name)).unwrap_or_default();
@@ -367,9 +452,12 @@ mod tests {
 
     impl Parameters for P {
         const FIXED: &'static [&'static str] = &["robot"];
-        fn validate(&self) -> Result<(), String> {
+        fn validate(&self) -> Result<(), Invalid> {
             if !(self.target_m > 0.0 && self.target_m < 1.0) {
-                return Err(format!("t.target_m: must be from 0 to 1 m, not {}", self.target_m));
+                return Err(Invalid::new(
+                    "t.target_m",
+                    format!("must be from 0 to 1 m, not {}", self.target_m),
+                ));
             }
             Ok(())
         }
@@ -430,7 +518,7 @@ mod tests {
         let set = tree.set::<P>("rules.0.sensors", json!([15, 0, 1]), &ok).expect("array");
         assert_eq!(set.rules[0].sensors, [15, 0, 1]);
 
-        let refused = |name: &str, value: Value| tree.set::<P>(name, value, &ok).expect_err(name);
+        let refused = |name: &str, value: Value| tree.set::<P>(name, value, &ok).expect_err(name).to_string();
         assert!(refused("target_m", json!(2.0)).contains("must be from 0 to 1"));
         assert!(refused("target_m", json!("far")).starts_with("target_m: invalid type"));
         assert!(refused("enabled", json!(1)).starts_with("enabled: invalid type"));
@@ -439,8 +527,16 @@ mod tests {
         assert!(refused("loops.k_q", json!(1.0)).contains("no parameter 'loops.k_q'"));
         assert!(refused("rules.7.below_m", json!(1.0)).contains("no parameter"));
         assert!(refused("robot", json!("other")).contains("read only when the component starts"));
-        let check = |p: &P| if p.loops.k_d > 5.0 { Err("k_d above 5".to_string()) } else { Ok(()) };
-        assert_eq!(tree.set::<P>("loops.k_d", json!(6.0), &check).expect_err("checked"), "k_d above 5");
+        let check =
+            |p: &P| if p.loops.k_d > 5.0 { Err(Invalid::new("loops.k_d", "above 5")) } else { Ok(()) };
+        assert_eq!(
+            tree.set::<P>("loops.k_d", json!(6.0), &check).expect_err("checked"),
+            Refused::Invalid(Invalid::new("loops.k_d", "above 5"))
+        );
+        assert_eq!(
+            tree.set::<P>("loops.k_d", json!(6.0), &check).expect_err("checked").to_string(),
+            "loops.k_d: above 5"
+        );
     }
 
     #[test]

@@ -34,7 +34,7 @@ pub struct Config {
     /// How the robot watches its executive across processes (`[link]`).
     pub link: LinkParams,
     /// Which components run, where, in which state and wired how (`[system]`).
-    pub system: crate::system::SystemSpec,
+    pub system: crate::spec::SystemSpec,
     /// The robot as a ROS 2 node, and a ROS 2 robot as orsa's hardware (`[ros2]`).
     pub ros2: Ros2Params,
     /// Each component's parameters, by its name in the system (`[params.NAME]`). At load, a
@@ -77,7 +77,7 @@ type Complete = fn(&toml::Table) -> Result<toml::Table, String>;
 
 fn typed<P: serde::de::DeserializeOwned + Serialize>(
     table: &toml::Table,
-    check: impl Fn(&P) -> Result<(), String>,
+    check: impl Fn(&P) -> Result<(), orsa_actors::param::Invalid>,
 ) -> Result<toml::Table, String> {
     // Read from text, so that an error has a place: the key it is at.
     let text = toml::to_string(table).map_err(|e| format!("cannot write the parameters: {e}"))?;
@@ -88,7 +88,7 @@ fn typed<P: serde::de::DeserializeOwned + Serialize>(
             _ => message,
         }
     })?;
-    check(&p)?;
+    check(&p).map_err(String::from)?;
     toml::Table::try_from(&p).map_err(|e| format!("cannot write the parameters back: {e}"))
 }
 
@@ -173,12 +173,18 @@ impl Ros2Params {
 /// undone: that must fit in the robot's command timeout, or the watchdog stops the robot in the
 /// middle of every slow hand-over. (Checked for the file, and for every live set of the
 /// master's parameters.)
-pub fn switch_step_fits(executive: &ExecutiveParams, cmd_timeout_s: f64) -> Result<(), String> {
+pub fn switch_step_fits(
+    executive: &ExecutiveParams,
+    cmd_timeout_s: f64,
+) -> Result<(), orsa_actors::param::Invalid> {
     let step = executive.switch_step_s;
     if 2.0 * step > cmd_timeout_s {
-        return Err(format!(
-            "switch_step_s: {step} s is too long for the robot server's cmd_timeout_s = {cmd_timeout_s} s: a \
-             hand-over leaves the motors without a driver for up to two steps"
+        return Err(orsa_actors::param::Invalid::new(
+            "switch_step_s",
+            format!(
+                "{step} s is too long for the robot server's cmd_timeout_s = {cmd_timeout_s} s: a \
+                 hand-over leaves the motors without a driver for up to two steps"
+            ),
         ));
     }
     Ok(())
@@ -590,6 +596,7 @@ impl Config {
             .map_err(|m| m.replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s")))?;
         if let Some(master) = self.of_kind(&["master"]) {
             switch_step_fits(&self.executive(), robot.cmd_timeout_s).map_err(|m| {
+                let m = m.to_string();
                 format!("params.{}.{m}", master.name)
                     .replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s"))
             })?;
@@ -610,6 +617,7 @@ impl Config {
         let modes: Vec<&str> = executive.modes.keys().map(String::as_str).collect();
         if let Some(planner) = self.of_kind(&["planner"]) {
             self.planner().validate(&modes).map_err(|m| {
+                let m = m.to_string();
                 format!("params.{}.{}", planner.name, m.strip_prefix("planner.").unwrap_or(&m))
             })?;
         }

@@ -6,7 +6,9 @@
 //! Modules:
 //! - [`config`]: the stack's one config file (`config/orsa.toml`), deserialised into typed
 //!   tables, unknown keys refused with file and line.
-//! - [`system`]: the `[system]` table, the catalog of component kinds and the builder that
+//! - [`spec`]: the `[system]` table (what the config file says runs where; below both the
+//!   config and the system, so neither depends on the other both ways).
+//! - [`system`]: the `[system]` table's re-exports, the catalog of component kinds and the builder that
 //!   starts a system's components under one supervisor; the names of the processes' top
 //!   supervisors; the system's live parameters by name.
 //! - [`faults`]: fault plans (what to break, when, for how long), the task that carries one out
@@ -17,4 +19,5 @@
 
 pub mod config;
 pub mod faults;
+pub mod spec;
 pub mod system;

@@ -29,7 +29,7 @@
 
 use crate::rules::{Arbiter, Mode, Readings, validate_modes};
 use orsa_actors::event::EventServer;
-use orsa_actors::param::{Check, LiveParams, ParamReply, ParamRequest};
+use orsa_actors::param::{Check, Invalid, LiveParams, ParamReply, ParamRequest};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
 use orsa_actors::send::SendClient;
@@ -94,23 +94,26 @@ impl orsa_actors::param::Parameters for ExecutiveParams {
     /// up when it starts.
     const FIXED: &'static [&'static str] = &["robot", "subscribe_every", "modes.*.behaviours"];
 
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), Invalid> {
         ExecutiveParams::validate(self)
     }
 }
 
 impl ExecutiveParams {
     /// Checks every value; messages name the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if self.subscribe_every == 0 {
-            return Err("executive.subscribe_every: must be at least 1".into());
+            return Err(Invalid::new("executive.subscribe_every", "must be at least 1"));
         }
         let step = self.switch_step_s;
         if !(step.is_finite() && (0.001..=10.0).contains(&step)) {
-            return Err(format!("executive.switch_step_s: must be from 0.001 to 10 seconds, not {step}"));
+            return Err(Invalid::new(
+                "executive.switch_step_s",
+                format!("must be from 0.001 to 10 seconds, not {step}"),
+            ));
         }
         if self.modes.is_empty() {
-            return Err("executive.modes: define at least one mode".into());
+            return Err(Invalid::new("executive.modes", "define at least one mode"));
         }
         validate_modes(&self.modes)
     }

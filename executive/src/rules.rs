@@ -39,6 +39,7 @@
 //! (an invalid reading means nothing within range, which is "far"). [`Arbiter`] keeps what a
 //! mode's rules need to remember between scans.
 
+use orsa_actors::param::Invalid;
 use orsa_interfaces::nomad200::RING_SIZE;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -123,7 +124,7 @@ impl Rule {
         self.when.iter().chain(self.hold_while.iter().flatten()).chain(&self.release_when)
     }
 
-    fn validate(&self, at: &str) -> Result<(), String> {
+    fn validate(&self, at: &str) -> Result<(), Invalid> {
         for (j, c) in self.when.iter().enumerate() {
             c.validate(&format!("{at}.when[{j}]"))?;
         }
@@ -139,22 +140,30 @@ impl Rule {
             ("cooldown_s", self.cooldown_s),
         ] {
             if !(v.is_finite() && (0.0..=MAX_RULE_TIME_S).contains(&v)) {
-                return Err(format!("{at}.{key}: must be from 0 to {MAX_RULE_TIME_S} seconds, not {v}"));
+                return Err(Invalid::new(
+                    format!("{at}.{key}"),
+                    format!("must be from 0 to {MAX_RULE_TIME_S} seconds, not {v}"),
+                ));
             }
         }
         if self.release_after_s > 0.0 && self.release_when.is_empty() {
-            return Err(format!("{at}.release_after_s: there is no release_when to wait for"));
+            return Err(Invalid::new(
+                format!("{at}.release_after_s"),
+                "there is no release_when to wait for",
+            ));
         }
         if self.when.is_empty() && (self.holds_on() || self.cooldown_s > 0.0) {
-            return Err(format!(
-                "{at}: a rule without `when` always applies; hold_while, release_when, min_dwell_s \
-                 and cooldown_s would change nothing"
+            return Err(Invalid::new(
+                at,
+                "a rule without `when` always applies; hold_while, release_when, min_dwell_s \
+                 and cooldown_s would change nothing",
             ));
         }
         if self.hold_while.as_ref().is_some_and(Vec::is_empty) && self.release_when.is_empty() {
-            return Err(format!(
-                "{at}.hold_while: an empty list always holds and there is no release_when, so the \
-                 rule could never release the robot; list conditions or give release_when"
+            return Err(Invalid::new(
+                format!("{at}.hold_while"),
+                "an empty list always holds and there is no release_when, so the \
+                 rule could never release the robot; list conditions or give release_when",
             ));
         }
         Ok(())
@@ -194,35 +203,45 @@ impl Condition {
         below && above
     }
 
-    fn validate(&self, at: &str) -> Result<(), String> {
+    fn validate(&self, at: &str) -> Result<(), Invalid> {
         if self.sensors.is_empty() {
-            return Err(format!("{at}.sensors: list at least one sensor"));
+            return Err(Invalid::new(format!("{at}.sensors"), "list at least one sensor"));
         }
         if let Some(bad) = self.sensors.iter().find(|&&i| i >= RING_SIZE) {
-            return Err(format!("{at}.sensors: sensor {bad} does not exist (0..{})", RING_SIZE - 1));
+            return Err(Invalid::new(
+                format!("{at}.sensors"),
+                format!("sensor {bad} does not exist (0..{})", RING_SIZE - 1),
+            ));
         }
         if self.below_m.is_none() && self.above_m.is_none() {
-            return Err(format!("{at}: give below_m, above_m or both"));
+            return Err(Invalid::new(at, "give below_m, above_m or both"));
         }
         for (key, v) in [("below_m", self.below_m), ("above_m", self.above_m)] {
             if let Some(v) = v
                 && !(v.is_finite() && v >= 0.0)
             {
-                return Err(format!("{at}.{key}: must be a non-negative number, not {v}"));
+                return Err(Invalid::new(
+                    format!("{at}.{key}"),
+                    format!("must be a non-negative number, not {v}"),
+                ));
             }
         }
         if self.below_m == Some(0.0) {
-            return Err(format!(
-                "{at}.below_m: no distance reads under 0, so the condition could never hold"
+            return Err(Invalid::new(
+                format!("{at}.below_m"),
+                "no distance reads under 0, so the condition could never hold",
             ));
         }
         if let (Some(below), Some(above)) = (self.below_m, self.above_m)
             && self.sensors.len() == 1
             && below <= above
         {
-            return Err(format!(
-                "{at}: one sensor cannot read under {below} and over {above} at once, so the \
-                 condition could never hold"
+            return Err(Invalid::new(
+                at,
+                format!(
+                    "one sensor cannot read under {below} and over {above} at once, so the \
+                     condition could never hold"
+                ),
             ));
         }
         Ok(())
@@ -242,12 +261,12 @@ impl Mode {
     }
 
     /// Checks the mode; messages name the key, e.g. `executive.modes.patrol.rules[0].drive`.
-    pub fn validate(&self, at: &str) -> Result<(), String> {
+    pub fn validate(&self, at: &str) -> Result<(), Invalid> {
         for (i, rule) in self.rules.iter().enumerate() {
             if !self.behaviours.contains(&rule.drive) {
-                return Err(format!(
-                    "{at}.rules[{i}].drive: '{}' is not one of this mode's behaviours {:?}",
-                    rule.drive, self.behaviours
+                return Err(Invalid::new(
+                    format!("{at}.rules[{i}].drive"),
+                    format!("'{}' is not one of this mode's behaviours {:?}", rule.drive, self.behaviours),
                 ));
             }
             rule.validate(&format!("{at}.rules[{i}]"))?;
@@ -345,7 +364,7 @@ impl Arbiter {
 }
 
 /// Validates every mode of a table of modes.
-pub fn validate_modes(modes: &BTreeMap<String, Mode>) -> Result<(), String> {
+pub fn validate_modes(modes: &BTreeMap<String, Mode>) -> Result<(), Invalid> {
     for (name, mode) in modes {
         mode.validate(&format!("executive.modes.{name}"))?;
     }
@@ -487,7 +506,7 @@ mod tests {
         let refuse = |edit: &dyn Fn(&mut Rule), want: &str| {
             let mut m = hysteresis();
             edit(&mut m.rules[0]);
-            let e = m.validate("executive.modes.patrol").expect_err(want);
+            let e = m.validate("executive.modes.patrol").expect_err(want).to_string();
             assert!(e.starts_with(want), "{e}");
         };
         refuse(
@@ -520,7 +539,7 @@ mod tests {
         );
         let mut m = hysteresis();
         m.rules[1].hold_while = Some(vec![cond(4)]);
-        let e = m.validate("executive.modes.patrol").expect_err("default rule holding");
+        let e = m.validate("executive.modes.patrol").expect_err("default rule holding").to_string();
         assert!(
             e.starts_with("executive.modes.patrol.rules[1]: a rule without `when` always applies"),
             "{e}"
@@ -540,11 +559,11 @@ mod tests {
     fn validation_names_the_offending_key() {
         let mut m = patrol();
         m.rules[0].drive = "teleop".into();
-        let e = m.validate("executive.modes.patrol").expect_err("invalid");
+        let e = m.validate("executive.modes.patrol").expect_err("invalid").to_string();
         assert!(e.starts_with("executive.modes.patrol.rules[0].drive: 'teleop'"), "{e}");
         let mut m = patrol();
         m.rules[0].when[0].sensors = vec![16];
-        let e = m.validate("executive.modes.patrol").expect_err("invalid");
+        let e = m.validate("executive.modes.patrol").expect_err("invalid").to_string();
         assert_eq!(e, "executive.modes.patrol.rules[0].when[0].sensors: sensor 16 does not exist (0..15)");
         let unknown: Result<Mode, _> = toml::from_str("behaviours = []\nrulez = []");
         assert!(unknown.expect_err("unknown key").to_string().contains("rulez"));

@@ -30,6 +30,7 @@
 use crate::board::{
     AxisAccelerations, AxisVelocities, BoardError, CompassReading, MotorBoard, MotorState, SensorBoard,
 };
+use orsa_actors::param::Invalid;
 use orsa_actors::{Clock, Timestamp};
 use orsa_interfaces::nomad200::{
     BUMPER_COUNT, ContactScan, DistanceReading, DistanceScan, PushPeriods, RING_SIZE, Ring, RingParams,
@@ -101,7 +102,7 @@ impl Default for Ros2BaseParams {
 
 impl Ros2BaseParams {
     /// Checks every value; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         for (key, v, lo, hi) in [
             ("body_radius_m", self.body_radius_m, 0.01, 5.0),
             ("laser_x_m", self.laser_x_m.abs(), 0.0, 5.0),
@@ -117,11 +118,11 @@ impl Ros2BaseParams {
             ("stale_s", self.stale_s, 0.01, 60.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(format!("{key}: must be from {lo} to {hi}, not {v}"));
+                return Err(Invalid::new(key, format!("must be from {lo} to {hi}, not {v}")));
             }
         }
         if self.sonar_min_range_m >= self.sonar_max_range_m {
-            return Err("sonar_min_range_m: must be below sonar_max_range_m".into());
+            return Err(Invalid::new("sonar_min_range_m", "must be below sonar_max_range_m"));
         }
         for (key, t) in [
             ("scan_topic", &self.scan_topic),
@@ -129,7 +130,7 @@ impl Ros2BaseParams {
             ("cmd_vel_topic", &self.cmd_vel_topic),
         ] {
             if t.is_empty() || t.contains(['*', '$', '#', '?', ' ']) {
-                return Err(format!("{key}: '{t}' is not a topic name"));
+                return Err(Invalid::new(key, format!("'{t}' is not a topic name")));
             }
         }
         Ok(())
@@ -519,8 +520,8 @@ mod tests {
     fn defaults_are_valid_and_bad_values_named() {
         Ros2BaseParams::default().validate().expect("defaults");
         let bad = Ros2BaseParams { beam_width_rad: f64::NAN, ..Default::default() };
-        assert!(bad.validate().expect_err("NaN").starts_with("beam_width_rad"));
+        assert_eq!(bad.validate().expect_err("NaN").key, "beam_width_rad");
         let bad = Ros2BaseParams { scan_topic: "a*".into(), ..Default::default() };
-        assert!(bad.validate().expect_err("topic").starts_with("scan_topic"));
+        assert_eq!(bad.validate().expect_err("topic").key, "scan_topic");
     }
 }

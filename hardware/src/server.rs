@@ -34,6 +34,7 @@
 
 use crate::board::{AxisVelocities, CompassReading, MotorBoard, MotorState, SensorBoard};
 use orsa_actors::event::EventServer;
+use orsa_actors::param::Invalid;
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::query::QueryRequest;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp};
@@ -88,9 +89,9 @@ impl Default for ServerParams {
 
 impl ServerParams {
     /// Checks every value; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if !orsa_actors::addr::valid_name(&self.name) {
-            return Err(format!("robot.name: '{}' is not a valid component name", self.name));
+            return Err(Invalid::new("robot.name", format!("'{}' is not a valid component name", self.name)));
         }
         for (key, v) in [
             ("distanceir_period_s", self.distanceir_period_s),
@@ -102,7 +103,10 @@ impl ServerParams {
             ("max_clock_skew_s", self.max_clock_skew_s),
         ] {
             if !(v.is_finite() && v > 0.0 && v < 3600.0) {
-                return Err(format!("robot.{key}: must be a positive number of seconds, not {v}"));
+                return Err(Invalid::new(
+                    format!("robot.{key}"),
+                    format!("must be a positive number of seconds, not {v}"),
+                ));
             }
         }
         Ok(())

@@ -32,6 +32,7 @@
 //! orsa crate than `orsa-actors` and `orsa-interfaces`.
 
 use orsa_actors::event::{EventMode, Fired};
+use orsa_actors::param::Invalid;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryClient;
 use orsa_actors::switch::Phase;
@@ -77,29 +78,35 @@ pub const MAX_RETRY_AFTER_S: f64 = 600.0;
 
 impl PlannerParams {
     /// Checks the mission against the executive's modes; messages name the key.
-    pub fn validate(&self, modes: &[&str]) -> Result<(), String> {
+    pub fn validate(&self, modes: &[&str]) -> Result<(), Invalid> {
         if self.retries > MAX_RETRIES {
-            return Err(format!("planner.retries: must be at most {MAX_RETRIES}, not {}", self.retries));
+            return Err(Invalid::new(
+                "planner.retries",
+                format!("must be at most {MAX_RETRIES}, not {}", self.retries),
+            ));
         }
         if !(self.retry_after_s.is_finite() && (0.0..=MAX_RETRY_AFTER_S).contains(&self.retry_after_s)) {
-            return Err(format!(
-                "planner.retry_after_s: must be a number of seconds from 0 to {MAX_RETRY_AFTER_S}, not {}",
-                self.retry_after_s
+            return Err(Invalid::new(
+                "planner.retry_after_s",
+                format!(
+                    "must be a number of seconds from 0 to {MAX_RETRY_AFTER_S}, not {}",
+                    self.retry_after_s
+                ),
             ));
         }
         for (i, step) in self.mission.iter().enumerate() {
             if !modes.contains(&step.mode.as_str()) {
-                return Err(format!(
-                    "planner.mission[{i}].mode: '{}' is not an executive mode {modes:?}",
-                    step.mode
+                return Err(Invalid::new(
+                    format!("planner.mission[{i}].mode"),
+                    format!("'{}' is not an executive mode {modes:?}", step.mode),
                 ));
             }
             if let Some(s) = step.for_s
                 && !(s.is_finite() && (0.0..=MAX_GOAL_S).contains(&s))
             {
-                return Err(format!(
-                    "planner.mission[{i}].for_s: must be a number of seconds from 0 to {}",
-                    MAX_GOAL_S
+                return Err(Invalid::new(
+                    format!("planner.mission[{i}].for_s"),
+                    format!("must be a number of seconds from 0 to {MAX_GOAL_S}"),
                 ));
             }
         }
@@ -281,7 +288,7 @@ mod tests {
             ],
             ..PlannerParams::default()
         };
-        let e = bad.validate(&["patrol", "stop"]).expect_err("invalid");
+        let e = bad.validate(&["patrol", "stop"]).expect_err("invalid").to_string();
         assert!(e.starts_with("planner.mission[1].mode: 'dance'"), "{e}");
         for (p, key) in [
             (PlannerParams { retries: MAX_RETRIES + 1, ..PlannerParams::default() }, "planner.retries"),
@@ -289,7 +296,8 @@ mod tests {
             (PlannerParams { retry_after_s: f64::NAN, ..PlannerParams::default() }, "planner.retry_after_s"),
         ] {
             let e = p.validate(&["patrol"]).expect_err("invalid");
-            assert!(e.starts_with(key), "{e}");
+            assert_eq!(e.key, key);
+            assert!(e.to_string().starts_with(key), "{e}");
         }
         assert_eq!(PlannerParams::default().validate(&["patrol"]), Ok(()));
     }

@@ -12,6 +12,7 @@
 //! gains' signs as the thesis gives them (`k_d > 0`, `k_alpha < 0`) and the loop structure, and
 //! states the sign conventions that make it stable.
 
+use orsa_actors::param::Invalid;
 use serde::{Deserialize, Serialize};
 
 /// Gains and limits of the cascade.
@@ -30,9 +31,9 @@ pub struct CascadeParams {
 
 /// Checks that each `(key, value)` is a positive finite number; the error names
 /// `prefix.key`, as every behaviour's parameter checks do.
-pub fn check_positive(prefix: &str, values: &[(&str, f64)]) -> Result<(), String> {
+pub fn check_positive(prefix: &str, values: &[(&str, f64)]) -> Result<(), Invalid> {
     match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-        Some((key, _)) => Err(format!("{prefix}.{key}: must be a positive number")),
+        Some((key, _)) => Err(Invalid::new(*key, "must be a positive number").under(prefix)),
         None => Ok(()),
     }
 }
@@ -45,9 +46,9 @@ impl Default for CascadeParams {
 
 impl CascadeParams {
     /// Checks signs and ranges; the message names the offending key.
-    pub fn validate(&self, prefix: &str) -> Result<(), String> {
+    pub fn validate(&self, prefix: &str) -> Result<(), Invalid> {
         let ok = |cond: bool, key: &str, what: &str| {
-            if cond { Ok(()) } else { Err(format!("{prefix}.{key}: {what}")) }
+            if cond { Ok(()) } else { Err(Invalid::new(key, what).under(prefix)) }
         };
         ok(self.k_d.is_finite() && self.k_d > 0.0, "k_d", "must be a positive number")?;
         ok(self.k_alpha.is_finite() && self.k_alpha < 0.0, "k_alpha", "must be a negative number")?;
@@ -88,7 +89,7 @@ mod tests {
     fn validation_names_the_key() {
         let bad = CascadeParams { k_alpha: 1.0, ..Default::default() };
         assert_eq!(
-            bad.validate("wallfollow").err().as_deref(),
+            bad.validate("wallfollow").err().map(|e| e.to_string()).as_deref(),
             Some("wallfollow.k_alpha: must be a negative number")
         );
     }

@@ -27,6 +27,7 @@ use crate::manoeuvres::{DeadEnd, Unstick, UnstickParams, Wedge};
 use crate::ring::{AngleEstimator, Ranges, RingGeometry, Side, WallEstimate, front_min, fuse, wall_in};
 use crate::walldir::{WallDirParams, WallDirection};
 use orsa_actors::Timestamp;
+use orsa_actors::param::Invalid;
 use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE};
 use serde::{Deserialize, Serialize};
 
@@ -112,14 +113,14 @@ impl Default for CenterFollowParams {
 }
 
 impl orsa_actors::param::Parameters for CenterFollowParams {
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), Invalid> {
         CenterFollowParams::validate(self)
     }
 }
 
 impl CenterFollowParams {
     /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         check_positive(
             "centerfollow",
             &[
@@ -136,23 +137,29 @@ impl CenterFollowParams {
             ],
         )?;
         if self.v_min_m_s > self.v_max_m_s {
-            return Err(format!(
-                "centerfollow.v_min_m_s: {} is above v_max_m_s ({})",
-                self.v_min_m_s, self.v_max_m_s
+            return Err(Invalid::new(
+                "centerfollow.v_min_m_s",
+                format!("{} is above v_max_m_s ({})", self.v_min_m_s, self.v_max_m_s),
             ));
         }
         for (key, [a, b]) in
             [("left_sensors", self.left_sensors), ("angle_left_sensors", self.angle_left_sensors)]
         {
             if !(1..=7).contains(&a) || !(a..=7).contains(&b) {
-                return Err(format!("centerfollow.{key}: [{a}, {b}] must be first and last of 1..7"));
+                return Err(Invalid::new(
+                    format!("centerfollow.{key}"),
+                    format!("[{a}, {b}] must be first and last of 1..7"),
+                ));
             }
         }
         for (key, [a, b]) in
             [("right_sensors", self.right_sensors), ("angle_right_sensors", self.angle_right_sensors)]
         {
             if !(9..=15).contains(&a) || !(a..=15).contains(&b) {
-                return Err(format!("centerfollow.{key}: [{a}, {b}] must be first and last of 9..15"));
+                return Err(Invalid::new(
+                    format!("centerfollow.{key}"),
+                    format!("[{a}, {b}] must be first and last of 9..15"),
+                ));
             }
         }
         self.unstick.validate("centerfollow")?;
@@ -363,7 +370,9 @@ mod tests {
             CenterFollower::new(CenterFollowParams::default(), 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
         assert!((s.offset_m.expect("both sides") - 0.3).abs() < 0.01, "{:?}", s.offset_m);
         let bad = CenterFollowParams { v_min_m_s: 0.3, ..Default::default() };
-        assert!(bad.validate().expect_err("v_min above v_max").starts_with("centerfollow.v_min_m_s"));
+        assert!(
+            bad.validate().expect_err("v_min above v_max").to_string().starts_with("centerfollow.v_min_m_s")
+        );
     }
 
     #[test]
@@ -388,7 +397,12 @@ mod tests {
         let s = CenterFollower::new(narrow, 0.25, 0.0, 0.0).step(&ir, &so, Timestamp(0));
         assert!(s.offset_m.is_some_and(|o| o.abs() < 1e-9) && s.cmd.omega_rad_s.abs() < 1e-9);
         let bad = CenterFollowParams { angle_right_sensors: [8, 15], ..Default::default() };
-        assert!(bad.validate().expect_err("8 is the back").starts_with("centerfollow.angle_right_sensors"));
+        assert!(
+            bad.validate()
+                .expect_err("8 is the back")
+                .to_string()
+                .starts_with("centerfollow.angle_right_sensors")
+        );
     }
 
     #[test]

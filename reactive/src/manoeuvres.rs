@@ -163,7 +163,7 @@ impl Default for UnstickParams {
 
 impl UnstickParams {
     /// Checks every value; the message names the offending key under `prefix`.
-    pub fn validate(&self, prefix: &str) -> Result<(), String> {
+    pub fn validate(&self, prefix: &str) -> Result<(), orsa_actors::param::Invalid> {
         crate::cascade::check_positive(
             &format!("{prefix}.unstick"),
             &[
@@ -472,7 +472,9 @@ mod tests {
         u.note_position(&off, 0.0, 0.0, 0);
         assert_eq!(u.step(&off, &r, w, 100 * S), None);
         assert!(
-            UnstickParams { back_s: 0.0, ..p }.validate("centerfollow").is_err_and(|e| e.contains("back_s"))
+            UnstickParams { back_s: 0.0, ..p }
+                .validate("centerfollow")
+                .is_err_and(|e| e.key == "centerfollow.unstick.back_s")
         );
     }
 

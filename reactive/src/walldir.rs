@@ -20,6 +20,7 @@
 //! - Without odometry (or with it stale), or with `enabled = false`, nothing is
 //!   held and the behaviour uses the ring's angle alone, exactly as without this module.
 
+use orsa_actors::param::Invalid;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -45,15 +46,15 @@ impl Default for WallDirParams {
 
 impl WallDirParams {
     /// Checks every value; the message names the offending key under `prefix`.
-    pub fn validate(&self, prefix: &str) -> Result<(), String> {
+    pub fn validate(&self, prefix: &str) -> Result<(), Invalid> {
         if !(self.agree_deg > 0.0 && self.agree_deg < 90.0) {
-            return Err(format!("{prefix}.walls.agree_deg: must be in (0, 90)"));
+            return Err(Invalid::new("walls.agree_deg", "must be in (0, 90)").under(prefix));
         }
         if !(self.hold_s.is_finite() && self.hold_s > 0.0) {
-            return Err(format!("{prefix}.walls.hold_s: must be a positive number"));
+            return Err(Invalid::new("walls.hold_s", "must be a positive number").under(prefix));
         }
         if !(self.near_m.is_finite() && self.near_m >= 0.0) {
-            return Err(format!("{prefix}.walls.near_m: must be a number >= 0"));
+            return Err(Invalid::new("walls.near_m", "must be a number >= 0").under(prefix));
         }
         Ok(())
     }
@@ -210,17 +211,17 @@ mod tests {
         assert!(on().validate("centerfollow").is_ok());
         let bad = WallDirParams { agree_deg: 90.0, ..on() };
         assert_eq!(
-            bad.validate("centerfollow").expect_err("refused"),
+            bad.validate("centerfollow").expect_err("refused").to_string(),
             "centerfollow.walls.agree_deg: must be in (0, 90)"
         );
         let bad = WallDirParams { hold_s: 0.0, ..on() };
         assert_eq!(
-            bad.validate("centerfollow").expect_err("refused"),
+            bad.validate("centerfollow").expect_err("refused").to_string(),
             "centerfollow.walls.hold_s: must be a positive number"
         );
         let bad = WallDirParams { near_m: f64::NAN, ..on() };
         assert_eq!(
-            bad.validate("centerfollow").expect_err("refused"),
+            bad.validate("centerfollow").expect_err("refused").to_string(),
             "centerfollow.walls.near_m: must be a number >= 0"
         );
     }

@@ -114,14 +114,14 @@ impl Default for WallFollowParams {
 }
 
 impl orsa_actors::param::Parameters for WallFollowParams {
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), orsa_actors::param::Invalid> {
         WallFollowParams::validate(self)
     }
 }
 
 impl WallFollowParams {
     /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), orsa_actors::param::Invalid> {
         check_positive(
             "wallfollow",
             &[
@@ -139,9 +139,9 @@ impl WallFollowParams {
             ],
         )?;
         if self.v_slow_m_s > self.v_max_m_s {
-            return Err(format!(
-                "wallfollow.v_slow_m_s: {} is above v_max_m_s ({})",
-                self.v_slow_m_s, self.v_max_m_s
+            return Err(orsa_actors::param::Invalid::new(
+                "wallfollow.v_slow_m_s",
+                format!("{} is above v_max_m_s ({})", self.v_slow_m_s, self.v_max_m_s),
             ));
         }
         self.unstick.validate("wallfollow")?;

@@ -26,7 +26,8 @@
 pub mod catalog;
 pub mod live_params;
 pub mod robots;
-pub mod spec;
+/// The `[system]` table (the crate's [`crate::spec`], which the config reads too).
+pub use crate::spec;
 
 pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, SIM};
 pub use robots::{Robot, RobotError, RobotHandle, RobotSetup};

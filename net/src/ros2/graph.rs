@@ -17,8 +17,25 @@ pub(crate) fn mangle(name: &str) -> String {
     if name.is_empty() { "%".to_string() } else { name.replace('/', "%") }
 }
 
+/// A ROS 2 name (topic, node, namespace, domain) that is not valid; each names the value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NameError {
+    /// Not a valid topic name.
+    #[error("'{0}' is not a valid ROS 2 topic name")]
+    Topic(String),
+    /// Not a valid node name.
+    #[error("'{0}' is not a valid ROS 2 node name")]
+    Node(String),
+    /// Not a valid namespace.
+    #[error("'{0}' is not a valid ROS 2 namespace")]
+    Namespace(String),
+    /// A domain id out of range.
+    #[error("ROS domain {0} is out of range (0..=232)")]
+    Domain(u32),
+}
+
 /// A topic name made absolute under `namespace`, checked: `cmd_vel` under `/` is `/cmd_vel`.
-pub fn qualified_topic(namespace: &str, topic: &str) -> Result<String, String> {
+pub fn qualified_topic(namespace: &str, topic: &str) -> Result<String, NameError> {
     let full = if topic.starts_with('/') {
         topic.to_string()
     } else if namespace.is_empty() || namespace == "/" {
@@ -33,23 +50,23 @@ pub fn qualified_topic(namespace: &str, topic: &str) -> Result<String, String> {
             t.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
                 && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
         });
-    if ok { Ok(full) } else { Err(format!("'{topic}' is not a valid ROS 2 topic name")) }
+    if ok { Ok(full) } else { Err(NameError::Topic(topic.to_string())) }
 }
 
 /// A node's name and namespace, checked.
-pub(crate) fn check_node(namespace: &str, name: &str) -> Result<(), String> {
+pub(crate) fn check_node(namespace: &str, name: &str) -> Result<(), NameError> {
     let token = |t: &str| {
         t.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
     };
     if !token(name) {
-        return Err(format!("'{name}' is not a valid ROS 2 node name"));
+        return Err(NameError::Node(name.to_string()));
     }
     let ns_ok = namespace == "/"
         || namespace.is_empty()
         || (namespace.starts_with('/') && !namespace.ends_with('/') && namespace[1..].split('/').all(token));
     if !ns_ok {
-        return Err(format!("'{namespace}' is not a valid ROS 2 namespace"));
+        return Err(NameError::Namespace(namespace.to_string()));
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! what it sent and what it refused.
 
 use super::cdr::{self, CdrError};
-use super::graph::{self, Entity, NodeId, Qos};
+use super::graph::{self, Entity, NameError, NodeId, Qos};
 use super::msg::Message;
 use crate::ZenohTransport;
 use crate::options::NetError;
@@ -28,9 +28,9 @@ pub struct Ros2Options {
 
 impl Ros2Options {
     /// Checks the domain, the namespace and the name.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), NameError> {
         if self.domain > 232 {
-            return Err(format!("ROS domain {} is out of range (0..=232)", self.domain));
+            return Err(NameError::Domain(self.domain));
         }
         graph::check_node(&self.namespace, &self.name)
     }
@@ -85,7 +85,7 @@ impl std::fmt::Debug for Ros2Node {
 impl ZenohTransport {
     /// A ROS 2 node on this transport's session (announced by its liveliness token).
     pub async fn ros2_node(&self, options: &Ros2Options) -> Result<Ros2Node, NetError> {
-        options.validate().map_err(NetError::Config)?;
+        options.validate().map_err(|e| NetError::Config(e.to_string()))?;
         let session = self.inner.session.clone();
         let id = NodeId {
             domain: options.domain,
@@ -127,7 +127,7 @@ impl Ros2Node {
 
     /// The topic's absolute name under the node's namespace, checked.
     fn topic(&self, topic: &str) -> Result<String, NetError> {
-        graph::qualified_topic(&self.inner.id.namespace, topic).map_err(NetError::Config)
+        graph::qualified_topic(&self.inner.id.namespace, topic).map_err(|e| NetError::Config(e.to_string()))
     }
 
     async fn token<T: Message>(
