@@ -122,7 +122,9 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     let exec_zid = heartbeat_zid(&e.links);
     let robot_zid =
         e.links.incoming.iter().find(|i| i.role.as_deref() == Some("robot")).map(|i| i.from.clone());
-    let robot_zid = robot_zid.expect("the executive heard the robot");
+    let robot_zid = robot_zid.unwrap_or_else(|| {
+        panic!("the executive heard the robot: incoming {:?}\n{}", e.links.incoming, exec2.log_text())
+    });
     assert!(add_up(&exec_zid, &e.links, &r.links, "executive -> robot") >= 1);
     assert!(add_up(&robot_zid, &r.links, &e.links, "robot -> executive") >= 1);
     assert!(r.safety.applied > 0);
