@@ -5,6 +5,7 @@
 //! key. The shipped [`DEFAULT_CONFIG`] (`config/orsa.toml`) lists every key with its default
 //! and what it means.
 
+use orsa_actors::param::Invalid;
 use orsa_executive::ExecutiveParams;
 use orsa_hardware::server::ServerParams;
 use orsa_hardware::sim::SimConfig;
@@ -154,18 +155,24 @@ impl Default for Ros2Params {
 
 impl Ros2Params {
     /// Checks every value; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         orsa_net::ros2::Ros2Options { domain: 0, namespace: self.namespace.clone(), name: self.node.clone() }
             .validate()
-            .map_err(|e| format!("ros2.node / ros2.namespace: {e}"))?;
+            .map_err(|e| Invalid::new("ros2.node / ros2.namespace", e.to_string()))?;
         let r = self.cmd_vel_rate_hz;
         if !(r.is_finite() && r > 0.0 && r <= 10_000.0) {
-            return Err(format!("ros2.cmd_vel_rate_hz: must be from 0 to 10000 per second, not {r}"));
+            return Err(Invalid::new(
+                "ros2.cmd_vel_rate_hz",
+                format!("must be from 0 to 10000 per second, not {r}"),
+            ));
         }
         if !(1..=10_000).contains(&self.cmd_vel_burst) {
-            return Err(format!("ros2.cmd_vel_burst: must be from 1 to 10000, not {}", self.cmd_vel_burst));
+            return Err(Invalid::new(
+                "ros2.cmd_vel_burst",
+                format!("must be from 1 to 10000, not {}", self.cmd_vel_burst),
+            ));
         }
-        self.base.validate().map_err(|e| format!("ros2.base.{e}"))
+        self.base.validate().map_err(|e| e.under("ros2.base"))
     }
 }
 
@@ -217,24 +224,33 @@ impl LinkParams {
     }
 
     /// Checks the values against the robot's command timeout; the message names the key.
-    pub fn validate(&self, cmd_timeout_s: f64) -> Result<(), String> {
+    pub fn validate(&self, cmd_timeout_s: f64) -> Result<(), Invalid> {
         let p = self.heartbeat_period_s;
         if !(p.is_finite() && (0.001..=10.0).contains(&p)) {
-            return Err(format!("link.heartbeat_period_s: must be from 0.001 to 10 seconds, not {p}"));
+            return Err(Invalid::new(
+                "link.heartbeat_period_s",
+                format!("must be from 0.001 to 10 seconds, not {p}"),
+            ));
         }
         if let Some(l) = self.lease_s
             && !(l.is_finite() && l > 0.0 && l <= cmd_timeout_s)
         {
-            return Err(format!(
-                "link.lease_s: must be more than 0 and at most robot.cmd_timeout_s ({cmd_timeout_s} s), \
-                 so that a silent executive stops the robot within the velocity timeout, not {l}"
+            return Err(Invalid::new(
+                "link.lease_s",
+                format!(
+                    "must be more than 0 and at most robot.cmd_timeout_s ({cmd_timeout_s} s), so that a \
+                     silent executive stops the robot within the velocity timeout, not {l}"
+                ),
             ));
         }
         let lease = self.lease(cmd_timeout_s).as_secs_f64();
         if lease < 2.0 * p {
-            return Err(format!(
-                "link.lease_s ({lease} s) must be at least twice link.heartbeat_period_s ({p} s): \
-                 one late heartbeat would lose the executive"
+            return Err(Invalid::new(
+                "link.lease_s",
+                format!(
+                    "{lease} s must be at least twice link.heartbeat_period_s ({p} s): one late heartbeat \
+                     would lose the executive"
+                ),
             ));
         }
         Ok(())
@@ -308,39 +324,48 @@ impl Default for SupervisionParams {
 
 impl SupervisionParams {
     /// Checks the values; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if !(self.period_s.is_finite() && self.period_s > 0.0 && self.period_s <= 86_400.0) {
-            return Err(format!(
-                "supervision.period_s: must be from 0 to 86400 seconds, not {}",
-                self.period_s
+            return Err(Invalid::new(
+                "supervision.period_s",
+                format!("must be from 0 to 86400 seconds, not {}", self.period_s),
             ));
         }
         if !(self.retry_start_s.is_finite() && (0.0..=60.0).contains(&self.retry_start_s)) {
-            return Err(format!(
-                "supervision.retry_start_s: must be from 0 to 60 seconds, not {}",
-                self.retry_start_s
+            return Err(Invalid::new(
+                "supervision.retry_start_s",
+                format!("must be from 0 to 60 seconds, not {}", self.retry_start_s),
             ));
         }
         if !(self.handler_timeout_s.is_finite()
             && self.handler_timeout_s > 0.0
             && self.handler_timeout_s <= 3600.0)
         {
-            return Err(format!(
-                "supervision.handler_timeout_s: must be from 0 to 3600 seconds, not {}",
-                self.handler_timeout_s
+            return Err(Invalid::new(
+                "supervision.handler_timeout_s",
+                format!("must be from 0 to 3600 seconds, not {}", self.handler_timeout_s),
             ));
         }
         let mut seen = std::collections::BTreeSet::new();
         for (name, t) in &self.subtrees {
             let key = format!("supervision.subtrees.{name}");
             if !(t.period_s.is_finite() && t.period_s > 0.0 && t.period_s <= 86_400.0) {
-                return Err(format!("{key}.period_s: must be from 0 to 86400 seconds, not {}", t.period_s));
+                return Err(Invalid::new(
+                    format!("{key}.period_s"),
+                    format!("must be from 0 to 86400 seconds, not {}", t.period_s),
+                ));
             }
             if t.members.is_empty() {
-                return Err(format!("{key}.members: a subtree supervises at least one component"));
+                return Err(Invalid::new(
+                    format!("{key}.members"),
+                    "a subtree supervises at least one component",
+                ));
             }
             if let Some(m) = t.members.iter().find(|m| !seen.insert(m.as_str())) {
-                return Err(format!("{key}.members: '{m}' is in two subtrees (or twice in one)"));
+                return Err(Invalid::new(
+                    format!("{key}.members"),
+                    format!("'{m}' is in two subtrees (or twice in one)"),
+                ));
             }
         }
         Ok(())
@@ -379,11 +404,19 @@ pub enum ConfigError {
         message: String,
     },
     /// A value is out of range or inconsistent.
-    #[error("{origin}: {message}")]
+    #[error("{origin}: {error}")]
     Invalid {
         /// The file (or `<default>`).
         origin: String,
         /// The key and what is wrong.
+        error: Invalid,
+    },
+    /// A `--set` (or several) could not be applied.
+    #[error("--set {set}: {message}")]
+    Set {
+        /// The set or sets, as given (several joined by ` --set `).
+        set: String,
+        /// What is wrong, with the key.
         message: String,
     },
 }
@@ -432,7 +465,7 @@ impl Config {
             let line_start = text[..offset.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
             return Err(at(line_start, message));
         }
-        config.validate().map_err(|message| ConfigError::Invalid { origin: origin.to_string(), message })?;
+        config.validate().map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })?;
         Ok(config)
     }
 
@@ -471,11 +504,11 @@ impl Config {
 
     /// The parameters of the component `name` (its `[params.NAME]`, defaults where it has
     /// none); an error names the key.
-    pub fn params_of<P: serde::de::DeserializeOwned>(&self, name: &str) -> Result<P, String> {
+    pub fn params_of<P: serde::de::DeserializeOwned>(&self, name: &str) -> Result<P, Invalid> {
         let table = self.params.get(name).cloned().unwrap_or_default();
-        toml::Value::Table(table)
-            .try_into::<P>()
-            .map_err(|e: toml::de::Error| format!("params.{name}: {}", e.message().trim().replace('\n', " ")))
+        toml::Value::Table(table).try_into::<P>().map_err(|e: toml::de::Error| {
+            Invalid::new(format!("params.{name}"), e.message().trim().replace('\n', " "))
+        })
     }
 
     /// Renames the component `from` to `to`: its entry in the system (its kind stays what it
@@ -544,11 +577,14 @@ impl Config {
     /// process-level table (`sim`, `supervision`, `link`, `ros2`) or a component's name
     /// (`wallfollow.v_max_m_s=0.2` sets `[params.wallfollow]`). The result is checked as a
     /// file is; an error names the `--set` it comes from.
-    pub fn with_sets(&self, sets: &[String]) -> Result<Config, String> {
-        let mut table =
-            toml::Table::try_from(self).map_err(|e| format!("cannot write the configuration: {e}"))?;
+    pub fn with_sets(&self, sets: &[String]) -> Result<Config, ConfigError> {
+        let all = || sets.join(" --set ");
+        let mut table = toml::Table::try_from(self).map_err(|e| ConfigError::Set {
+            set: all(),
+            message: format!("cannot write the configuration: {e}"),
+        })?;
         for set in sets {
-            let err = |m: String| format!("--set {set}: {m}");
+            let err = |message: String| ConfigError::Set { set: set.clone(), message };
             let (path, value) =
                 set.split_once('=').ok_or_else(|| err("write it as table.key=value".into()))?;
             let mut keys: Vec<&str> = path.trim().split('.').collect();
@@ -574,31 +610,29 @@ impl Config {
             at.insert(last.to_string(), value);
         }
         let mut config: Config = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
-            format!("--set {}: {}", sets.join(" --set "), e.message().trim())
+            ConfigError::Set { set: all(), message: e.message().trim().to_string() }
         })?;
-        config.complete_params().map_err(|(_, m)| format!("--set {}: {m}", sets.join(" --set ")))?;
-        config.validate().map_err(|m| format!("--set {}: {m}", sets.join(" --set ")))?;
+        config.complete_params().map_err(|(_, message)| ConfigError::Set { set: all(), message })?;
+        config.validate().map_err(|e| ConfigError::Set { set: all(), message: e.to_string() })?;
         Ok(config)
     }
 
     /// Checks every table, and the parameters of every built-in component against the rest;
     /// the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
-        self.sim.validate().map_err(|e| format!("sim.{}: {}", e.key, e.problem))?;
+    pub fn validate(&self) -> Result<(), Invalid> {
+        self.sim.validate().map_err(|e| Invalid::new(format!("sim.{}", e.key), e.problem))?;
         self.supervision.validate()?;
         self.ros2.validate()?;
         // Kinds are checked against the catalog when the system starts (a program may add its own).
         self.system.validate(|_| true, &[])?;
         let robot = self.robot();
         let robot_at = format!("params.{}", robot.name);
-        self.link
-            .validate(robot.cmd_timeout_s)
-            .map_err(|m| m.replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s")))?;
+        let at_robot =
+            |reason: &str| reason.replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s"));
+        self.link.validate(robot.cmd_timeout_s).map_err(|e| Invalid::new(e.key, at_robot(&e.reason)))?;
         if let Some(master) = self.of_kind(&["master"]) {
-            switch_step_fits(&self.executive(), robot.cmd_timeout_s).map_err(|m| {
-                let m = m.to_string();
-                format!("params.{}.{m}", master.name)
-                    .replace("robot.cmd_timeout_s", &format!("{robot_at}.cmd_timeout_s"))
+            switch_step_fits(&self.executive(), robot.cmd_timeout_s).map_err(|e| {
+                Invalid::new(e.key, at_robot(&e.reason)).under(&format!("params.{}", master.name))
             })?;
         }
         // A subtree is a child of the top supervisor beside the components in no subtree: their
@@ -607,27 +641,27 @@ impl Config {
         if let Some(c) = self.system.components.iter().find(|c| {
             self.supervision.subtrees.contains_key(&c.name) && self.supervision.subtree_of(&c.name).is_none()
         }) {
-            return Err(format!(
-                "supervision.subtrees.{}: the component '{}' is in no subtree and has the subtree's name",
-                c.name, c.name
+            return Err(Invalid::new(
+                format!("supervision.subtrees.{}", c.name),
+                format!("the component '{}' is in no subtree and has the subtree's name", c.name),
             ));
         }
         let executive = self.executive();
         let master = self.of_kind(&["master"]).map_or("master", |c| c.name.as_str());
         let modes: Vec<&str> = executive.modes.keys().map(String::as_str).collect();
         if let Some(planner) = self.of_kind(&["planner"]) {
-            self.planner().validate(&modes).map_err(|m| {
-                let m = m.to_string();
-                format!("params.{}.{}", planner.name, m.strip_prefix("planner.").unwrap_or(&m))
+            self.planner().validate(&modes).map_err(|e| {
+                let key = e.key.strip_prefix("planner.").unwrap_or(&e.key).to_string();
+                Invalid::new(key, e.reason).under(&format!("params.{}", planner.name))
             })?;
         }
         // The behaviours a master arbitrates must be components of the system.
         if self.of_kind(&["master"]).is_some() {
             for (mode, m) in &executive.modes {
                 if let Some(b) = m.behaviours.iter().find(|b| !self.system.has(b)) {
-                    return Err(format!(
-                        "params.{master}.modes.{mode}.behaviours: '{b}' is not a component of the system \
-                         (system.components)"
+                    return Err(Invalid::new(
+                        format!("params.{master}.modes.{mode}.behaviours"),
+                        format!("'{b}' is not a component of the system (system.components)"),
                     ));
                 }
             }
@@ -755,13 +789,19 @@ mod tests {
         let c = base.with_sets(&["sim.step_s=0.02".into()]).expect("a process-level table");
         assert_eq!(c.sim.step_s, 0.02);
         let e = base.with_sets(&["wallfollow.no_such_key=1".into()]).expect_err("refused");
+        let e = e.to_string();
         assert!(e.contains("--set wallfollow.no_such_key=1") && e.contains("no_such_key"), "{e}");
-        let e = base.with_sets(&["wallfollow.v_max_m_s=-1".into()]).expect_err("refused");
+        let e = base.with_sets(&["wallfollow.v_max_m_s=-1".into()]).expect_err("refused").to_string();
         assert!(e.contains("params.wallfollow.v_max_m_s"), "{e}");
-        assert!(base.with_sets(&["wallfollow".into()]).expect_err("refused").contains("table.key=value"));
-        let e = base.with_sets(&["wallfollow.v_max_m_s.x=1".into()]).expect_err("refused");
+        let e = base.with_sets(&["wallfollow".into()]).expect_err("refused");
+        assert!(
+            matches!(&e, ConfigError::Set { set, message } if set == "wallfollow" && message.contains("table.key=value")),
+            "{e}"
+        );
+        let e = base.with_sets(&["wallfollow.v_max_m_s.x=1".into()]).expect_err("refused").to_string();
         assert!(e.contains("'params.wallfollow.v_max_m_s' is a value"), "{e}");
-        let e = base.with_sets(&["ghost.x=1".into()]).expect_err("neither a table nor a component");
+        let e =
+            base.with_sets(&["ghost.x=1".into()]).expect_err("neither a table nor a component").to_string();
         assert!(e.contains("ghost"), "{e}");
     }
 

@@ -16,6 +16,7 @@
 
 use orsa_actors::ServiceAddr;
 use orsa_actors::addr::valid_name;
+use orsa_actors::param::Invalid;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -70,15 +71,17 @@ impl ComponentSpec {
         self.kind.as_deref().unwrap_or(&self.name)
     }
 
-    /// The ports to wire, parsed.
-    pub fn wiring(&self) -> Result<Vec<(String, ServiceAddr)>, String> {
+    /// The ports to wire, parsed; an error's key is under `wire`.
+    pub fn wiring(&self) -> Result<Vec<(String, ServiceAddr)>, Invalid> {
         self.wire
             .iter()
             .map(|(port, target)| {
                 if !valid_name(port) {
-                    return Err(format!("port '{port}' is not a valid name"));
+                    return Err(Invalid::new("wire", format!("port '{port}' is not a valid name")));
                 }
-                let addr = target.parse::<ServiceAddr>().map_err(|e| format!("wire.{port}: {e}"))?;
+                let addr = target
+                    .parse::<ServiceAddr>()
+                    .map_err(|e| Invalid::new(format!("wire.{port}"), e.to_string()))?;
                 Ok((port.clone(), addr))
             })
             .collect()
@@ -105,35 +108,34 @@ impl Default for SystemSpec {
 impl SystemSpec {
     /// Checks names, duplicates and wiring; `known_kind` says whether a kind is in the catalog
     /// (the message lists `kinds`). Messages name the key.
-    pub fn validate(&self, known_kind: impl Fn(&str) -> bool, kinds: &[String]) -> Result<(), String> {
+    pub fn validate(&self, known_kind: impl Fn(&str) -> bool, kinds: &[String]) -> Result<(), Invalid> {
         if self.components.is_empty() {
-            return Err("system.components: list at least one component".into());
+            return Err(Invalid::new("system.components", "list at least one component"));
         }
         let mut seen = std::collections::BTreeSet::new();
         for (i, c) in self.components.iter().enumerate() {
             let at = format!("system.components[{i}]");
             if !valid_name(&c.name) {
-                return Err(format!(
-                    "{at}.name: '{}' is not a valid name (letters, digits, '_' or '-')",
-                    c.name
+                return Err(Invalid::new(
+                    format!("{at}.name"),
+                    format!("'{}' is not a valid name (letters, digits, '_' or '-')", c.name),
                 ));
             }
             if !seen.insert(c.name.as_str()) {
-                return Err(format!("{at}.name: '{}' is listed twice", c.name));
+                return Err(Invalid::new(format!("{at}.name"), format!("'{}' is listed twice", c.name)));
             }
             if !known_kind(c.kind()) {
-                return Err(format!(
-                    "{at}.kind: no component kind '{}' (known: {})",
-                    c.kind(),
-                    kinds.join(", ")
+                return Err(Invalid::new(
+                    format!("{at}.kind"),
+                    format!("no component kind '{}' (known: {})", c.kind(), kinds.join(", ")),
                 ));
             }
             if let Some(s) = &c.state
                 && !valid_name(s)
             {
-                return Err(format!("{at}.state: '{s}' is not a valid state name"));
+                return Err(Invalid::new(format!("{at}.state"), format!("'{s}' is not a valid state name")));
             }
-            c.wiring().map_err(|e| format!("{at}.{e}"))?;
+            c.wiring().map_err(|e| e.under(&at))?;
         }
         Ok(())
     }

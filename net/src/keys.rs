@@ -55,13 +55,16 @@ pub struct Process {
     pub role: String,
 }
 
+/// A key prefix that is not chunks of letters, digits, `_` or `-` separated by `/`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("'{0}' is not a valid key prefix (chunks of letters, digits, '_' or '-', separated by '/')")]
+pub struct BadPrefix(pub String);
+
 impl Keys {
     /// The keys under `prefix` (one or more chunks of letters, digits, `_`, `-`, separated by `/`).
-    pub fn new(prefix: &str) -> Result<Self, String> {
+    pub fn new(prefix: &str) -> Result<Self, BadPrefix> {
         if prefix.is_empty() || !prefix.split('/').all(valid_name) {
-            return Err(format!(
-                "'{prefix}' is not a valid key prefix (chunks of letters, digits, '_' or '-', separated by '/')"
-            ));
+            return Err(BadPrefix(prefix.to_string()));
         }
         Ok(Keys { root: format!("{prefix}/v{}", orsa_actors::wire::WIRE_VERSION) })
     }

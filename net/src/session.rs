@@ -105,7 +105,7 @@ impl ZenohTransport {
     /// discovery, and installs the transport on `registry` (which offers peers every service
     /// hosted here). Needs a multi-thread tokio runtime.
     pub async fn open(registry: &Registry, options: &NetOptions, role: &str) -> Result<Self, NetError> {
-        let keys = Keys::new(&options.prefix).map_err(NetError::Config)?;
+        let keys = Keys::new(&options.prefix).map_err(|e| NetError::Config(e.to_string()))?;
         let config = options.zenoh_config()?;
         let session = zenoh::open(config).await.map_err(|e| NetError::Open(e.to_string()))?;
         let zid = session.zid().to_string();

@@ -56,7 +56,10 @@ impl Parts<'_> {
 
     /// The parameters of the component `spec` describes, from its `[params.NAME]` table
     /// (defaults where it has none); unknown keys and bad values are errors that name the key.
-    pub fn params<P: serde::de::DeserializeOwned>(&self, spec: &ComponentSpec) -> Result<P, String> {
+    pub fn params<P: serde::de::DeserializeOwned>(
+        &self,
+        spec: &ComponentSpec,
+    ) -> Result<P, orsa_actors::param::Invalid> {
         self.config.params_of(&spec.name)
     }
 }
@@ -79,7 +82,11 @@ pub(crate) struct Made {
     pub(crate) remove: Box<dyn Fn() + Send + Sync>,
 }
 
-type Make = dyn Fn(&Registry, &Parts<'_>, &ComponentSpec, Duration) -> Result<Made, String> + Send + Sync;
+type Make = dyn Fn(&Registry, &Parts<'_>, &ComponentSpec, Duration) -> Result<Made, BoxError> + Send + Sync;
+
+/// Whatever error a maker gives: its own type, a parameter's [`Invalid`](orsa_actors::param::Invalid),
+/// an I/O error, or a message (`Err("why".into())`); `?` converts any of them.
+pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
 /// One kind of component.
 #[derive(Clone)]
@@ -180,7 +187,7 @@ impl Catalog {
         &mut self,
         kind: &str,
         place: Place,
-        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, BoxError> + Send + Sync + 'static,
     ) -> &mut Self {
         self.insert(kind, place, true, make)
     }
@@ -191,7 +198,7 @@ impl Catalog {
         &mut self,
         kind: &str,
         place: Place,
-        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, BoxError> + Send + Sync + 'static,
     ) -> &mut Self {
         self.insert(kind, place, false, make)
     }
@@ -201,11 +208,11 @@ impl Catalog {
         kind: &str,
         place: Place,
         timed: bool,
-        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, String> + Send + Sync + 'static,
+        make: impl Fn(&Parts<'_>, &ComponentSpec) -> Result<C, BoxError> + Send + Sync + 'static,
     ) -> &mut Self {
         let make: Arc<Make> = Arc::new(move |registry, parts, spec, timeout| {
             let component = make(parts, spec)?;
-            let handle = ComponentHandle::new(registry, &spec.name, component).map_err(|e| e.to_string())?;
+            let handle = ComponentHandle::new(registry, &spec.name, component)?;
             let handle = if timed { handle.with_handler_timeout(timeout) } else { handle };
             let child = handle.child_spec();
             Ok(Made { child, remove: Box::new(move || handle.remove()) })
@@ -219,7 +226,7 @@ impl Catalog {
     pub fn register_robot(
         &mut self,
         kind: &str,
-        make: impl Fn(&RobotSetup<'_>) -> Result<Robot, String> + Send + Sync + 'static,
+        make: impl Fn(&RobotSetup<'_>) -> Result<Robot, BoxError> + Send + Sync + 'static,
     ) -> &mut Self {
         self.robots.insert(kind.to_string(), Arc::new(make));
         self
@@ -242,8 +249,8 @@ impl Catalog {
     /// Brings up a robot of kind `kind`.
     pub fn start_robot(&self, kind: &str, setup: &RobotSetup<'_>) -> Result<Robot, RobotError> {
         self.check_robot(kind)?;
-        let mut robot =
-            (self.robots[kind])(setup).map_err(|message| RobotError::Make { kind: kind.into(), message })?;
+        let mut robot = (self.robots[kind])(setup)
+            .map_err(|e| RobotError::Make { kind: kind.into(), message: e.to_string() })?;
         robot.kind = kind.into();
         Ok(robot)
     }
@@ -272,6 +279,6 @@ impl Catalog {
             message,
         };
         let kind = self.kinds.get(spec.kind()).ok_or_else(|| error("no such kind in the catalog".into()))?;
-        (kind.make)(registry, parts, spec, handler_timeout).map_err(error)
+        (kind.make)(registry, parts, spec, handler_timeout).map_err(|e| error(e.to_string()))
     }
 }

@@ -29,7 +29,7 @@ pub mod robots;
 /// The `[system]` table (the crate's [`crate::spec`], which the config reads too).
 pub use crate::spec;
 
-pub use catalog::{Catalog, Kind, MakeError, Parts, RobotBoards, SIM};
+pub use catalog::{BoxError, Catalog, Kind, MakeError, Parts, RobotBoards, SIM};
 pub use robots::{Robot, RobotError, RobotHandle, RobotSetup};
 pub use spec::{ComponentSpec, Place, SystemSpec};
 
@@ -44,9 +44,10 @@ use std::time::Duration;
 /// Why a system could not be brought up.
 #[derive(Debug, thiserror::Error)]
 pub enum AssemblyError {
-    /// The `[system]` table does not describe a system this catalog can make.
+    /// The `[system]` table does not describe a system this catalog can make (the key at
+    /// fault, and why).
     #[error("{0}")]
-    Invalid(String),
+    Invalid(#[from] orsa_actors::param::Invalid),
     /// A component could not be made.
     #[error("making {0}")]
     Make(#[from] MakeError),
@@ -204,8 +205,9 @@ impl<'a> SystemBuilder<'a> {
     /// The components this process will host.
     pub fn hosted(&self) -> Result<Vec<&'a ComponentSpec>, AssemblyError> {
         if let Some(missing) = self.names.iter().flatten().find(|n| !self.config.system.has(n)) {
-            return Err(AssemblyError::Invalid(format!(
-                "'{missing}' is not a component of the system (system.components)"
+            return Err(AssemblyError::Invalid(orsa_actors::param::Invalid::new(
+                "system.components",
+                format!("'{missing}' is not a component of the system"),
             )));
         }
         Ok(self
@@ -226,10 +228,12 @@ impl<'a> SystemBuilder<'a> {
         let s = &self.config.supervision;
         // Events name their supervisor: the top must be told apart from its subtrees.
         if s.subtrees.contains_key(&self.name) {
-            return Err(AssemblyError::Invalid(format!(
-                "supervision.subtrees.{0}: '{0}' is the name of this process's top supervisor; \
-                 give the subtree another name",
-                self.name
+            return Err(AssemblyError::Invalid(orsa_actors::param::Invalid::new(
+                format!("supervision.subtrees.{}", self.name),
+                format!(
+                    "'{}' is the name of this process's top supervisor; give the subtree another name",
+                    self.name
+                ),
             )));
         }
         let timeout = Duration::from_secs_f64(s.handler_timeout_s);
@@ -313,7 +317,7 @@ async fn configure(registry: &Registry, c: &ComponentSpec) -> Result<(), Assembl
         master.set_state(state).await.map_err(|e| error(format!("state '{state}': {e}")))?;
     }
     let wiring = WiringMaster::new(registry);
-    for (port, target) in c.wiring().map_err(error)? {
+    for (port, target) in c.wiring().map_err(|e| error(e.to_string()))? {
         wiring
             .connect_named(&c.name, &port, &target)
             .await

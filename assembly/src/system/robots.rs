@@ -196,10 +196,10 @@ impl Robot {
 }
 
 /// A robot kind's maker.
-pub(crate) type MakeRobot = dyn Fn(&RobotSetup<'_>) -> Result<Robot, String> + Send + Sync;
+pub(crate) type MakeRobot = dyn Fn(&RobotSetup<'_>) -> Result<Robot, super::catalog::BoxError> + Send + Sync;
 
 /// The simulator, building the robot the config's `[sim]` table describes.
-pub(crate) fn simulated(setup: &RobotSetup<'_>) -> Result<Robot, String> {
+pub(crate) fn simulated(setup: &RobotSetup<'_>) -> Result<Robot, super::catalog::BoxError> {
     let sim = SimNomad200::new(setup.world.clone(), setup.config.sim.clone(), setup.seed)
         .map_err(|e| format!("simulator: {e}"))?;
     Ok(Robot::simulated(SimRobot::spawn(sim, setup.clock), setup.config))
@@ -216,10 +216,15 @@ pub struct Ros2Robot {
 
 impl Ros2Robot {
     /// Sends the base's commands through `publisher` from now on (once: a second is refused).
-    pub fn connect_publisher(&self, publisher: Ros2Publisher<Twist>) -> Result<(), String> {
-        self.publisher.set(publisher).map_err(|_| "the base's command publisher is already set".to_string())
+    pub fn connect_publisher(&self, publisher: Ros2Publisher<Twist>) -> Result<(), AlreadySet> {
+        self.publisher.set(publisher).map_err(|_| AlreadySet)
     }
 }
+
+/// A ROS 2 base's command publisher was set already.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the base's command publisher is already set")]
+pub struct AlreadySet;
 
 impl RobotHandle for Ros2Robot {
     fn stop(self: Box<Self>) -> StopFuture {
@@ -233,7 +238,7 @@ impl RobotHandle for Ros2Robot {
 }
 
 /// A ROS 2 base described by the config's `[ros2.base]`.
-pub(crate) fn ros2(setup: &RobotSetup<'_>) -> Result<Robot, String> {
+pub(crate) fn ros2(setup: &RobotSetup<'_>) -> Result<Robot, super::catalog::BoxError> {
     let publisher: Arc<OnceLock<Ros2Publisher<Twist>>> = Arc::default();
     let (slot, clock) = (Arc::clone(&publisher), setup.clock);
     let send: orsa_hardware::ros2base::SendCommand = Arc::new(move |v, w| {

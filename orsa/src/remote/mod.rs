@@ -28,8 +28,8 @@ pub use executive::{EXECUTIVE_TOP, ExecutiveOptions, ExecutiveReport, executive}
 pub use param::{ParamAction, ParamOptions, param};
 pub use robot::{FALLBACK, ROBOT_TOP, RobotOptions, RobotReport, robot};
 pub use tools::{
-    EchoOptions, ListOptions, StateOptions, SwitchOptions, WireOptions, echo, list, parse_change, state,
-    switch, wire,
+    BadChange, EchoOptions, ListOptions, StateOptions, SwitchOptions, WireOptions, echo, list, parse_change,
+    state, switch, wire,
 };
 
 use crate::config::Config;

@@ -70,11 +70,20 @@ pub struct SwitchOptions {
     pub net: NetworkOptions,
 }
 
+/// A change typed on the command line that does not read (the text, and why).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("'{text}': {why} (COMPONENT.PORT=SERVICE, COMPONENT.PORT= or COMPONENT:STATE)")]
+pub struct BadChange {
+    /// The change as typed.
+    pub text: String,
+    /// What is wrong with it.
+    pub why: String,
+}
+
 /// One change as typed on the command line (see [`SwitchOptions::changes`]).
-pub fn parse_change(text: &str) -> Result<Change, String> {
-    let bad =
-        |why: &str| format!("'{text}': {why} (COMPONENT.PORT=SERVICE, COMPONENT.PORT= or COMPONENT:STATE)");
-    let name = |s: &str, what: &str| -> Result<String, String> {
+pub fn parse_change(text: &str) -> Result<Change, BadChange> {
+    let bad = |why: &str| BadChange { text: text.to_string(), why: why.to_string() };
+    let name = |s: &str, what: &str| -> Result<String, BadChange> {
         if orsa_actors::addr::valid_name(s) {
             Ok(s.to_string())
         } else {

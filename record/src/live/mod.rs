@@ -223,11 +223,14 @@ pub fn serve_process(
 }
 
 /// `--foxglove`'s value: an address to listen on, `host:port`.
-pub fn parse_addr(s: &str) -> Result<SocketAddr, String> {
-    s.parse::<SocketAddr>().map_err(|_| {
-        format!("'{s}' is not an address to listen on: give IP:PORT, e.g. {DEFAULT_ADDR} or 0.0.0.0:8765")
-    })
+pub fn parse_addr(s: &str) -> Result<SocketAddr, BadAddr> {
+    s.parse::<SocketAddr>().map_err(|_| BadAddr(s.to_string()))
 }
+
+/// `--foxglove`'s value is not an address to listen on.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("'{0}' is not an address to listen on: give IP:PORT, e.g. {DEFAULT_ADDR} or 0.0.0.0:8765")]
+pub struct BadAddr(pub String);
 
 #[cfg(test)]
 mod tests {
@@ -238,6 +241,6 @@ mod tests {
         assert_eq!(parse_addr("0.0.0.0:9000").map(|a| a.port()), Ok(9000));
         assert!(parse_addr(DEFAULT_ADDR).is_ok());
         let e = parse_addr("localhost").expect_err("not IP:PORT");
-        assert!(e.contains("IP:PORT"), "{e}");
+        assert!(e.to_string().contains("IP:PORT"), "{e}");
     }
 }

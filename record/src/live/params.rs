@@ -23,8 +23,13 @@ pub trait LiveParams: Send + Sync {
 
     /// Sets parameter `name` to `value`: the value now in force, or why it was refused
     /// (unknown name, wrong type, out of range), in words for the user.
-    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, String>>;
+    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>>;
 }
+
+/// Why a [`LiveParams`] refused a set: whatever error its backend gives (a component's
+/// [`ParamError`](crate::system::live_params::ParamError), a system not up yet, ...), shown to
+/// the user as it displays.
+pub type SetError = Box<dyn std::error::Error + Send + Sync>;
 
 /// The components' own parameters, through their `param` services: what a set does is what
 /// `orsa param set` does (checked by the component as its config file is).
@@ -50,9 +55,9 @@ impl LiveParams for ParamDirectory {
         })
     }
 
-    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, String>> {
+    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>> {
         let directory = self.clone();
-        Box::pin(async move { directory.set(&name, value).await.map(|p| p.value).map_err(|e| e.to_string()) })
+        Box::pin(async move { directory.set(&name, value).await.map(|p| p.value).map_err(SetError::from) })
     }
 }
 
@@ -76,10 +81,10 @@ impl LiveParams for Pending {
         }
     }
 
-    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, String>> {
+    fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>> {
         match self.0.get() {
             Some(d) => LiveParams::set(d, name, value),
-            None => Box::pin(async { Err("the system is not up yet".to_owned()) }),
+            None => Box::pin(async { Err(SetError::from("the system is not up yet")) }),
         }
     }
 }
@@ -204,19 +209,24 @@ pub fn to_value(value: &Value) -> Option<ParameterValue> {
     })
 }
 
+/// A parameter value that JSON cannot hold.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{0} is not a finite number")]
+pub struct NotFinite(pub f64);
+
 /// A protocol value as JSON; a float that JSON cannot hold (NaN, infinite) is refused.
-pub fn from_value(value: &ParameterValue) -> Result<Value, String> {
+pub fn from_value(value: &ParameterValue) -> Result<Value, NotFinite> {
     Ok(match value {
         ParameterValue::Integer(i) => Value::from(*i),
         ParameterValue::Float64(f) => match serde_json::Number::from_f64(*f) {
             Some(n) => Value::Number(n),
-            None => return Err(format!("{f} is not a finite number")),
+            None => return Err(NotFinite(*f)),
         },
         ParameterValue::Bool(b) => Value::Bool(*b),
         ParameterValue::String(s) => Value::String(s.clone()),
         ParameterValue::Array(items) => Value::Array(items.iter().map(from_value).collect::<Result<_, _>>()?),
         ParameterValue::Dict(map) => Value::Object(
-            map.iter().map(|(k, v)| Ok((k.clone(), from_value(v)?))).collect::<Result<_, String>>()?,
+            map.iter().map(|(k, v)| Ok((k.clone(), from_value(v)?))).collect::<Result<_, NotFinite>>()?,
         ),
     })
 }
@@ -268,8 +278,8 @@ mod tests {
             Box::pin(async move { found })
         }
 
-        fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, String>> {
-            let done = self.set_now(&name, value);
+        fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>> {
+            let done = self.set_now(&name, value).map_err(SetError::from);
             Box::pin(async move { done })
         }
     }

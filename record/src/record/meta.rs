@@ -129,49 +129,39 @@ impl RunMeta {
 
     /// Reads it back from an MCAP metadata map; the error names the key that is missing or
     /// wrong. The versions are read, not checked: [`RunMeta::check_versions`] does that.
-    pub fn from_metadata(m: &BTreeMap<String, String>) -> Result<RunMeta, String> {
-        let get = |k: &str| {
-            m.get(k).cloned().ok_or_else(|| format!("the metadata record '{RUN_METADATA}' has no key '{k}'"))
-        };
-        let parse = |k: &str, what: &str| -> Result<String, String> {
+    pub fn from_metadata(m: &BTreeMap<String, String>) -> Result<RunMeta, MetaError> {
+        let get = |k: &str| m.get(k).cloned().ok_or_else(|| MetaError::Missing(k.to_string()));
+        let parse = |k: &str, what: &str| -> Result<String, MetaError> {
             let v = get(k)?;
-            if v.is_empty() {
-                Err(format!("metadata '{RUN_METADATA}': key '{k}' is empty, not {what}"))
-            } else {
-                Ok(v)
-            }
+            if v.is_empty() { Err(MetaError::bad(k, format!("is empty, not {what}"))) } else { Ok(v) }
         };
-        let num = |k: &str| -> Result<u64, String> {
+        let num = |k: &str| -> Result<u64, MetaError> {
             let v = parse(k, "a number")?;
-            v.parse()
-                .map_err(|_| format!("metadata '{RUN_METADATA}': key '{k}' is '{v}', not a whole number"))
+            v.parse().map_err(|_| MetaError::bad(k, format!("is '{v}', not a whole number")))
         };
         let duration = parse("duration_s", "a number")?;
         let duration_s =
             duration.parse::<f64>().ok().filter(|d| d.is_finite() && *d > 0.0).ok_or_else(|| {
-                format!("metadata '{RUN_METADATA}': key 'duration_s' is '{duration}', not a positive number")
+                MetaError::bad("duration_s", format!("is '{duration}', not a positive number"))
             })?;
         let wire = num("wire")?;
         let process = parse("process", "a process role")?;
         if !PROCESSES.contains(&process.as_str()) {
-            return Err(format!(
-                "metadata '{RUN_METADATA}': key 'process' is '{process}', not one of {}",
-                PROCESSES.join(", ")
+            return Err(MetaError::bad(
+                "process",
+                format!("is '{process}', not one of {}", PROCESSES.join(", ")),
             ));
         }
         let live = match parse("clock", "'paused' or 'live'")?.as_str() {
             "paused" => false,
             "live" => true,
             other => {
-                return Err(format!(
-                    "metadata '{RUN_METADATA}': key 'clock' is '{other}', not 'paused' or 'live'"
-                ));
+                return Err(MetaError::bad("clock", format!("is '{other}', not 'paused' or 'live'")));
             }
         };
         Ok(RunMeta {
             orsa: parse("orsa", "a version")?,
-            wire: u32::try_from(wire)
-                .map_err(|_| format!("metadata '{RUN_METADATA}': key 'wire' is {wire}, too large"))?,
+            wire: u32::try_from(wire).map_err(|_| MetaError::bad("wire", format!("is {wire}, too large")))?,
             process,
             world: get("world")?,
             world_toml: get("world_toml")?,
@@ -189,20 +179,45 @@ impl RunMeta {
     /// Whether this orsa can replay it: the same orsa version and wire version. A recording
     /// from another version may decode, but its components are not these components, so a
     /// replay could not be bit for bit.
-    pub fn check_versions(&self) -> Result<(), String> {
+    pub fn check_versions(&self) -> Result<(), MetaError> {
         if self.wire != WIRE_VERSION {
-            return Err(format!(
+            return Err(MetaError::Version(format!(
                 "it was recorded with wire version {} and this orsa speaks version {WIRE_VERSION}",
                 self.wire
-            ));
+            )));
         }
         if self.orsa != ORSA_VERSION {
-            return Err(format!(
+            return Err(MetaError::Version(format!(
                 "it was recorded by orsa {} and this is orsa {ORSA_VERSION}: replay it with the orsa that made it",
                 self.orsa
-            ));
+            )));
         }
         Ok(())
+    }
+}
+
+/// Why a recording's run metadata cannot be read, or replayed by this orsa.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MetaError {
+    /// A key is missing.
+    #[error("the metadata record '{RUN_METADATA}' has no key '{0}'")]
+    Missing(String),
+    /// A key's value is wrong.
+    #[error("metadata '{RUN_METADATA}': key '{key}' {problem}")]
+    Bad {
+        /// The key.
+        key: String,
+        /// What is wrong with its value (`is 'x1', not a whole number`).
+        problem: String,
+    },
+    /// It was made by another orsa or wire version.
+    #[error("{0}")]
+    Version(String),
+}
+
+impl MetaError {
+    fn bad(key: &str, problem: String) -> MetaError {
+        MetaError::Bad { key: key.to_string(), problem }
     }
 }
 
@@ -242,29 +257,32 @@ mod tests {
     fn a_missing_or_bad_key_is_named() {
         let mut m = meta().to_metadata();
         m.remove("config_toml");
-        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'config_toml'"));
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").to_string().contains("'config_toml'"));
         let mut m = meta().to_metadata();
         m.insert("seed".into(), "x1".into());
-        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'seed' is 'x1'"));
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").to_string().contains("'seed' is 'x1'"));
         let mut m = meta().to_metadata();
         m.insert("duration_s".into(), "-3".into());
-        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'duration_s'"));
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").to_string().contains("'duration_s'"));
         let mut m = meta().to_metadata();
         m.insert("process".into(), "tool".into());
-        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'process' is 'tool'"));
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").to_string().contains("'process' is 'tool'"));
         let mut m = meta().to_metadata();
         m.insert("clock".into(), "fast".into());
-        assert!(RunMeta::from_metadata(&m).expect_err("refused").contains("'clock' is 'fast'"));
+        assert!(RunMeta::from_metadata(&m).expect_err("refused").to_string().contains("'clock' is 'fast'"));
     }
 
     #[test]
     fn another_version_is_refused_with_both_versions() {
         let m = RunMeta { wire: WIRE_VERSION + 1, ..meta() };
         assert!(
-            m.check_versions().expect_err("refused").contains(&format!("wire version {}", WIRE_VERSION + 1))
+            m.check_versions()
+                .expect_err("refused")
+                .to_string()
+                .contains(&format!("wire version {}", WIRE_VERSION + 1))
         );
         let m = RunMeta { orsa: "0.0.1".into(), ..meta() };
-        assert!(m.check_versions().expect_err("refused").contains("orsa 0.0.1"));
+        assert!(m.check_versions().expect_err("refused").to_string().contains("orsa 0.0.1"));
         assert!(meta().check_versions().is_ok());
     }
 }

@@ -326,9 +326,9 @@ impl Recording {
             return Err(ReplayError::NoMetadata { path: path.to_path_buf() });
         };
         let meta = RunMeta::from_metadata(&metadata)
-            .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
+            .map_err(|e| ReplayError::Metadata { path: path.to_path_buf(), problem: e.to_string() })?;
         meta.check_versions()
-            .map_err(|problem| ReplayError::Version { path: path.to_path_buf(), problem })?;
+            .map_err(|e| ReplayError::Version { path: path.to_path_buf(), problem: e.to_string() })?;
         let mut rec = Recording {
             path: path.to_path_buf(),
             meta,
