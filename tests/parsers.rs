@@ -398,8 +398,8 @@ fn config_parses_or_names_the_origin(text: &str) -> Result<(), TestCaseError> {
                 ConfigError::Invalid { .. } => {
                     prop_assert!(message.starts_with(&format!("{ORIGIN}: ")), "{}", message);
                 }
-                ConfigError::Read { .. } => {
-                    prop_assert!(false, "parsing text cannot fail to read: {}", message)
+                ConfigError::Read { .. } | ConfigError::Set { .. } => {
+                    prop_assert!(false, "parsing text cannot fail to read or to set: {}", message)
                 }
             }
         }

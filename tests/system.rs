@@ -120,7 +120,6 @@ impl orsa_hardware::board::MotorBoard for Counting {
 #[tokio::test(start_paused = true)]
 async fn a_robot_kind_of_a_users_own_is_driven_through_the_same_stack() {
     use orsa::mission::stack::{Stack, StackError};
-    use orsa::system::Robot;
     use orsa_interfaces::nomad200::{self, RobotParams};
     let commands = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     let mut catalog = Catalog::builtin();
@@ -128,13 +127,13 @@ async fn a_robot_kind_of_a_users_own_is_driven_through_the_same_stack() {
     catalog.register_robot("counted", move |setup| {
         // The simulator's robot, its motors behind a board of the user's own, told apart by
         // a top speed of its own.
-        let mut robot = Catalog::builtin().start_robot(SIM, setup).map_err(|e| e.to_string())?;
+        let mut robot = Catalog::builtin().start_robot(SIM, setup)?;
         robot.motors = orsa_hardware::any::AnyMotorBoard::other(Counting {
             inner: robot.motors.clone(),
             commands: std::sync::Arc::clone(&counted),
         });
         robot.params.max_v_m_s = 0.3;
-        Ok::<Robot, String>(robot)
+        Ok(robot)
     });
     let config = config(
         r#"
