@@ -173,7 +173,7 @@ fn run_meta(opts: &RunOptions) -> Result<crate::record::RunMeta, MissionError> {
         0,
         opts.faults.as_ref(),
     )
-    .map_err(MissionError::Invalid)
+    .map_err(|e| MissionError::Invalid(e.to_string()))
 }
 
 /// Runs the corridor mission for `duration_s` simulated seconds and measures it.

@@ -209,11 +209,16 @@ impl Exchanged {
     }
 
     /// The bytes of a payload that came in.
-    pub fn bytes(&self) -> Result<Vec<u8>, String> {
+    pub fn bytes(&self) -> Result<Vec<u8>, BadPayload> {
         use base64::Engine as _;
-        let text = self.cbor.as_deref().ok_or("it has no 'cbor' payload")?;
+        let text = self.cbor.as_deref().ok_or_else(|| BadPayload("it has no 'cbor' payload".into()))?;
         base64::engine::general_purpose::STANDARD
             .decode(text)
-            .map_err(|e| format!("its 'cbor' is not base64: {e}"))
+            .map_err(|e| BadPayload(format!("its 'cbor' is not base64: {e}")))
     }
 }
+
+/// A recorded payload whose bytes cannot be read back (what is wrong with it).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct BadPayload(pub String);

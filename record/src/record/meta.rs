@@ -79,9 +79,9 @@ impl RunMeta {
         live: bool,
         clock_origin_ns: u64,
         faults: Option<&crate::faults::FaultPlan>,
-    ) -> Result<RunMeta, String> {
+    ) -> Result<RunMeta, MetaError> {
         let toml = |what: &str, r: Result<String, toml::ser::Error>| {
-            r.map_err(|e| format!("cannot write the {what} into the recording: {e}"))
+            r.map_err(|e| MetaError::Write { what: what.to_string(), error: e.to_string() })
         };
         Ok(RunMeta {
             orsa: ORSA_VERSION.into(),
@@ -213,6 +213,14 @@ pub enum MetaError {
     /// It was made by another orsa or wire version.
     #[error("{0}")]
     Version(String),
+    /// Something could not be written into it.
+    #[error("cannot write the {what} into the recording: {error}")]
+    Write {
+        /// What (the world, the configuration, the fault plan).
+        what: String,
+        /// Why.
+        error: String,
+    },
 }
 
 impl MetaError {

@@ -492,13 +492,13 @@ impl Recording {
                             // A recording from before failures were kept whole: the
                             // request went unanswered.
                             (None, Some(_)) => Err(PatternError::NoAnswer(service.clone())),
-                            (None, None) => Ok(e.bytes().map_err(decode)?),
+                            (None, None) => Ok(e.bytes().map_err(|e| decode(e.to_string()))?),
                         };
                         log.replies.insert((service, n), (log_time, reply));
                     }
                     ExchangeKind::Update | ExchangeKind::Firing => {
                         let n = numbered(&e)?;
-                        let bytes = e.bytes().map_err(decode)?;
+                        let bytes = e.bytes().map_err(|e| decode(e.to_string()))?;
                         let list =
                             if kind == ExchangeKind::Update { &mut log.updates } else { &mut log.firings };
                         list.entry((service, n)).or_default().push((log_time, bytes));
