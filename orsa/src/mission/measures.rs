@@ -59,7 +59,7 @@ impl Measures {
     ) -> Option<Sample> {
         let t_s = k as f64 * self.sample_period_s;
         self.watch.sample(t_s, self.sample_period_s, t.v_m_s, t.omega_rad_s, driving.is_some());
-        if k % self.check_every == 0 {
+        if k.is_multiple_of(self.check_every) {
             self.watch.check_clients(&stack.registry, t_s);
             let behaviours: Vec<&str> = self.behaviours.iter().map(String::as_str).collect();
             self.watch.check_wiring(&stack.registry, &behaviours, driving, t_s).await;
@@ -80,7 +80,7 @@ impl Measures {
         };
         self.metrics.add(&sample);
         self.hours.span.add(&sample);
-        (k % self.hours.every == 0).then_some(sample)
+        k.is_multiple_of(self.hours.every).then_some(sample)
     }
 
     /// Takes the row that `last` (from [`tick`](Self::tick)) ends, with the supervisor

@@ -83,7 +83,7 @@ pub struct RunOptions {
     /// ground truth, as a recording is.
     pub live: Option<Arc<crate::live::tap::LiveTap>>,
     /// A program's own observers of the run, told of it after the built-in ones (see
-    /// [`observe`](self::observe) and [`RunOptions::observe`]).
+    /// [`observe`] and [`RunOptions::observe`]).
     pub observers: Vec<Box<dyn RunObserver>>,
 }
 

@@ -133,7 +133,7 @@ impl RunObserver for Recorder {
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, &super::stack::truth_of(tick.stack)));
+        self.0.truth(truth_sample(tick.truth, super::stack::truth_of(tick.stack)));
     }
 
     fn on_end(&mut self, outcome: &mut super::RunOutcome) {
@@ -155,7 +155,7 @@ impl RunObserver for LiveView {
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, &super::stack::truth_of(tick.stack)));
+        self.0.truth(truth_sample(tick.truth, super::stack::truth_of(tick.stack)));
     }
 }
 
@@ -246,7 +246,7 @@ pub(super) struct Progress {
 
 impl RunObserver for Progress {
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        if tick.k % self.every == 0 {
+        if tick.k.is_multiple_of(self.every) {
             (self.report)(tick.t_s);
         }
     }
