@@ -512,7 +512,8 @@ impl Config {
     }
 
     /// Renames the component `from` to `to`: its entry in the system (its kind stays what it
-    /// was), its parameters and its place in the supervision subtrees.
+    /// was), its parameters, its place in the supervision subtrees, and where a master's modes
+    /// and rules name it.
     pub fn rename_component(&mut self, from: &str, to: &str) {
         for c in self.system.components.iter_mut().filter(|c| c.name == from) {
             c.kind = Some(c.kind().to_string());
@@ -523,6 +524,30 @@ impl Config {
         }
         for t in self.supervision.subtrees.values_mut() {
             t.members.iter_mut().filter(|m| *m == from).for_each(|m| *m = to.to_string());
+        }
+        // A master names the behaviours it arbitrates in its modes and rules.
+        let masters: Vec<String> =
+            self.system.components.iter().filter(|c| c.kind() == "master").map(|c| c.name.clone()).collect();
+        let rename = |v: &mut toml::Value| {
+            if v.as_str() == Some(from) {
+                *v = toml::Value::String(to.to_string());
+            }
+        };
+        for master in masters {
+            let Some(modes) = self.params.get_mut(&master).and_then(|p| p.get_mut("modes")) else { continue };
+            for mode in modes.as_table_mut().into_iter().flat_map(|m| m.iter_mut().map(|(_, v)| v)) {
+                let Some(mode) = mode.as_table_mut() else { continue };
+                if let Some(bs) = mode.get_mut("behaviours").and_then(toml::Value::as_array_mut) {
+                    bs.iter_mut().for_each(rename);
+                }
+                if let Some(rules) = mode.get_mut("rules").and_then(toml::Value::as_array_mut) {
+                    for rule in rules.iter_mut().filter_map(toml::Value::as_table_mut) {
+                        if let Some(d) = rule.get_mut("drive") {
+                            rename(d);
+                        }
+                    }
+                }
+            }
         }
     }
 
@@ -778,6 +803,22 @@ mod tests {
         let e =
             Config::from_toml("[params.centerfollow.walls]\nhold_s = -1\n", "w.toml").expect_err("bad value");
         assert_eq!(e.to_string(), "w.toml:1:1: params.centerfollow.walls.hold_s: must be a positive number");
+    }
+
+    #[test]
+    fn a_renamed_behaviour_is_renamed_in_the_masters_modes_too() {
+        let mut c = Config::default();
+        assert!(c.executive().behaviours().contains(&"wallfollow".to_string()));
+        c.rename_component("wallfollow", "hug");
+        let behaviours = c.executive().behaviours();
+        assert!(behaviours.contains(&"hug".to_string()) && !behaviours.contains(&"wallfollow".to_string()));
+        let drives: Vec<String> =
+            c.executive().modes.values().flat_map(|m| m.rules.iter().map(|r| r.drive.clone())).collect();
+        assert!(
+            drives.contains(&"hug".to_string()) && !drives.contains(&"wallfollow".to_string()),
+            "{drives:?}"
+        );
+        c.validate().expect("the master arbitrates components of the system");
     }
 
     #[test]
