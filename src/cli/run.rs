@@ -103,6 +103,8 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         Some(p) => Some(orsa::faults::FaultPlan::load(p, &orsa::faults::PlanTargets::for_stack(&config))?),
         None => None,
     };
+    // The behaviours' kinds, for the plot's colours.
+    let kinds = config.system.components.iter().map(|c| (c.name.clone(), c.kind().to_owned())).collect();
     let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
     opts.faults = plan;
     let b = bar.clone();
@@ -154,6 +156,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         clearance: metrics.clearance_series.clone(),
         bumps: metrics.bump_points.iter().map(|&(t_s, x_m, y_m)| Bump { t_s, x_m, y_m }).collect(),
         targets: Targets::default(),
+        kinds,
     };
     write_plot(&args.plot, &plot)?;
     say(&format!("report: {}\nplot:   {}", report_path.display(), args.plot.display()));

@@ -38,8 +38,8 @@ pub(crate) fn draw(data: &PlotData<'_>, mode: TextMode) -> String {
     c.text(LEFT, 80.0, Font::new(19.0).colour("#444"), &headline::line(data));
 
     let behaviours = headline::behaviours(data);
-    let others = headline::other_names(&behaviours);
-    let colour = |b: Option<&str>| headline::colour(b, &others);
+    let others = headline::other_names(data, &behaviours);
+    let colour = |b: Option<&str>| headline::colour(data, b, &others);
 
     map.draw(&mut c, data, &colour);
     legend(&mut c, legend_y, &behaviours, &colour);

@@ -6,14 +6,19 @@ use super::PlotData;
 /// The label of "no behaviour wired".
 pub(crate) const NONE_LABEL: &str = "none";
 
-/// A behaviour's colour: fixed for the known ones, from a palette for others.
-pub(crate) fn colour(behaviour: Option<&str>, others: &[&str]) -> &'static str {
+/// The kind of the behaviour `behaviour` of `data` (its name if the data gives no kind).
+pub(crate) fn kind<'a>(data: &'a PlotData<'_>, behaviour: Option<&'a str>) -> Option<&'a str> {
+    behaviour.map(|b| data.kinds.get(b).map_or(b, String::as_str))
+}
+
+/// A behaviour's colour: fixed for the thesis' kinds, from a palette for others.
+pub(crate) fn colour(data: &PlotData<'_>, behaviour: Option<&str>, others: &[&str]) -> &'static str {
     const PALETTE: [&str; 6] = ["#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22"];
-    match behaviour {
-        None => "#9a9a9a",
-        Some("centerfollow") => "#1f77b4",
-        Some("wallfollow") => "#ff7f0e",
-        Some(name) => {
+    match (kind(data, behaviour), behaviour) {
+        (None, _) | (_, None) => "#9a9a9a",
+        (Some("centerfollow"), _) => "#1f77b4",
+        (Some("wallfollow"), _) => "#ff7f0e",
+        (Some(_), Some(name)) => {
             let i = others.iter().position(|o| *o == name).unwrap_or(0);
             PALETTE[i % PALETTE.len()]
         }
@@ -30,7 +35,7 @@ pub(crate) fn behaviours<'a>(data: &'a PlotData<'_>) -> Vec<Option<&'a str>> {
             seen.push(b);
         }
     }
-    let rank = |b: &Option<&str>| match b {
+    let rank = |b: &Option<&str>| match kind(data, *b) {
         Some("centerfollow") => 0,
         Some("wallfollow") => 1,
         Some(_) => 2,
@@ -40,9 +45,15 @@ pub(crate) fn behaviours<'a>(data: &'a PlotData<'_>) -> Vec<Option<&'a str>> {
     seen
 }
 
-/// The names of behaviours other than the two known ones, in order of appearance (for colours).
-pub(crate) fn other_names<'a>(behaviours: &[Option<&'a str>]) -> Vec<&'a str> {
-    behaviours.iter().flatten().copied().filter(|b| !matches!(*b, "centerfollow" | "wallfollow")).collect()
+/// The names of behaviours of kinds other than the thesis' two, in order of appearance (for
+/// colours).
+pub(crate) fn other_names<'a>(data: &PlotData<'_>, behaviours: &[Option<&'a str>]) -> Vec<&'a str> {
+    behaviours
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|b| !matches!(kind(data, Some(b)), Some("centerfollow" | "wallfollow")))
+        .collect()
 }
 
 /// A duration for people: seconds, minutes or hours.

@@ -89,6 +89,9 @@ pub struct PlotData<'a> {
     pub bumps: Vec<Bump>,
     /// The target lines.
     pub targets: Targets,
+    /// Each behaviour's kind by its name (a name not here is its own kind): colours and the
+    /// legend's order follow the kind, so a `wallfollow` named otherwise is still orange.
+    pub kinds: std::collections::BTreeMap<String, String>,
 }
 
 /// What went wrong while writing a plot; every variant names the file.

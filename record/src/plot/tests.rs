@@ -18,6 +18,7 @@ fn synthetic_run(world: &World, duration_s: f64, hz: f64) -> PlotData<'_> {
         clearance: Vec::new(),
         bumps: Vec::new(),
         targets: Targets::default(),
+        kinds: Default::default(),
     };
     for i in 0..n {
         let t = i as f64 * dt;
@@ -174,6 +175,7 @@ fn an_empty_run_still_draws_the_world() {
         clearance: Vec::new(),
         bumps: Vec::new(),
         targets: Targets::default(),
+        kinds: Default::default(),
     };
     let svg = render_svg(&data);
     usvg::Tree::from_str(&svg, &usvg::Options::default()).expect("SVG");
@@ -190,4 +192,29 @@ fn write_plot_check() {
     let data = synthetic_run(&world, 3600.0, 10.0);
     write_plot(Path::new("/tmp/plot_check.png"), &data).expect("PNG");
     write_plot(Path::new("/tmp/plot_check.svg"), &data).expect("SVG");
+}
+
+/// Colours follow the behaviour's kind: a `wallfollow` named `hug` is drawn in wall
+/// following's orange; without its kind it would be a behaviour of another kind, in the
+/// palette's first colour.
+#[test]
+fn a_behaviour_named_otherwise_keeps_the_colour_of_its_kind() {
+    let world = palazzina();
+    let mut data = synthetic_run(&world, 600.0, 10.0);
+    for s in &mut data.trajectory {
+        if s.behaviour.as_deref() == Some("wallfollow") {
+            s.behaviour = Some("hug".into());
+        }
+    }
+    let palette_first = "#2ca02c";
+    let unknown = render_svg(&data);
+    assert!(unknown.contains(palette_first), "hug, of no known kind, takes the palette's first colour");
+    data.kinds = [("hug".to_string(), "wallfollow".to_string())].into();
+    let known = render_svg(&data);
+    assert!(known.contains(">hug<"), "the legend names it");
+    assert!(!known.contains(palette_first), "hug, a wallfollow, is not a behaviour of another kind");
+    assert!(
+        known.matches("#ff7f0e").count() > unknown.matches("#ff7f0e").count(),
+        "its path is drawn in wall following's colour"
+    );
 }

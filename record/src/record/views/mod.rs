@@ -82,6 +82,9 @@ pub struct ViewSetup {
     /// Whether the process hands the views ground-truth samples ([`TruthSample`]): without
     /// them there is no `base_link_truth`, and the robot is drawn at its odometry only.
     pub truth: bool,
+    /// Each component's kind by its name: the robot is coloured by the kind of the behaviour
+    /// driving (a `wallfollow` is orange whatever it is named).
+    pub kinds: std::collections::BTreeMap<String, String>,
 }
 
 impl ViewSetup {
@@ -277,14 +280,16 @@ impl Views {
 
     fn write_robot<S: ViewSink>(&mut self, rec: &mut S, at: Timestamp) -> Result<(), S::Error> {
         let (driving, mode) = (self.driving.as_deref(), self.mode.as_deref());
+        let kind = driving.map(|d| self.setup.kinds.get(d).map_or(d, String::as_str));
+        let who = shapes::Driving { name: driving, kind, mode };
         let r = self.setup.body_radius_m;
         let entities = if self.setup.truth {
             vec![
-                shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, driving, mode, 1.0),
-                shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 0.3),
+                shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, who, 1.0),
+                shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, who, 0.3),
             ]
         } else {
-            vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, driving, mode, 1.0)]
+            vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, who, 1.0)]
         };
         rec.view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
     }

@@ -62,9 +62,9 @@ pub(crate) fn rgb(r: u8, g: u8, b: u8) -> Color {
     Color { r: f64::from(r) / 255.0, g: f64::from(g) / 255.0, b: f64::from(b) / 255.0, a: 1.0 }
 }
 
-/// The colour of the behaviour driving (the same as `out/run.svg`'s).
-pub(crate) fn driving_colour(driving: Option<&str>) -> Color {
-    match driving {
+/// The colour of the kind of behaviour driving (the same as `out/run.svg`'s).
+pub(crate) fn driving_colour(kind: Option<&str>) -> Color {
+    match kind {
         None => rgb(0x9a, 0x9a, 0x9a),
         Some("centerfollow") => rgb(0x1f, 0x77, 0xb4),
         Some("wallfollow") => rgb(0xff, 0x7f, 0x0e),
@@ -138,21 +138,29 @@ pub(crate) fn cylinder(x: f64, y: f64, radius_m: f64, height_m: f64, color: Colo
     }
 }
 
-/// The robot's body in `frame` (its truth or its odometry), coloured by the behaviour
-/// driving, which it also names above itself and in its metadata (`driving`, `mode`; empty
-/// when none).
+/// Who drives the robot: the behaviour (by name), its kind, and the master's mode.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Driving<'a> {
+    pub(crate) name: Option<&'a str>,
+    pub(crate) kind: Option<&'a str>,
+    pub(crate) mode: Option<&'a str>,
+}
+
+/// The robot's body in `frame` (its truth or its odometry), coloured by the kind of the
+/// behaviour driving, which it also names above itself and in its metadata (`driving`,
+/// `mode`; empty when none).
 pub(crate) fn robot_entity(
     id: &str,
     frame: &str,
     at: Timestamp,
     radius_m: f64,
-    driving: Option<&str>,
-    mode: Option<&str>,
+    who: Driving<'_>,
     alpha: f64,
 ) -> SceneEntity {
+    let Driving { name: driving, kind, mode } = who;
     let mut e = entity(id, frame, at);
     e.frame_locked = true;
-    let mut colour = driving_colour(driving);
+    let mut colour = driving_colour(kind);
     colour.a = alpha;
     e.cylinders = vec![cylinder(0.0, 0.0, radius_m, ROBOT_HEIGHT_M, colour)];
     // Where sensor 0 faces: the robot's front.
