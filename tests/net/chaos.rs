@@ -37,8 +37,8 @@ async fn terminate(p: Proc) -> (Option<i32>, Proc) {
     .expect("join")
 }
 
-async fn driving(base: &mut mpsc::UnboundedReceiver<Update<BaseState>>, what: &str) {
-    until_base(base, BACK, what, |b| b.v_m_s > 0.15).await;
+async fn driving(base: &mut mpsc::UnboundedReceiver<Update<BaseState>>, what: &str) -> Update<BaseState> {
+    until_base(base, BACK, what, |b| b.v_m_s > 0.15).await
 }
 
 async fn stopped(base: &mut mpsc::UnboundedReceiver<Update<BaseState>>, what: &str) {
@@ -85,7 +85,13 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     let _ = exec1.child.wait();
     stopped(&mut base, "stops when the executive is killed").await;
     let exec2 = sys.run("exec2", "executive", &["--report", exec_json.to_str().expect("utf-8")]);
-    driving(&mut base, "a new executive drives").await;
+    let drove = driving(&mut base, "a new executive drives").await;
+    // Its ledger is checked below: let the robot run on for a second of its own time, so that
+    // it has pushed the new executive's master two of its infrared updates (one in 400 ms)
+    // before the executive is ended (it was ended 0.4 s after its start, having heard nothing).
+    let since = drove.value.stamp.0;
+    until_base(&mut base, BACK, "the robot runs on for a second", |b| b.stamp.0 >= since + 1_000_000_000)
+        .await;
 
     // 5. Both end as a user ends them, and report.
     let (code, exec2) = terminate(exec2).await;
