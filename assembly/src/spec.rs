@@ -140,6 +140,11 @@ impl SystemSpec {
         Ok(())
     }
 
+    /// Each component's kind, by its name.
+    pub fn kinds(&self) -> BTreeMap<String, String> {
+        self.components.iter().map(|c| (c.name.clone(), c.kind().to_owned())).collect()
+    }
+
     /// Whether a component of this name is part of the system.
     pub fn has(&self, name: &str) -> bool {
         self.components.iter().any(|c| c.name == name)

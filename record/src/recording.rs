@@ -182,7 +182,7 @@ pub fn view_setup(
         world,
         body_radius_m: config.sim.body.radius_m,
         truth,
-        kinds: config.system.components.iter().map(|c| (c.name.clone(), c.kind().to_owned())).collect(),
+        kinds: config.system.kinds(),
     }
 }
 

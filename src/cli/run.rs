@@ -104,7 +104,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         None => None,
     };
     // The behaviours' kinds, for the plot's colours.
-    let kinds = config.system.components.iter().map(|c| (c.name.clone(), c.kind().to_owned())).collect();
+    let kinds = config.system.kinds();
     let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
     opts.faults = plan;
     let b = bar.clone();

@@ -37,13 +37,7 @@ impl Measures {
                 Duration::from_secs_f64(opts.config.robot().cmd_timeout_s),
             ),
             behaviours: opts.config.executive().behaviours(),
-            kinds: opts
-                .config
-                .system
-                .components
-                .iter()
-                .map(|c| (c.name.clone(), c.kind().to_owned()))
-                .collect(),
+            kinds: opts.config.system.kinds(),
             check_every: ((1.0 / opts.sample_period_s).round() as u64).max(1),
         }
     }

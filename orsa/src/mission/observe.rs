@@ -120,6 +120,17 @@ fn truth_sample(t: &Truth, truth: &orsa_hardware::sim::SimTruth) -> crate::recor
     }
 }
 
+/// The truth the views get as the run starts.
+fn start_sample(stack: &Stack) -> crate::record::views::TruthSample {
+    let truth = super::stack::truth_of(stack);
+    truth_sample(&truth.truth(), truth)
+}
+
+/// The truth the views get at a tick.
+fn tick_sample(tick: &Tick<'_>) -> crate::record::views::TruthSample {
+    truth_sample(tick.truth, super::stack::truth_of(tick.stack))
+}
+
 /// Records the run to an MCAP file ([`RunOptions::record`](super::RunOptions::record)).
 pub(super) struct Recorder(pub(super) Arc<super::recording::McapTap>);
 
@@ -129,11 +140,11 @@ impl RunObserver for Recorder {
     }
 
     fn on_start(&mut self, stack: &Stack) {
-        self.0.truth(truth_sample(&super::stack::truth_of(stack).truth(), super::stack::truth_of(stack)));
+        self.0.truth(start_sample(stack));
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, super::stack::truth_of(tick.stack)));
+        self.0.truth(tick_sample(tick));
     }
 
     fn on_end(&mut self, outcome: &mut super::RunOutcome) {
@@ -151,11 +162,11 @@ impl RunObserver for LiveView {
     }
 
     fn on_start(&mut self, stack: &Stack) {
-        self.0.truth(truth_sample(&super::stack::truth_of(stack).truth(), super::stack::truth_of(stack)));
+        self.0.truth(start_sample(stack));
     }
 
     fn on_tick(&mut self, tick: &Tick<'_>) {
-        self.0.truth(truth_sample(tick.truth, super::stack::truth_of(tick.stack)));
+        self.0.truth(tick_sample(tick));
     }
 }
 

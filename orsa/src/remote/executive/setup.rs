@@ -37,12 +37,8 @@ impl Checked {
         let config = load_config(&args.config)?;
         let duration = secs(args.duration, "--duration")?;
         let wait = secs(args.wait, "--wait")?;
-        let plan = match &args.faults {
-            Some(p) => {
-                Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_executive(&config))?)
-            }
-            None => None,
-        };
+        let targets = crate::faults::PlanTargets::for_executive(&config);
+        let plan = args.faults.as_ref().map(|p| crate::faults::FaultPlan::load(p, &targets)).transpose()?;
         for p in [args.record.as_ref(), args.report.as_ref()].into_iter().flatten() {
             crate::output::ensure_parent(p)?;
         }

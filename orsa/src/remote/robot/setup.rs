@@ -52,12 +52,8 @@ impl Checked {
                  the base's; drive a ROS 2 robot, or be one"
             );
         }
-        let plan = match &args.faults {
-            Some(p) => {
-                Some(crate::faults::FaultPlan::load(p, &crate::faults::PlanTargets::for_robot(&config))?)
-            }
-            None => None,
-        };
+        let targets = crate::faults::PlanTargets::for_robot(&config);
+        let plan = args.faults.as_ref().map(|p| crate::faults::FaultPlan::load(p, &targets)).transpose()?;
         for p in [args.report.as_ref(), args.record.as_ref()].into_iter().flatten() {
             crate::output::ensure_parent(p)?;
         }
