@@ -418,3 +418,70 @@ impl Views {
         rec.view(TRAJECTORY_TOPIC, s.at, &poses)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Keeps every view written, encoded as it would be sent.
+    #[derive(Default)]
+    struct Kept(Vec<(String, Vec<u8>)>);
+
+    impl ViewSink for Kept {
+        type Error = std::convert::Infallible;
+
+        fn view<T: foxglove::Encode>(
+            &mut self,
+            topic: &str,
+            _: Timestamp,
+            msg: &T,
+        ) -> Result<(), Self::Error> {
+            let mut buf = Vec::new();
+            msg.encode(&mut buf).expect("a view encodes into a growing buffer");
+            self.0.push((topic.to_owned(), buf));
+            Ok(())
+        }
+    }
+
+    fn setup(kinds: &[(&str, &str)]) -> ViewSetup {
+        ViewSetup {
+            robot: "nomad200".into(),
+            master: "master".into(),
+            world: None,
+            body_radius_m: 0.25,
+            truth: false,
+            kinds: kinds.iter().map(|(n, k)| (n.to_string(), k.to_string())).collect(),
+        }
+    }
+
+    /// The colour of the robot's body in the last `/robot` view written after `driving` drove.
+    fn body_colour(setup: ViewSetup, driving: &str) -> foxglove::schemas::Color {
+        let mut views = Views::new(setup);
+        let mut sink = Kept::default();
+        let change = WiringChange { stamp: Timestamp(1), driving: Some(driving.into()), mode: None };
+        let json =
+            serde_json::to_vec(&Stamped { seq: 1, sent_at: Timestamp(1), value: change }).expect("json");
+        views.message(&mut sink, Input::Driving, "master/driving", Timestamp(1), &json).expect("infallible");
+        let (_, bytes) = sink.0.iter().rev().find(|(t, _)| t == ROBOT_TOPIC).expect("a robot view");
+        let scene = <SceneUpdate as prost::Message>::decode(bytes.as_slice()).expect("a SceneUpdate");
+        let body = &scene.entities[0];
+        assert_eq!(body.texts[0].text, driving, "the robot names who drives");
+        body.cylinders[0].color.clone().expect("a colour")
+    }
+
+    /// In Foxglove the robot takes the colour of the kind of behaviour driving, whatever it is
+    /// named: a `wallfollow` named `hug` is orange like `wallfollow`, a `centerfollow` named
+    /// `middle` blue, and a behaviour of a kind the thesis did not have green.
+    #[test]
+    fn the_robot_is_coloured_by_the_kind_of_behaviour_driving() {
+        let kinds = [("hug", "wallfollow"), ("middle", "centerfollow"), ("roam", "wander")];
+        let orange = shapes::rgb(0xff, 0x7f, 0x0e);
+        let blue = shapes::rgb(0x1f, 0x77, 0xb4);
+        assert_eq!(body_colour(setup(&kinds), "hug"), orange);
+        assert_eq!(body_colour(setup(&[]), "wallfollow"), orange, "a built-in named after its kind");
+        assert_eq!(body_colour(setup(&kinds), "middle"), blue);
+        assert_eq!(body_colour(setup(&kinds), "roam"), shapes::rgb(0x2c, 0xa0, 0x2c));
+        // Without its kind the name is all there is: `hug` is then no kind orsa knows.
+        assert_ne!(body_colour(setup(&[]), "hug"), orange);
+    }
+}
