@@ -466,7 +466,7 @@ mod tests {
         let scene = <SceneUpdate as prost::Message>::decode(bytes.as_slice()).expect("a SceneUpdate");
         let body = &scene.entities[0];
         assert_eq!(body.texts[0].text, driving, "the robot names who drives");
-        body.cylinders[0].color.clone().expect("a colour")
+        body.cylinders[0].color.expect("a colour")
     }
 
     /// In Foxglove the robot takes the colour of the kind of behaviour driving, whatever it is
