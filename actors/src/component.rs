@@ -504,9 +504,16 @@ impl<C: Component> Instance<C> {
             ns => Some(Duration::from_nanos(ns)),
         };
         let result = match timeout {
-            Some(t) => match tokio::time::timeout(t, work).await {
-                Ok(r) => r,
-                Err(_) => {
+            // The watchdog fails the instance once the instant its timeout ends at is over, so
+            // the restart lands at the same place in a run and in its replay (see
+            // `end_of_instant`).
+            Some(t) => tokio::select! {
+                biased;
+                r = work => r,
+                () = async {
+                    tokio::time::sleep(t).await;
+                    crate::clock::end_of_instant().await;
+                } => {
                     faults.detected(name, "hung");
                     return Err(
                         format!("a handler of '{name}' ran longer than {t:?}: failing the instance").into()

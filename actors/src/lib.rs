@@ -79,7 +79,7 @@ pub mod wire;
 pub mod wiring;
 
 pub use addr::{PatternKind, ServiceAddr, ServiceInfo};
-pub use clock::{Clock, Timestamp};
+pub use clock::{Clock, Timestamp, end_of_instant};
 pub use comm::{CommObject, Empty};
 pub use component::{Component, ComponentError, ComponentHandle, Ctx};
 pub use error::{PatternError, PatternResult};

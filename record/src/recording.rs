@@ -129,7 +129,7 @@ impl McapTap {
 
     /// Records a supervisor event on `supervision/events`.
     pub fn supervisor_event(&self, e: &SupervisorEvent) {
-        self.note("supervision/events", "orsa.SupervisorEvent/1", e.at, e);
+        self.note(crate::record::events::SUPERVISION_EVENTS, "orsa.SupervisorEvent/1", e.at, e);
     }
 
     /// Records a control event that is not a pattern message (a supervisor's, a link

@@ -55,6 +55,8 @@ pub async fn run_plan(plan: FaultPlan, targets: FaultTargets, end_s: f64) -> usi
     timeline.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     for (t, on, action) in timeline {
         tokio::time::sleep_until(start + Duration::from_secs_f64(t)).await;
+        // Lands after everything else the system does at this instant (see the function).
+        orsa_actors::end_of_instant().await;
         apply(&targets, &action, on);
     }
     occurrences.len()

@@ -113,7 +113,7 @@ impl LiveTap {
 
     /// Hands the views a supervisor's event (on `/events`).
     pub fn supervisor_event(&self, e: &SupervisorEvent) {
-        self.note("supervision/events", e.at, e);
+        self.note(crate::record::events::SUPERVISION_EVENTS, e.at, e);
     }
 
     /// Hands the views a control event that is not a pattern message, on `topic`, if the

@@ -4,6 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Topic of the supervisors' events (failures, restarts, giving up), as `orsa.SupervisorEvent/1`.
+pub const SUPERVISION_EVENTS: &str = "supervision/events";
 /// Topic of the robot's link watchdog: an executive lost or back.
 pub const LINK_EVENTS: &str = "link/events";
 /// Communication object of [`LINK_EVENTS`].

@@ -10,7 +10,7 @@ use super::ReplayError;
 use crate::record::RunMeta;
 use crate::record::events::{
     EXCHANGED_TYPE, ExchangeKind, Exchanged, FAULTS_STARTED, FAULTS_STARTED_TYPE, LINK_EVENT, LINK_EVENTS,
-    LinkEvent, SYSTEM_STARTING, SYSTEM_STARTING_TYPE,
+    LinkEvent, SUPERVISION_EVENTS, SYSTEM_STARTING, SYSTEM_STARTING_TYPE,
 };
 use crate::record::meta::RUN_METADATA;
 use orsa_actors::param::{PARAM, ParamRequest};
@@ -154,6 +154,9 @@ pub struct Recording {
     pub outside: u64,
     /// Messages of the views for Foxglove (protobuf channels): neither fed nor compared.
     pub views: u64,
+    /// Supervisor events about the robot server (its own failures and restarts): the
+    /// stand-in that replaces it has none, so they are neither fed nor compared.
+    pub robot_events: u64,
     /// The schema name of each topic.
     pub schemas: BTreeMap<Arc<str>, String>,
     /// Every message's log time ends at or before this (ns).
@@ -341,6 +344,7 @@ impl Recording {
             exchange: ExchangeLog::default(),
             outside: 0,
             views: 0,
+            robot_events: 0,
             schemas: BTreeMap::new(),
             last_log_time: 0,
             messages: 0,
@@ -532,6 +536,12 @@ impl Recording {
                 return Ok(());
             }
             None => {
+                // The robot server's own failures and restarts are its own, like what it
+                // published: the stand-in that replaces it has none, and they are not compared.
+                if &*c.topic == SUPERVISION_EVENTS && supervises(&data, &self.meta.robot) {
+                    self.robot_events += 1;
+                    return Ok(());
+                }
                 self.outputs.entry(c.topic.clone()).or_default().push(Recorded { log_time, data });
                 return Ok(());
             }
@@ -561,4 +571,14 @@ fn value<T: CommObject>(data: &[u8]) -> Result<T, String> {
     serde_json::from_slice::<Stamped<T>>(data)
         .map(|s| s.value)
         .map_err(|e| format!("it does not decode as a {}: {e}", T::ID))
+}
+
+/// Whether `event` (a recorded `orsa.SupervisorEvent/1`) is about the component `child`.
+fn supervises(event: &[u8], child: &str) -> bool {
+    #[derive(serde::Deserialize)]
+    struct Child<'a> {
+        #[serde(borrow)]
+        child: Option<std::borrow::Cow<'a, str>>,
+    }
+    serde_json::from_slice::<Child<'_>>(event).is_ok_and(|e| e.child.as_deref() == Some(child))
 }

@@ -16,7 +16,8 @@
 //!
 //! The recording's last instant is left out of the comparison: the recording process stops
 //! recording in the middle of it, so which of its messages made it into the file is not part of
-//! what the system decided.
+//! what the system decided. A run's recording ends, for the comparison, at the run's end: what
+//! it holds after that is its process shutting the system down.
 
 pub mod diff;
 pub mod exchange;
@@ -304,7 +305,7 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         .on_event(move |e: SupervisorEvent| {
             // As the recording writes them (`McapTap::supervisor_event`).
             if let Ok(json) = serde_json::to_vec(&e) {
-                events.keep("supervision/events", e.at, &json);
+                events.keep(crate::record::events::SUPERVISION_EVENTS, e.at, &json);
             }
         })
         .start(&registry)
@@ -325,8 +326,16 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
                 "robot" => crate::faults::PlanTargets::for_robot(&config),
                 _ => crate::faults::PlanTargets::for_stack(&config),
             };
-            let plan = crate::faults::FaultPlan::parse(text, &origin, &targets)
+            let mut plan = crate::faults::FaultPlan::parse(text, &origin, &targets)
                 .map_err(|e| ReplayError::Config(e.to_string()))?;
+            // The robot server is a stand-in here: what its failures made it publish is in the
+            // recording, and its panics, hangs and kills are not its stand-in's to repeat.
+            plan.faults.retain(|f| {
+                use crate::faults::Action;
+                !matches!(&f.action,
+                    Action::Panic { component } | Action::Hang { component } | Action::Kill { component }
+                        if *component == rec.meta.robot)
+            });
             // Link cuts are not replayed: what the robot did about them is in the recording
             // (the link watchdog's events, the wiring changes) and is fed back.
             let targets = crate::faults::FaultTargets {
@@ -354,7 +363,16 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         !standin_asks,
     ));
 
-    let end = rec.last_log_time;
+    // A run's recording goes on while its process shuts the system down (a hung component
+    // may hold that up for seconds); what the system decided ends with the run's last instant.
+    let end = match rec.meta.process.as_str() {
+        "run" => {
+            let ended =
+                Timestamp(rec.meta.clock_origin_ns).after(Duration::from_secs_f64(rec.meta.duration_s));
+            rec.last_log_time.min(ended.as_nanos())
+        }
+        _ => rec.last_log_time,
+    };
     let end_at = clock.instant_of(Timestamp(end));
     let every = Duration::from_secs_f64(opts.progress_every_s.unwrap_or(10.0).max(0.001));
     let mut next = tokio::time::Instant::now() + every;

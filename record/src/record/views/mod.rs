@@ -90,7 +90,7 @@ pub struct ViewSetup {
 impl ViewSetup {
     /// What a recorded `topic` is to the views, if anything.
     pub(crate) fn input_of(&self, topic: &str) -> Option<Input> {
-        if topic == super::events::LINK_EVENTS || topic == "supervision/events" {
+        if topic == super::events::LINK_EVENTS || topic == super::events::SUPERVISION_EVENTS {
             return Some(Input::Event);
         }
         let (component, service) = topic.split_once('/')?;
