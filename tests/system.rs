@@ -44,7 +44,7 @@ async fn a_wiring_that_fails_stops_what_was_started_and_names_it() {
     let setup = RobotSetup { config: &config, world: &world, seed: 3, clock };
     let robot = Catalog::builtin().start_robot(SIM, &setup).expect("the simulator");
     let err = System::builder(&config)
-        .robot(robot.boards(&BoardFaults::new(3)))
+        .robot(robot.boards(&BoardFaults::new(3), &config.safety).expect("the boards"))
         .start(&registry)
         .await
         .expect_err("vel sends NavigationVelocity; distanceir is a Push timed DistanceScan");

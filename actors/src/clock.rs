@@ -132,6 +132,29 @@ impl Clock {
     }
 }
 
+/// Scheduler rounds [`end_of_instant`] waits: more than any chain of messages, answers and
+/// restarts one instant holds.
+const SETTLE_ROUNDS: usize = 256;
+
+/// Returns once everything else the system does at this instant is done, on a paused clock.
+///
+/// Something applied the moment its own timer fires (a fault plan's kill, a handler watchdog
+/// failing a hung instance) would race with what else happens at that instant (a behaviour's
+/// tick, a push, the steps of a restart), and which came first would depend on the order tokio
+/// polls the tasks woken at that instant. That order differs between a run and its replay (the
+/// replay's robot is a stand-in with tasks of its own), so a kill of the master at `t` made the
+/// restarted master unwire the behaviours before a behaviour's command at `t` in the run and
+/// after it in the replay. Yielding puts the caller behind every task that is ready, and a
+/// paused clock does not move while one is: after these rounds the instant's chains have
+/// ended, and what the caller does next lands at the same place, after all of them, in a run
+/// and in its replay. (On a clock that is not paused the rounds take microseconds and order
+/// nothing; live recordings are compared within a tolerance.)
+pub async fn end_of_instant() {
+    for _ in 0..SETTLE_ROUNDS {
+        tokio::task::yield_now().await;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,28 +190,5 @@ mod tests {
         assert_eq!(Timestamp::from_secs_f64(f64::NAN), Timestamp::ZERO);
         assert_eq!(Timestamp(5).saturating_since(Timestamp(9)), Duration::ZERO);
         assert_eq!(Timestamp(1).after(Duration::from_nanos(2)), Timestamp(3));
-    }
-}
-
-/// Scheduler rounds [`end_of_instant`] waits: more than any chain of messages, answers and
-/// restarts one instant holds.
-const SETTLE_ROUNDS: usize = 256;
-
-/// Returns once everything else the system does at this instant is done, on a paused clock.
-///
-/// Something applied the moment its own timer fires (a fault plan's kill, a handler watchdog
-/// failing a hung instance) would race with what else happens at that instant (a behaviour's
-/// tick, a push, the steps of a restart), and which came first would depend on the order tokio
-/// polls the tasks woken at that instant. That order differs between a run and its replay (the
-/// replay's robot is a stand-in with tasks of its own), so a kill of the master at `t` made the
-/// restarted master unwire the behaviours before a behaviour's command at `t` in the run and
-/// after it in the replay. Yielding puts the caller behind every task that is ready, and a
-/// paused clock does not move while one is: after these rounds the instant's chains have
-/// ended, and what the caller does next lands at the same place, after all of them, in a run
-/// and in its replay. (On a clock that is not paused the rounds take microseconds and order
-/// nothing; live recordings are compared within a tolerance.)
-pub async fn end_of_instant() {
-    for _ in 0..SETTLE_ROUNDS {
-        tokio::task::yield_now().await;
     }
 }

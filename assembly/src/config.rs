@@ -38,6 +38,9 @@ pub struct Config {
     pub system: crate::spec::SystemSpec,
     /// The robot as a ROS 2 node, and a ROS 2 robot as orsa's hardware (`[ros2]`).
     pub ros2: Ros2Params,
+    /// The safety monitor between every driver and the motors (`[safety]`), read at start
+    /// only: no client can loosen it at run time.
+    pub safety: orsa_hardware::safety::SafetyParams,
     /// Each component's parameters, by its name in the system (`[params.NAME]`). At load, a
     /// built-in kind's table is checked and written out in full, its defaults included.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -53,6 +56,7 @@ impl Default for Config {
             link: Default::default(),
             system: Default::default(),
             ros2: Default::default(),
+            safety: Default::default(),
             params: BTreeMap::new(),
         };
         if let Err(e) = c.complete_params() {
@@ -648,6 +652,9 @@ impl Config {
         self.sim.validate().map_err(|e| Invalid::new(format!("sim.{}", e.key), e.problem))?;
         self.supervision.validate()?;
         self.ros2.validate()?;
+        // The simulator's robot is known here; any other robot is checked when it comes up.
+        let sim = self.sim.robot_params(self.robot().push_periods());
+        self.safety.check_against(&sim, "sim.drive.max_translate_m_s and translate_accel_m_s2")?;
         // Kinds are checked against the catalog when the system starts (a program may add its own).
         self.system.validate(|_| true, &[])?;
         let robot = self.robot();

@@ -220,4 +220,9 @@ pub trait MotorBoard: Send + Sync {
 
     /// The encoders' state now.
     fn read_state(&self) -> impl Future<Output = Result<MotorState, BoardError>> + Send;
+
+    /// What a safety monitor guarding this board did, if one does (see [`crate::safety`]).
+    fn monitor(&self) -> Option<orsa_interfaces::nomad200::MonitorCounters> {
+        None
+    }
 }

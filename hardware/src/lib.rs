@@ -17,6 +17,8 @@
 //!   stalled motors) for fault plans.
 //! - [`ros2base`]: a ROS 2 robot (laser scan, odometry, velocity commands) behind the board
 //!   traits, its scan resampled onto the rings; fed by the process that speaks ROS 2.
+//! - [`safety`]: the safety monitor between the robot server and the motor board: stop and
+//!   slowdown zones along the commanded path, blind directions, contact; for every driver.
 //! - [`server`]: the robot server component `nomad200`, which offers the services of
 //!   [`orsa_interfaces::nomad200`] on top of any pair of boards, with its velocity watchdog.
 //!
@@ -28,6 +30,7 @@ pub mod board;
 pub mod faulty;
 pub mod geometry;
 pub mod ros2base;
+pub mod safety;
 pub mod server;
 pub mod sim;
 pub mod world;

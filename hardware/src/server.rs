@@ -359,8 +359,11 @@ where
                 let _ = q.answer(self.robot.clone());
             }
             Nomad200Msg::Safety(q) => {
-                let counters =
-                    SafetyCounters { timeouts: st.timeouts.load(Ordering::Relaxed), ..st.counters };
+                let counters = SafetyCounters {
+                    timeouts: st.timeouts.load(Ordering::Relaxed),
+                    monitor: self.motors.monitor(),
+                    ..st.counters
+                };
                 let _ = q.answer(counters);
             }
         }

@@ -278,8 +278,31 @@ pub struct RobotParams {
 }
 comm_object!(RobotParams, "orsa.nomad200.RobotParams/1");
 
+/// What the safety monitor under the robot server did (see `orsa_hardware::safety`): how
+/// often and how long it limited or stopped the robot, by reason, and the distance that cost.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MonitorCounters {
+    /// Times it began to limit a command that was running free.
+    pub interventions: u64,
+    /// Time a command in force was limited, s.
+    pub limited_s: f64,
+    /// Of that, time the robot was held from translating at all, s.
+    pub stopped_s: f64,
+    /// Time limited by something in the stop zone, s.
+    pub obstacle_s: f64,
+    /// Time limited by something in the slowdown zone, s.
+    pub slowdown_s: f64,
+    /// Time limited because no healthy sensor saw the direction of travel, s.
+    pub blind_s: f64,
+    /// Time held by a pressed bumper on the side of travel, s.
+    pub contact_s: f64,
+    /// Distance the commands asked for and the monitor did not let through, m.
+    pub distance_lost_m: f64,
+}
+
 /// What the server did with velocity commands (service `safety`, for reports and tests).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct SafetyCounters {
     /// Commands applied to the motors.
     pub applied: u64,
@@ -301,6 +324,9 @@ pub struct SafetyCounters {
     /// board answered, apart from the refusal on arrival: a slow board would show here).
     #[serde(default)]
     pub stale_applied: u64,
+    /// What the safety monitor under the motors did (`None`: the robot has none, or it is off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub monitor: Option<MonitorCounters>,
 }
 comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 

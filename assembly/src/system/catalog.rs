@@ -15,6 +15,7 @@ use orsa_actors::supervision::ChildSpec;
 use orsa_executive::Master;
 use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
 use orsa_hardware::faulty::{FaultyMotorBoard, FaultySensorBoard};
+use orsa_hardware::safety::Guarded;
 use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
@@ -31,8 +32,9 @@ pub const SIM: &str = "sim";
 pub struct RobotBoards {
     /// The sensor board, behind the fault switch.
     pub sensors: FaultySensorBoard<AnySensorBoard>,
-    /// The motor board, behind the fault switch.
-    pub motors: FaultyMotorBoard<AnyMotorBoard>,
+    /// The motor board, behind the fault switch, guarded by the safety monitor (`[safety]`),
+    /// which reads the sensor board as the robot server does.
+    pub motors: Guarded<FaultySensorBoard<AnySensorBoard>, FaultyMotorBoard<AnyMotorBoard>>,
     /// The robot's geometry, limits and sensor layout.
     pub params: RobotParams,
 }

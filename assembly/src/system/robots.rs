@@ -25,6 +25,7 @@ use orsa_hardware::any::{AnyMotorBoard, AnySensorBoard};
 use orsa_hardware::board::MotorBoard;
 use orsa_hardware::faulty::{BoardFaults, FaultyMotorBoard, FaultySensorBoard};
 use orsa_hardware::ros2base::Ros2Base;
+use orsa_hardware::safety::{Guarded, SafetyParams};
 use orsa_hardware::sim::{SimNomad200, SimRobot, SimTruth};
 use orsa_hardware::world::World;
 use orsa_interfaces::nomad200::RobotParams;
@@ -159,13 +160,31 @@ impl Robot {
         self
     }
 
-    /// Its boards behind the fault switch `faults`, for the robot server.
-    pub fn boards(&self, faults: &BoardFaults) -> super::RobotBoards {
-        super::RobotBoards {
-            sensors: FaultySensorBoard::new(self.sensors.clone(), faults.clone()),
-            motors: FaultyMotorBoard::new(self.motors.clone(), faults.clone()),
-            params: self.params.clone(),
-        }
+    /// Its boards behind the fault switch `faults`, the motors guarded by a safety monitor
+    /// with `safety` (refused, naming the key, if its zones cannot stop this robot), for the
+    /// robot server. Must run inside a tokio runtime (the monitor has a task of its own).
+    pub fn boards(
+        &self,
+        faults: &BoardFaults,
+        safety: &SafetyParams,
+    ) -> Result<super::RobotBoards, RobotError> {
+        // What the robot's own figures are called where they come from.
+        let keys = if self.kind == super::SIM {
+            "sim.drive.max_translate_m_s and translate_accel_m_s2"
+        } else {
+            "as the robot describes itself"
+        };
+        safety
+            .check_against(&self.params, keys)
+            .map_err(|e| RobotError::Make { kind: self.kind.clone(), message: e.to_string() })?;
+        let sensors = FaultySensorBoard::new(self.sensors.clone(), faults.clone());
+        let motors = Guarded::new(
+            sensors.clone(),
+            FaultyMotorBoard::new(self.motors.clone(), faults.clone()),
+            self.params.clone(),
+            safety.clone(),
+        );
+        Ok(super::RobotBoards { sensors, motors, params: self.params.clone() })
     }
 
     /// The handle of its kind, if it is a `T` (e.g. [`SimRobot`], [`Ros2Robot`]).

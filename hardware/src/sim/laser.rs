@@ -32,6 +32,25 @@ pub(crate) struct Laser {
     /// When the newest scan was taken, and each beam's reading (`None`: not valid).
     last: Option<(u64, Vec<Option<f64>>)>,
     rng: ChaCha8Rng,
+    /// The sector views of the newest scan, as made (sonar, infrared): the robot server and
+    /// the safety monitor read them many times a scan.
+    views: ViewCache,
+}
+
+/// The views made of the newest scan; a copy starts empty.
+#[derive(Debug, Default)]
+struct ViewCache(parking_lot::Mutex<[Option<DistanceScan>; 2]>);
+
+impl Clone for ViewCache {
+    fn clone(&self) -> Self {
+        ViewCache::default()
+    }
+}
+
+impl ViewCache {
+    fn clear(&self) {
+        *self.0.lock() = [None, None];
+    }
 }
 
 impl Laser {
@@ -45,12 +64,14 @@ impl Laser {
             next_ns: now_ns.saturating_add(period_ns),
             last: None,
             rng,
+            views: ViewCache::default(),
         }
     }
 
     /// Forgets the newest scan; the next is one period from `now_ns`.
     pub(crate) fn reset(&mut self, now_ns: u64) {
         self.last = None;
+        self.views.clear();
         self.next_ns = now_ns.saturating_add(self.period_ns);
     }
 
@@ -76,6 +97,7 @@ impl Laser {
                 readings.push(measured.filter(|&d| p.in_range(d)));
             }
             self.last = Some((t, readings));
+            self.views.clear();
             self.next_ns = self.next_ns.saturating_add(self.period_ns);
         }
     }
@@ -89,6 +111,20 @@ impl Laser {
     /// `origin`; a sector is valid where a point falls in it within the view's range. Before the
     /// first scan every sector is invalid, as a ring that has not fired.
     pub(crate) fn view(&self, ring: Ring, view: &RingParams, origin: Timestamp) -> DistanceScan {
+        // Each ring has one view (its parameters come from the configuration, fixed at start).
+        let slot = match ring {
+            Ring::Sonar => 0,
+            Ring::Infrared => 1,
+        };
+        if let Some(made) = &self.views.0.lock()[slot] {
+            return made.clone();
+        }
+        let made = self.make_view(ring, view, origin);
+        self.views.0.lock()[slot] = Some(made.clone());
+        made
+    }
+
+    fn make_view(&self, ring: Ring, view: &RingParams, origin: Timestamp) -> DistanceScan {
         let stamp = |ns: u64| Timestamp(origin.0.saturating_add(ns));
         let (taken, sectors) = match &self.last {
             Some((t, beams)) => {

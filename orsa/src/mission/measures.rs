@@ -122,6 +122,7 @@ impl Measured {
             stale_commands_refused: end.safety.stale_refused,
             command_timeouts: end.safety.timeouts,
             stale_commands_applied: end.safety.stale_applied,
+            monitor: end.safety.monitor,
         };
         let mut report =
             Report::new(end.world_label, end.seed, end.simulated_s, &self.metrics, restarts, safety);

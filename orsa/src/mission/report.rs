@@ -135,6 +135,10 @@ pub struct SafetyFigures {
     /// Commands older than the velocity timeout when the motors took them.
     #[serde(default)]
     pub stale_commands_applied: u64,
+    /// What the safety monitor under the motors did: how often and how long it limited or
+    /// stopped the robot, by reason, and the distance that cost (`None`: it was off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub monitor: Option<orsa_interfaces::nomad200::MonitorCounters>,
 }
 
 /// One contact onset: when, where (ground truth), and who drove.

@@ -155,10 +155,15 @@ impl<'a> StackBuilder<'a> {
             RobotSetup { config: self.config, world: &self.world, seed: self.seed, clock: registry.clock() };
         let robot = self.catalog.start_robot(&self.robot_kind, &setup)?;
         let board_faults = BoardFaults::new(self.seed);
-        let mut builder = System::builder(self.config)
-            .catalog(self.catalog)
-            .robot(robot.boards(&board_faults))
-            .duration(self.duration_s);
+        let boards = match robot.boards(&board_faults, &self.config.safety) {
+            Ok(boards) => boards,
+            Err(e) => {
+                robot.shutdown().await;
+                return Err(e.into());
+            }
+        };
+        let mut builder =
+            System::builder(self.config).catalog(self.catalog).robot(boards).duration(self.duration_s);
         if let Some(sink) = self.on_event {
             builder = builder.on_event(sink);
         }

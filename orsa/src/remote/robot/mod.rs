@@ -82,7 +82,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let drive = setup::robot(&args, &checked, clock)?;
     let robot = config.robot_name().to_string();
     let boards = BoardFaults::new(args.seed);
-    let robot_boards = drive.boards(&boards);
+    let robot_boards = drive.boards(&boards, &config.safety)?;
     let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
     let sink = Arc::clone(&supervisor_events);
     let builder = System::builder(config).catalog(args.catalog.clone()).only(Place::Robot);
