@@ -223,21 +223,27 @@ async fn following_the_wall_alone_it_holds_twenty_centimetres_and_touches_nobody
 /// wheels slip), so only contact can tell: with the recovery off the robot pushes on for good
 /// (one contact, stalled minutes); with it on every contact backs it out, and it comes back
 /// and touches again (a new contact onset each time) until the person walks on, without a
-/// stalled minute.
+/// stalled minute. The contact is made with the safety monitor off: with it on (the last run),
+/// the robot never touches the person at all.
 #[tokio::test(start_paused = true)]
 async fn touching_something_the_behaviour_backs_out_on_the_contact_event() {
-    let run = |recovery: bool| {
+    let run = |recovery: bool, monitor: bool| {
         let toml = format!(
             "[params.wallfollow]\nshare_gaps = false\n[params.wallfollow.unstick]\nenabled = {recovery}\n\
-             [params.planner]\nmission = [{{ mode = \"follow_left_wall\", for_s = 1800 }}]\n"
+             [params.planner]\nmission = [{{ mode = \"follow_left_wall\", for_s = 1800 }}]\n\
+             [safety]\nenabled = {monitor}\n"
         );
         let config = Config::from_toml(&toml, "contact.toml").expect("config");
         mission::run(RunOptions::new(World::palazzina().expect("world"), "palazzina", config, 1, 1800.0))
     };
-    let pushed_on = run(false).await.expect("run");
+    let pushed_on = run(false, false).await.expect("run");
     assert_eq!(pushed_on.report.bumps, 1);
     assert!(pushed_on.report.stalls >= 5, "{} stalled minutes", pushed_on.report.stalls);
-    let backed_out = run(true).await.expect("run");
+    let backed_out = run(true, false).await.expect("run");
     assert!(backed_out.report.bumps >= 2, "{} contacts", backed_out.report.bumps);
     assert_eq!(backed_out.report.stalls, 0);
+    let guarded = run(true, true).await.expect("run");
+    assert_eq!(guarded.report.bumps, 0, "the monitor stops short of the person");
+    let m = guarded.report.safety.monitor.expect("the monitor's figures");
+    assert!(m.obstacle_s + m.slowdown_s > 0.0, "{m:?}");
 }
