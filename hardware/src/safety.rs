@@ -77,7 +77,8 @@ pub struct SafetyParams {
     pub blind_speed_m_s: f64,
     /// A sensor view with no reading this recent is not trusted, s (default 1.0).
     pub stale_after_s: f64,
-    /// How long what the sensors saw stays in view, carried by odometry, s (default 2.0).
+    /// How long what the sensors saw stays in view at most, carried by odometry, unless a
+    /// reading sees through it first, s (default 10).
     pub memory_s: f64,
 }
 
@@ -93,7 +94,7 @@ impl Default for SafetyParams {
             period_s: 0.04,
             blind_speed_m_s: 0.05,
             stale_after_s: 1.0,
-            memory_s: 2.0,
+            memory_s: 10.0,
         }
     }
 }
@@ -270,10 +271,19 @@ pub struct Seen {
 pub struct Beams {
     /// Per sensor: its origin (body frame, m) and the unit directions across its beam.
     sensors: Vec<Beam>,
+    /// Per sensor: the unit direction of its axis.
+    axes: Vec<(f64, f64)>,
+    /// The cosine of half a beam's width.
+    cos_half: f64,
+    /// The shortest range a reading vouches for, m: nothing closer is seen free.
+    min_range_m: f64,
 }
 
 /// A sensor's origin (body frame, m) and the unit directions across its beam.
 type Beam = ((f64, f64), Vec<(f64, f64)>);
+
+/// How much short of a reading a remembered point must lie for the reading to see through it.
+pub const CLEAR_MARGIN_M: f64 = 0.05;
 
 impl Beams {
     /// The beams of `view`.
@@ -294,7 +304,46 @@ impl Beams {
                 (origin, dirs)
             })
             .collect();
-        Beams { sensors }
+        let axes = view.angles_rad.iter().map(|a| (a.cos(), a.sin())).collect();
+        Beams { sensors, axes, cos_half: half.cos(), min_range_m: view.min_range_m }
+    }
+
+    /// Whether a reading of `scan` taken after `since` sees through `p` (body frame): `p` lies
+    /// within a sensor's beam, beyond the shortest range it vouches for and more than
+    /// [`CLEAR_MARGIN_M`] short of what it read there.
+    /// `bearing` is `p`'s, from the centre, in [0, 2 pi).
+    pub fn clears(&self, scan: &DistanceScan, since: Timestamp, p: (f64, f64), bearing: f64) -> bool {
+        let n = self.axes.len();
+        if n == 0 {
+            return false;
+        }
+        // Only the sensors facing about where `p` lies can see it: a point in a beam lies
+        // within half the beam of its axis, seen from the centre.
+        let nearest = ((bearing / TAU * n as f64 + 0.5) as usize) % n;
+        [n - 1, 0, 1].into_iter().any(|k| {
+            let i = (nearest + k) % n;
+            let Some(r) = scan
+                .readings
+                .get(i)
+                .filter(|r| usize::from(r.sensor_id) == i)
+                .or_else(|| scan.readings.iter().find(|r| usize::from(r.sensor_id) == i))
+            else {
+                return false;
+            };
+            if !(r.valid && r.stamp > since && r.distance_m.is_finite()) {
+                return false;
+            }
+            let (((ox, oy), _), (ax, ay)) = (&self.sensors[i], self.axes[i]);
+            let (vx, vy) = (p.0 - ox, p.1 - oy);
+            let d2 = vx * vx + vy * vy;
+            let (lo, hi) = (self.min_range_m, r.distance_m - CLEAR_MARGIN_M);
+            let along = vx * ax + vy * ay;
+            hi > lo
+                && d2 > lo * lo
+                && d2 < hi * hi
+                && along > 0.0
+                && along * along >= d2 * self.cos_half * self.cos_half
+        })
     }
 
     /// The points the valid `readings` stand for: each reading anywhere across its beam.
@@ -470,12 +519,7 @@ struct Memory {
     /// The newest reading stamp placed, per view and sensor.
     placed: [[Timestamp; RING_SIZE]; 2],
     scratch: Vec<Seen>,
-    /// When old cells were last forgotten.
-    expired: Timestamp,
 }
-
-/// How often the memory forgets old cells (it leaves them out of what it recalls meanwhile).
-const EXPIRE_EVERY: Duration = Duration::from_millis(250);
 
 /// The memory's cell size, m.
 const CELL_M: f64 = 0.02;
@@ -517,26 +561,34 @@ impl Memory {
     }
 
     /// What it holds within `reach` m of the centre, in the body frame at odometry pose
-    /// `pose`, younger than `keep` at `now` (forgetting the rest now and then).
+    /// `pose`, younger than `keep` at `now` and not seen through (forgetting the rest).
+    #[allow(clippy::too_many_arguments)]
     fn recall(
         &mut self,
         pose: (f64, f64, f64),
         now: Timestamp,
         keep: Duration,
         reach: f64,
+        seen_through: impl Fn(&Seen, (f64, f64)) -> bool,
         out: &mut Vec<Seen>,
     ) {
-        if now.saturating_since(self.expired) >= EXPIRE_EVERY {
-            self.cells.retain(|_, p| now.saturating_since(p.stamp) <= keep);
-            self.expired = now;
-        }
         let (s, c) = pose.2.sin_cos();
-        out.extend(self.cells.values().filter_map(|p| {
+        // What a reading saw through is forgotten; the rest within reach is recalled.
+        self.cells.retain(|_, p| {
             let (dx, dy) = (p.at.0 - pose.0, p.at.1 - pose.1);
             let r = reach + p.slack_m;
-            (dx * dx + dy * dy <= r * r && now.saturating_since(p.stamp) <= keep)
-                .then(|| Seen { at: (c * dx + s * dy, -s * dx + c * dy), ..*p })
-        }));
+            // What the robot left behind (beyond the farthest it may need) or that is too old
+            // is forgotten.
+            if dx * dx + dy * dy > r * r || now.saturating_since(p.stamp) > keep {
+                return false;
+            }
+            let at = (c * dx + s * dy, -s * dx + c * dy);
+            if seen_through(p, at) {
+                return false;
+            }
+            out.push(Seen { at, ..*p });
+            true
+        });
     }
 }
 
@@ -658,7 +710,15 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
                 memory.place(v, scan, &m.beams[v], pose, now, speed, near);
             }
         }
-        memory.recall(pose, now, Duration::from_secs_f64(m.params.memory_s), near, &mut look.seen);
+        let keep = Duration::from_secs_f64(m.params.memory_s);
+        let seen_through = |p: &Seen, at: (f64, f64)| {
+            let bearing = at.1.atan2(at.0).rem_euclid(TAU);
+            [&ir, &sonar]
+                .into_iter()
+                .enumerate()
+                .any(|(v, scan)| fresh[v] && m.beams[v].clears(scan, p.stamp, at, bearing))
+        };
+        memory.recall(pose, now, keep, near, seen_through, &mut look.seen);
         Ok(look)
     }
 

@@ -348,6 +348,13 @@ impl Report {
             ("stalls (60 s under 10 cm)".into(), "-".into(), self.stalls.to_string()),
             ("distance driven".into(), "-".into(), format!("{:.0} m", self.distance_m)),
         ]);
+        if let Some(m) = &self.safety.monitor {
+            rows.push((
+                "safety monitor: limited (held)".into(),
+                "-".into(),
+                format!("{:.1} s ({:.1} s), {:.1} m lost", m.limited_s, m.stopped_s, m.distance_lost_m),
+            ));
+        }
         let head = ("", "thesis (2004)", format!("orsa (seed {})", self.seed));
         let w0 = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
         let w1 = head.1.len().max(rows.iter().map(|r| r.1.len()).max().unwrap_or(0));
