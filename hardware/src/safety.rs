@@ -613,11 +613,6 @@ impl<S: SensorBoard + 'static, M: MotorBoard + 'static> Guarded<S, M> {
         }
         guarded
     }
-
-    /// What the monitor did so far.
-    pub fn counters(&self) -> MonitorCounters {
-        self.inner.state.lock().counters
-    }
 }
 
 /// Looks again at the command in force every `period`, until the board is dropped.
