@@ -1,0 +1,358 @@
+//! What the monitor decides from one look: the body swept along the commanded path, the speed
+//! that stops in the free path, and the points a sensor view's readings stand for.
+
+use super::SafetyParams;
+use orsa_actors::Timestamp;
+use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, RingParams, RobotParams};
+use orsa_interfaces::range::sector_coverage;
+use std::f64::consts::{PI, TAU};
+
+/// Why the monitor limited a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reason {
+    /// Something in the stop zone: the speed it can stop from in the free path.
+    Obstacle,
+    /// Something in the slowdown zone.
+    Slowdown,
+    /// No healthy sensor sees the direction of travel.
+    Blind,
+    /// A bumper is pressed on the side the robot moves towards.
+    Contact,
+}
+
+/// The distance the robot's centre travels along the path of `(v, omega)` before a disc of
+/// radius `r` around it first touches `p` (body frame: x ahead, y left); infinite if it never
+/// does, 0 if it touches `p` now and the motion brings it closer.
+pub fn free_distance(p: (f64, f64), v: f64, omega: f64, r: f64) -> f64 {
+    let (px, py) = p;
+    if v == 0.0 {
+        return f64::INFINITY;
+    }
+    // Straight (a turn wider than a kilometre is straight here).
+    if (omega / v).abs() < 1e-3 {
+        let x = px * v.signum();
+        if py.abs() >= r {
+            return f64::INFINITY;
+        }
+        let h = (r * r - py * py).sqrt();
+        return if x - h > 0.0 {
+            x - h
+        } else if x + h <= 0.0 || x <= 0.0 {
+            f64::INFINITY // behind, or inside and moving away
+        } else {
+            0.0
+        };
+    }
+    // An arc about the instantaneous centre of rotation (0, rc); the robot's centre goes round
+    // it at omega, from (0, -rc).
+    let rc = v / omega;
+    let big_r = rc.abs();
+    let (qx, qy) = (px, py - rc);
+    let rho = qx.hypot(qy);
+    if rho < 1e-9 {
+        return f64::INFINITY; // on the centre of rotation: its distance never changes
+    }
+    let phi0 = (-rc).atan2(0.0);
+    let delta = (omega.signum() * (qy.atan2(qx) - phi0)).rem_euclid(TAU);
+    let cos_contact = (big_r * big_r + rho * rho - r * r) / (2.0 * big_r * rho);
+    if cos_contact >= 1.0 {
+        return f64::INFINITY; // the swept annulus misses it
+    }
+    let contact = cos_contact.max(-1.0).acos();
+    if delta > contact && delta < TAU - contact {
+        return (delta - contact) * big_r;
+    }
+    // Touching now: closer while the angle to it shrinks towards 0 from below pi.
+    if delta > 0.0 && delta < PI { 0.0 } else { f64::INFINITY }
+}
+
+/// The highest speed from which braking at `a` after a reaction time `t` stops within `d`.
+pub fn stoppable_speed(d: f64, a: f64, t: f64) -> f64 {
+    let d = d.max(0.0);
+    if !d.is_finite() {
+        return f64::INFINITY;
+    }
+    a * (-t + (t * t + 2.0 * d / a).sqrt())
+}
+
+/// One thing a sensor sees, in the body frame, and when it was seen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Seen {
+    /// Where, m (x ahead, y left).
+    pub at: (f64, f64),
+    /// When the reading was taken.
+    pub stamp: Timestamp,
+    /// How far the robot may have moved towards it that `at` does not account for, m.
+    pub slack_m: f64,
+}
+
+/// A sector view's beams, as the monitor places readings on them: each sensor's origin on the
+/// view's ring and the directions across its beam (every 5 degrees at most, edges included).
+#[derive(Debug, Clone, Default)]
+pub struct Beams {
+    /// Per sensor: its origin (body frame, m) and the unit directions across its beam.
+    sensors: Vec<Beam>,
+    /// Per sensor: the unit direction of its axis.
+    axes: Vec<(f64, f64)>,
+    /// The cosine of half a beam's width.
+    cos_half: f64,
+    /// The shortest range a reading vouches for, m: nothing closer is seen free.
+    min_range_m: f64,
+}
+
+/// A sensor's origin (body frame, m) and the unit directions across its beam.
+type Beam = ((f64, f64), Vec<(f64, f64)>);
+
+/// How much short of a reading a remembered point must lie for the reading to see through it.
+pub const CLEAR_MARGIN_M: f64 = 0.05;
+
+impl Beams {
+    /// The beams of `view`.
+    pub fn of(view: &RingParams) -> Self {
+        let half = view.beam_width_rad / 2.0;
+        let steps = (view.beam_width_rad / 5f64.to_radians()).ceil().max(1.0) as usize;
+        let sensors = view
+            .angles_rad
+            .iter()
+            .map(|&a| {
+                let origin = (view.mount_radius_m * a.cos(), view.mount_radius_m * a.sin());
+                let dirs = (0..=steps)
+                    .map(|k| {
+                        let b = a - half + view.beam_width_rad * k as f64 / steps as f64;
+                        (b.cos(), b.sin())
+                    })
+                    .collect();
+                (origin, dirs)
+            })
+            .collect();
+        let axes = view.angles_rad.iter().map(|a| (a.cos(), a.sin())).collect();
+        Beams { sensors, axes, cos_half: half.cos(), min_range_m: view.min_range_m }
+    }
+
+    /// Whether a reading of `scan` taken after `since` sees through `p` (body frame): `p` lies
+    /// within a sensor's beam, beyond the shortest range it vouches for and more than
+    /// [`CLEAR_MARGIN_M`] short of what it read there.
+    /// `bearing` is `p`'s, from the centre, in [0, 2 pi).
+    pub fn clears(&self, scan: &DistanceScan, since: Timestamp, p: (f64, f64), bearing: f64) -> bool {
+        let n = self.axes.len();
+        if n == 0 {
+            return false;
+        }
+        // Only the sensors facing about where `p` lies can see it: a point in a beam lies
+        // within half the beam of its axis, seen from the centre.
+        let nearest = ((bearing / TAU * n as f64 + 0.5) as usize) % n;
+        [n - 1, 0, 1].into_iter().any(|k| {
+            let i = (nearest + k) % n;
+            let Some(r) = scan
+                .readings
+                .get(i)
+                .filter(|r| usize::from(r.sensor_id) == i)
+                .or_else(|| scan.readings.iter().find(|r| usize::from(r.sensor_id) == i))
+            else {
+                return false;
+            };
+            if !(r.valid && r.stamp > since && r.distance_m.is_finite()) {
+                return false;
+            }
+            let (((ox, oy), _), (ax, ay)) = (&self.sensors[i], self.axes[i]);
+            let (vx, vy) = (p.0 - ox, p.1 - oy);
+            let d2 = vx * vx + vy * vy;
+            let (lo, hi) = (self.min_range_m, r.distance_m - CLEAR_MARGIN_M);
+            let along = vx * ax + vy * ay;
+            hi > lo
+                && d2 > lo * lo
+                && d2 < hi * hi
+                && along > 0.0
+                && along * along >= d2 * self.cos_half * self.cos_half
+        })
+    }
+
+    /// The points the valid `readings` stand for: each reading anywhere across its beam.
+    pub fn seen<'a>(&self, readings: impl Iterator<Item = &'a DistanceReading>, out: &mut Vec<Seen>) {
+        for r in readings.filter(|r| r.valid && r.distance_m.is_finite()) {
+            let Some(((ox, oy), dirs)) = self.sensors.get(usize::from(r.sensor_id)) else { continue };
+            for (c, s) in dirs {
+                out.push(Seen {
+                    at: (ox + r.distance_m * c, oy + r.distance_m * s),
+                    stamp: r.stamp,
+                    slack_m: 0.0,
+                });
+            }
+        }
+    }
+}
+
+/// What the monitor knows of the robot, and decides from one look at its sensors.
+#[derive(Debug, Clone)]
+pub struct Monitor {
+    pub(super) params: SafetyParams,
+    pub(super) robot: RobotParams,
+    /// Which sectors each view (infrared, sonar) covers at all.
+    pub(super) covered: [[bool; RING_SIZE]; 2],
+    /// Each view's beams (infrared, sonar).
+    pub(super) beams: [Beams; 2],
+}
+
+/// One look at the sensors.
+#[derive(Debug, Clone, Default)]
+pub struct Look {
+    /// What they see.
+    pub seen: Vec<Seen>,
+    /// Which views are fresh (infrared, sonar).
+    pub fresh: [bool; 2],
+    /// Bumpers pressed, by angle.
+    pub pressed: Vec<f64>,
+    /// Now.
+    pub now: Timestamp,
+}
+
+impl Monitor {
+    /// A monitor of `robot` with `params` (checked by [`SafetyParams::check_against`]).
+    pub fn new(params: SafetyParams, robot: RobotParams) -> Self {
+        let covered = [
+            sector_coverage(&robot.range_sensors, &robot.infrared),
+            sector_coverage(&robot.range_sensors, &robot.sonar),
+        ];
+        let beams = [Beams::of(&robot.infrared), Beams::of(&robot.sonar)];
+        Monitor { params, robot, covered, beams }
+    }
+
+    /// Its parameters.
+    pub fn params(&self) -> &SafetyParams {
+        &self.params
+    }
+
+    /// The speed the robot may translate at on the path of `(v, omega)` given `look`, and why
+    /// it is lower than `|v|` if it is.
+    pub fn allowed(&self, v: f64, omega: f64, look: &Look) -> (f64, Option<Reason>) {
+        let want = v.abs();
+        if want < 1e-9 {
+            return (want, None);
+        }
+        let p = &self.params;
+        let travel = if v > 0.0 { 0.0 } else { PI };
+        // Contact on the side it moves towards.
+        if look.pressed.iter().any(|b| (b - travel).cos() > 0.2) {
+            return (0.0, Some(Reason::Contact));
+        }
+        let a = p.deceleration(&self.robot);
+        let t = p.latency_s + p.period_s;
+        let r = self.robot.body_radius_m + p.stop_margin_m;
+        let mut allowed = want;
+        let mut reason = None;
+        // The path depends on the speed at a given turn rate: look again along the slower one.
+        let mut speed = want;
+        for _ in 0..3 {
+            let sv = speed.copysign(v);
+            // Nothing farther than the path it may need can limit it (a chord is no longer
+            // than its arc).
+            let reach = r + p.stopping_distance(&self.robot, speed) + p.slowdown_margin_m;
+            let free = look
+                .seen
+                .iter()
+                .filter(|s| {
+                    let r = reach + s.slack_m;
+                    s.at.0 * s.at.0 + s.at.1 * s.at.1 <= r * r
+                })
+                .map(|s| free_distance(s.at, sv, omega, r) - s.slack_m)
+                .fold(f64::INFINITY, f64::min);
+            let stop = stoppable_speed(free, a, t);
+            if stop < allowed {
+                (allowed, reason) = (stop, Some(Reason::Obstacle));
+            }
+            if free < p.slowdown_margin_m && p.slow_speed_m_s < allowed {
+                (allowed, reason) = (p.slow_speed_m_s, Some(Reason::Slowdown));
+            }
+            if allowed >= speed {
+                break;
+            }
+            speed = allowed;
+        }
+        if p.blind_speed_m_s < allowed && !self.sees(travel, look) {
+            (allowed, reason) = (p.blind_speed_m_s, Some(Reason::Blind));
+        }
+        if allowed < 1e-3 {
+            allowed = 0.0;
+        }
+        (allowed, reason)
+    }
+
+    /// Whether a fresh view covers every sector within 60 degrees of `direction`.
+    fn sees(&self, direction: f64, look: &Look) -> bool {
+        let views = [&self.robot.infrared, &self.robot.sonar];
+        (0..RING_SIZE).all(|i| {
+            let axis = views[1].angles_rad.get(i).copied().unwrap_or(0.0);
+            let off = ((axis - direction + PI).rem_euclid(TAU) - PI).abs();
+            off > 60f64.to_radians() || (0..2).any(|v| look.fresh[v] && self.covered[v][i])
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: f64 = 0.28;
+
+    /// Straight ahead, a point on the axis is met where the disc's front reaches it; one beside
+    /// the path never is; one behind is never met going forward and is going backward.
+    #[test]
+    fn a_straight_path_meets_what_lies_in_its_swept_band() {
+        assert!((free_distance((1.0, 0.0), 0.3, 0.0, R) - 0.72).abs() < 1e-12);
+        let off_axis = free_distance((1.0, 0.2), 0.3, 0.0, R);
+        assert!((off_axis - (1.0 - (R * R - 0.04f64).sqrt())).abs() < 1e-12);
+        assert_eq!(free_distance((1.0, 0.3), 0.3, 0.0, R), f64::INFINITY, "beside the path");
+        assert_eq!(free_distance((-1.0, 0.0), 0.3, 0.0, R), f64::INFINITY, "behind");
+        assert!((free_distance((-1.0, 0.0), -0.3, 0.0, R) - 0.72).abs() < 1e-12, "backing up");
+        // Touching: moving on is 0, moving away is free.
+        assert_eq!(free_distance((0.2, 0.0), 0.3, 0.0, R), 0.0);
+        assert_eq!(free_distance((0.2, 0.0), -0.3, 0.0, R), f64::INFINITY);
+    }
+
+    /// On an arc the distance is the arc length of the centre's path to first contact, which
+    /// a fine walk along the arc finds too.
+    #[test]
+    fn an_arc_meets_points_where_a_walk_along_it_does() {
+        let walk = |p: (f64, f64), v: f64, w: f64| -> f64 {
+            let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
+            let ds = 1e-4;
+            let mut s = 0.0;
+            while s < 6.0 {
+                if (p.0 - x).hypot(p.1 - y) <= R {
+                    return s;
+                }
+                x += ds * th.cos() * v.signum();
+                y += ds * th.sin() * v.signum();
+                th += ds * w / v.abs();
+                s += ds;
+            }
+            f64::INFINITY
+        };
+        for (p, v, w) in [
+            ((1.0, 0.3), 0.3, 0.4),
+            ((1.0, -0.3), 0.3, 0.4),
+            ((0.5, 0.6), 0.2, 0.6),
+            ((-0.8, 0.2), -0.2, 0.3),
+            ((-0.8, -0.4), -0.2, -0.5),
+            ((0.0, 1.2), 0.25, 0.5),
+        ] {
+            let exact = free_distance(p, v, w, R);
+            let walked = walk(p, v, w);
+            if walked.is_finite() {
+                assert!((exact - walked).abs() < 2e-3, "{p:?} v {v} w {w}: {exact} against {walked}");
+            } else {
+                assert!(exact > 5.9, "{p:?} v {v} w {w}: {exact} against a walk that never met it");
+            }
+        }
+    }
+
+    /// Braking at `a` after `t` from the speed allowed covers exactly the free distance.
+    #[test]
+    fn the_stoppable_speed_stops_in_the_free_distance() {
+        for (d, a, t) in [(1.0, 0.5, 0.14), (0.1, 0.5, 0.14), (3.0, 1.0, 0.0)] {
+            let v = stoppable_speed(d, a, t);
+            assert!((v * t + v * v / (2.0 * a) - d).abs() < 1e-12);
+        }
+        assert_eq!(stoppable_speed(-0.1, 0.5, 0.1), 0.0);
+    }
+}
