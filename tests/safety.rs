@@ -1,14 +1,23 @@
 //! The protective layer under every driver: the safety monitor between the robot server and
 //! the motor board stops the robot short of what its sensors see, whoever drives, and a
-//! configuration whose zones cannot stop the robot is refused at load with the key.
+//! configuration whose zones cannot stop the robot is refused at load with the key. The robot
+//! judges its sensors' health, and neither the monitor nor the behaviours count on a sensor
+//! judged unhealthy.
 
 use orsa::config::Config;
+use orsa::faults::{FaultPlan, PlanTargets};
 use orsa::hardware::world::World;
 use orsa::mission::stack::Stack;
+use orsa::mission::{self, RunObserver, RunOptions, RunTap};
 use orsa_actors::query::QueryClient;
 use orsa_actors::send::SendClient;
-use orsa_actors::{Empty, Registry};
+use orsa_actors::tap::Tap;
+use orsa_actors::{Empty, Registry, Stamped, Timestamp};
+use orsa_interfaces::behaviour::BehaviourStatus;
+use orsa_interfaces::health::Health;
 use orsa_interfaces::nomad200::{self, NavigationVelocity, SafetyCounters};
+use parking_lot::Mutex;
+use std::sync::Arc;
 use std::time::Duration;
 
 async fn safety(registry: &Registry, robot: &str) -> SafetyCounters {
@@ -92,4 +101,109 @@ fn zones_that_cannot_stop_the_robot_are_refused_at_load() {
         .expect_err("not a parameter of the robot server")
         .to_string();
     assert!(e.contains("safety"), "{e}");
+}
+
+/// What the robot said of its sensors' health, and what the behaviours said they held back
+/// for, as a run's tap saw them.
+#[derive(Default)]
+struct HealthWatch {
+    /// Each `health` push: when, and its summary.
+    health: Mutex<Vec<(Timestamp, String)>>,
+    /// Each behaviour status that held back: who, and why.
+    holding: Mutex<Vec<(String, String)>>,
+}
+
+impl Tap for HealthWatch {
+    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, json: &[u8]) {
+        if topic == "nomad200/health" {
+            let h: Stamped<Health> = serde_json::from_slice(json).expect("a health message");
+            self.health.lock().push((stamp, h.value.summary()));
+        } else if let Some(who) = topic.strip_suffix("/status")
+            && let Ok(s) = serde_json::from_slice::<Stamped<BehaviourStatus>>(json)
+            && let Some(why) = s.value.holding
+        {
+            self.holding.lock().push((who.to_owned(), why));
+        }
+    }
+}
+
+impl RunTap for HealthWatch {}
+
+struct Watching(Arc<HealthWatch>);
+
+impl RunObserver for Watching {
+    fn tap(&self) -> Option<Arc<dyn RunTap>> {
+        Some(self.0.clone())
+    }
+}
+
+/// Ten minutes of wall following (the left wall always within the infrared's reach, so that a
+/// stuck ring always has readings to repeat), under `plan` if given.
+async fn ten_minutes(plan: Option<&str>) -> (orsa::mission::report::Report, Arc<HealthWatch>) {
+    let text = "[params.planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 600 }]\n";
+    let config = Config::from_toml(text, "wall-following.toml").expect("config");
+    let mut opts = RunOptions::new(World::palazzina().expect("world"), "palazzina", config.clone(), 1, 600.0);
+    opts.faults = plan.map(|p| {
+        FaultPlan::parse(p, "health-plan.toml", &PlanTargets::for_stack(&config)).expect("a valid plan")
+    });
+    let watch = Arc::new(HealthWatch::default());
+    let opts = opts.observe(Watching(watch.clone()));
+    (mission::run(opts).await.expect("the run completes").report, watch)
+}
+
+/// The infrared ring stuck for 8 s a minute and the sonar dead for 8 s a minute, on their own,
+/// while wall following drives: the robot judges each (in its `health` push and its report), the behaviours stop steering
+/// on it and say so, the monitor stops counting on it, and the robot keeps off things and keeps
+/// patrolling. Without faults nothing is judged unhealthy.
+#[tokio::test(start_paused = true)]
+async fn stuck_and_dead_rings_are_judged_and_not_steered_on() {
+    let plan = r#"
+[[fault]]
+at = 60.0
+kind = "sensor_stuck"
+target = "infrared"
+duration = 8.0
+every = 60.0
+until = 540.0
+
+[[fault]]
+at = 90.0
+kind = "sensor_dropout"
+target = "sonar"
+duration = 8.0
+every = 60.0
+until = 570.0
+"#;
+    let (clean, clean_watch) = ten_minutes(None).await;
+    let h = clean.safety.health.expect("the robot judges its sensors");
+    assert_eq!((h.infrared.episodes, h.sonar.episodes, h.bumpers.episodes), (0, 0, 0), "{h:?}");
+    assert!(clean_watch.holding.lock().is_empty(), "no behaviour held back without faults");
+
+    let (report, watch) = ten_minutes(Some(plan)).await;
+    assert_eq!(report.bumps, 0);
+    let h = report.safety.health.expect("the robot judges its sensors");
+    // Nine stuck spells of 8 s: each judged once the robot has moved 0.2 m or turned 15
+    // degrees on it (the robot stops then: under 1 s), until 1 s after it reads anything else.
+    assert!(h.infrared.episodes >= 9, "{h:?}");
+    assert!(h.infrared.stuck_s > 9.0 * 7.0 && h.infrared.unhealthy_s() < 9.0 * 9.0, "{h:?}");
+    // Nine dead spells of 8 s, judged 0.3 s after every reading vanished at once, until 1 s
+    // after it reads again.
+    assert!(h.sonar.episodes >= 9 && h.sonar.dead_s > 60.0 && h.sonar.unhealthy_s() < 9.0 * 9.0, "{h:?}");
+    let pushed = watch.health.lock();
+    assert!(pushed.iter().filter(|(_, s)| s == "infrared stuck").count() >= 9, "{pushed:?}");
+    assert!(pushed.iter().filter(|(_, s)| s == "sonar dead").count() >= 9, "{pushed:?}");
+    // Wall following reads the infrared: it held back for it, and said so.
+    let holding = watch.holding.lock();
+    assert!(
+        holding.iter().any(|(who, why)| who == "wallfollow" && why == "infrared judged stuck"),
+        "wall following never said it held back for the stuck infrared"
+    );
+    // Safety not bought by standing still (the behaviours stop while the infrared, the only
+    // view of the last 0.30 m, is not trusted: about a tenth of the run here).
+    assert!(
+        report.distance_m >= 0.8 * clean.distance_m,
+        "{:.0} m against {:.0} m without faults",
+        report.distance_m,
+        clean.distance_m
+    );
 }

@@ -181,13 +181,14 @@ pub(crate) trait Triggered: Component {
 impl Triggered for WallFollow {
     const NAME: &'static str = "wallfollow";
     fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
-        // Odometry, contact and parameters never make a step (no status follows them), so their stamps are
+        // Odometry, contact, parameters and health never make a step (no status follows them), so their stamps are
         // never used.
         match msg {
             WallFollowMsg::Ir(u) | WallFollowMsg::Sonar(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
             WallFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
             WallFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
+            WallFollowMsg::Health(u) => (u.sent_at, u.value.stamp),
         }
     }
 }
@@ -200,6 +201,7 @@ impl Triggered for CenterFollow {
             CenterFollowMsg::Base(u) => (u.sent_at, u.value.stamp),
             CenterFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
             CenterFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
+            CenterFollowMsg::Health(u) => (u.sent_at, u.value.stamp),
         }
     }
 }

@@ -225,4 +225,15 @@ pub trait MotorBoard: Send + Sync {
     fn monitor(&self) -> Option<orsa_interfaces::nomad200::MonitorCounters> {
         None
     }
+
+    /// Changes whenever the health of a sensor changes (`None`: nothing judges the sensors).
+    fn health_version(&self) -> Option<u64> {
+        None
+    }
+
+    /// The health of the robot's sensors and how long each was judged what, where the board
+    /// judges them (a guarded board, [`crate::safety::Guarded`]).
+    fn health(&self) -> Option<(orsa_interfaces::health::Health, orsa_interfaces::health::HealthCounters)> {
+        None
+    }
 }

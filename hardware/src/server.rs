@@ -35,9 +35,11 @@
 use crate::board::{AxisVelocities, CompassReading, MotorBoard, MotorState, SensorBoard};
 use orsa_actors::event::EventServer;
 use orsa_actors::param::Invalid;
+use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::query::QueryRequest;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Timestamp};
+use orsa_interfaces::health::Health;
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, PushPeriods, RobotParams, SafetyCounters,
 };
@@ -129,6 +131,12 @@ pub fn contact_fires(_: &mut Empty, scan: &ContactScan) -> Option<ContactScan> {
     scan.any().then(|| scan.clone())
 }
 
+/// The `healthchanges` event's condition: the server puts the health only when it changed, so
+/// every put fires.
+pub fn health_fires(_: &mut Empty, health: &Health) -> Option<Health> {
+    Some(health.clone())
+}
+
 /// The robot server over any pair of boards.
 pub struct Nomad200<S, M> {
     params: ServerParams,
@@ -175,6 +183,11 @@ pub struct Nomad200State {
     /// Fires to every activation while something presses the bumpers.
     contact: EventServer<Empty, ContactScan, ContactScan>,
     base: PushTimedServer<BaseState>,
+    /// The sensors' health, pushed and fired on every change.
+    health: PushNewestServer<Health>,
+    health_changes: EventServer<Empty, Health, Health>,
+    /// The judge's version last pushed.
+    health_version: Option<u64>,
     deadline: watch::Sender<Option<Timestamp>>,
     /// Whether the watchdog waits for a deadline (it enforced the last one).
     watchdog_idle: Arc<AtomicBool>,
@@ -196,6 +209,22 @@ where
     S: SensorBoard + 'static,
     M: MotorBoard + Clone + 'static,
 {
+    /// Pushes the sensors' health, and fires it, if it changed since it was last pushed.
+    fn push_health(&self, st: &mut Nomad200State) {
+        let version = self.motors.health_version();
+        if version.is_none() || version == st.health_version {
+            return;
+        }
+        st.health_version = version;
+        if let Some((health, _)) = self.motors.health() {
+            if st.health_version.is_some_and(|v| v > 0) {
+                tracing::info!("sensor health: {}", health.summary());
+            }
+            st.health_changes.put(&health);
+            st.health.put(health);
+        }
+    }
+
     async fn drive(&self, st: &mut Nomad200State, v: f64, omega: f64) -> bool {
         match self.motors.move_velocity(AxisVelocities::synchro(v, omega)).await {
             Ok(()) => true,
@@ -290,6 +319,8 @@ where
         ctx.query_server(nomad200::ROBOTPARAMS, Nomad200Msg::Params)?;
         ctx.query_server(nomad200::SAFETY, Nomad200Msg::Safety)?;
         let contact = ctx.event_server(nomad200::CONTACT, contact_fires)?;
+        let health = ctx.push_newest_server(orsa_interfaces::health::HEALTH)?;
+        let health_changes = ctx.event_server(orsa_interfaces::health::HEALTH_CHANGES, health_fires)?;
         // A (re)started server does not trust whatever the motors were doing.
         self.motors.stop().await?;
         for s in [&ir, &sonar] {
@@ -320,6 +351,9 @@ where
             bumpers,
             contact,
             base,
+            health,
+            health_changes,
+            health_version: None,
             deadline,
             watchdog_idle,
             last_applied: None,
@@ -339,6 +373,7 @@ where
         match msg {
             Nomad200Msg::Ir(_) => {
                 st.ir.put(self.sensors.read_infrared().await?);
+                self.push_health(st);
             }
             Nomad200Msg::Sonar(_) => {
                 st.sonar.put(self.sensors.read_sonar().await?);
@@ -352,6 +387,7 @@ where
                 let m = self.motors.read_state().await?;
                 let c = self.sensors.read_compass().await?;
                 st.base.put(base_state(&m, &c));
+                self.push_health(st);
             }
             Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value, false).await,
             Nomad200Msg::Teleop(cmd) => self.on_velocity(ctx, st, cmd.value, true).await,
@@ -362,6 +398,7 @@ where
                 let counters = SafetyCounters {
                     timeouts: st.timeouts.load(Ordering::Relaxed),
                     monitor: self.motors.monitor(),
+                    health: self.motors.health().map(|(_, c)| c),
                     ..st.counters
                 };
                 let _ = q.answer(counters);

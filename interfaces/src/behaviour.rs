@@ -45,6 +45,10 @@ pub struct BehaviourStatus {
     pub alpha_rad: f64,
     /// Whether the command left through a wired port.
     pub delivered: bool,
+    /// Why it holds back, if it does: an input too old, or from a sensor judged unhealthy
+    /// (the behaviour then slows, or stops when none of its inputs is left).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub holding: Option<String>,
 }
 comm_object!(BehaviourStatus, "orsa.reactive.BehaviourStatus/1");
 
@@ -61,6 +65,7 @@ mod tests {
             offset_m: None,
             alpha_rad: 0.05,
             delivered: true,
+            holding: Some("infrared judged stuck".into()),
         };
         let json = serde_json::to_string(&status).expect("serialise");
         assert_eq!(serde_json::from_str::<BehaviourStatus>(&json).expect("deserialise"), status);

@@ -32,6 +32,7 @@
 
 pub mod behaviour;
 pub mod executive;
+pub mod health;
 pub mod nomad200;
 pub mod planner;
 pub mod range;

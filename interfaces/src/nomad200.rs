@@ -11,6 +11,8 @@
 //! | [`TELEOP`] | Send | [`NavigationVelocity`] from teleoperation, which takes priority |
 //! | [`ROBOTPARAMS`] | Query | [`Empty`] -> [`RobotParams`], so no behaviour hard-codes the robot |
 //! | [`SAFETY`] | Query | [`Empty`] -> [`SafetyCounters`], what the server did with commands |
+//! | [`HEALTH`](crate::health::HEALTH) | Push newest, on change | [`Health`](crate::health::Health) of every sensor |
+//! | [`HEALTH_CHANGES`](crate::health::HEALTH_CHANGES) | Event, on change | [`Empty`] -> [`Health`](crate::health::Health) |
 //!
 //! The component is called [`NAME`] in the default configuration; a system may host it under
 //! another name, so clients address it as `DISTANCEIR.on(robot_name)`.
@@ -297,6 +299,9 @@ pub struct MonitorCounters {
     pub blind_s: f64,
     /// Time held by a pressed bumper on the side of travel, s.
     pub contact_s: f64,
+    /// Time capped because a sensor was judged unhealthy (`orsa_interfaces::health`), s.
+    #[serde(default)]
+    pub unhealthy_s: f64,
     /// Distance the commands asked for and the monitor did not let through, m.
     pub distance_lost_m: f64,
 }
@@ -327,6 +332,9 @@ pub struct SafetyCounters {
     /// What the safety monitor under the motors did (`None`: the robot has none, or it is off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub monitor: Option<MonitorCounters>,
+    /// How the robot judged its sensors (`None`: it does not judge them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub health: Option<crate::health::HealthCounters>,
 }
 comm_object!(SafetyCounters, "orsa.nomad200.SafetyCounters/1");
 

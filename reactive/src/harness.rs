@@ -15,7 +15,14 @@
 //!   from the direction of travel;
 //! - **its `vel` port and its `status`**: each step's command is sent on the wireable `vel` port
 //!   whether it is wired or not (an unwired send is simply not delivered), and what it saw and
-//!   decided is pushed on `status`.
+//!   decided is pushed on `status`;
+//! - **judging its inputs**: a scan older than [`INPUT_AGE_PERIODS`] of its push period slows
+//!   the behaviour, down to a stop at twice that age, and a scan of a sensor the robot judges
+//!   unhealthy (its `health` service) is not steered on at all: the controller sees it as
+//!   absent. Without a scan that alone sees close to the body (the near view: the sonar sees
+//!   nothing under 0.30 m) the behaviour stops; without one that only sees farther it goes on
+//!   what is left at [`WITHOUT_ONE_INPUT`] of its speed. Its status says why (`holding`), and it
+//!   resumes when fresh, healthy data comes.
 //!
 //! A new behaviour is one file: a controller and its `impl Controller`, registered in the
 //! catalog as `Behaviour::<MyController> { params, robot }` (`examples/new_behaviour.rs`).
@@ -30,6 +37,7 @@ use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update};
 use orsa_interfaces::behaviour::{ACTIVE, BehaviourStatus, COMPUTE, STATUS, VEL};
+use orsa_interfaces::health::{self, Health};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams,
 };
@@ -109,7 +117,16 @@ pub enum BehaviourMsg {
     Contact(Fired<ContactScan>),
     /// A request to its `param` service.
     Param(QueryRequest<ParamRequest, ParamReply>),
+    /// The robot's judgement of its sensors.
+    Health(Update<Health>),
 }
+
+/// A scan older than this many of its push periods slows the behaviour; twice as old, it stops.
+pub const INPUT_AGE_PERIODS: f64 = 5.0;
+
+/// The speed a behaviour keeps, of what its controller asks, while it steers without one of the
+/// scans it reads.
+pub const WITHOUT_ONE_INPUT: f64 = 0.6;
 
 /// The running state of a [`Behaviour`].
 pub struct BehaviourState<C: Controller> {
@@ -121,6 +138,11 @@ pub struct BehaviourState<C: Controller> {
     status: PushNewestServer<BehaviourStatus>,
     ir: Option<(Timestamp, Ranges)>,
     sonar: Option<(Timestamp, Ranges)>,
+    /// The age beyond which each scan (infrared, sonar) slows it, s.
+    age_limit_s: [f64; 2],
+    /// The shortest range each scan sees, m.
+    min_range_m: [f64; 2],
+    health: Option<Health>,
 }
 
 /// Asks the robot server `robot` what the robot is.
@@ -172,13 +194,19 @@ impl<C: Controller> Component for Behaviour<C> {
             }
         }
         ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, BehaviourMsg::Base)?;
+        ctx.subscribe_newest(health::HEALTH.on(&self.robot), BehaviourMsg::Health)?;
         ctx.activate_event(
             nomad200::CONTACT.on(&self.robot),
             EventMode::Continuous,
             Empty {},
             BehaviourMsg::Contact,
         )?;
+        let age_limit_s = [robot.push.distanceir_s, robot.push.distanceson_s].map(|p| INPUT_AGE_PERIODS * p);
+        let min_range_m = [robot.infrared.min_range_m, robot.sonar.min_range_m];
         Ok(BehaviourState {
+            age_limit_s,
+            min_range_m,
+            health: None,
             ctl: C::new(params.current(), &robot),
             params,
             steer_rad: 0.0,
@@ -215,17 +243,34 @@ impl<C: Controller> Component for Behaviour<C> {
                 }
                 return Ok(());
             }
+            BehaviourMsg::Health(h) => {
+                st.health = Some(h.value.clone());
+                return Ok(());
+            }
         }
         let Ok(_computing) = ctx.state().try_acquire(COMPUTE) else { return Ok(()) };
         let none = [None; RING_SIZE];
         // The command is as old as the oldest of the scans it fuses.
         let stamp = [st.ir.as_ref(), st.sonar.as_ref()].into_iter().flatten().map(|(t, _)| *t).min();
+        let judged = judge_inputs(
+            C::READS,
+            [st.ir.as_ref(), st.sonar.as_ref()],
+            [st.age_limit_s, st.min_range_m],
+            st.health.as_ref(),
+            ctx.now(),
+        );
         let seen = Seen {
             stamp: stamp.unwrap_or(Timestamp::ZERO),
-            infrared: st.ir.as_ref().map_or(&none, |(_, r)| r),
-            sonar: st.sonar.as_ref().map_or(&none, |(_, r)| r),
+            infrared: st.ir.as_ref().filter(|_| judged.usable[0]).map_or(&none, |(_, r)| r),
+            sonar: st.sonar.as_ref().filter(|_| judged.usable[1]).map_or(&none, |(_, r)| r),
         };
-        let step = st.ctl.step(&seen);
+        let mut step = st.ctl.step(&seen);
+        if judged.speed < 1.0 {
+            step.cmd.v_m_s *= judged.speed;
+            if judged.speed == 0.0 {
+                step.cmd.omega_rad_s = 0.0;
+            }
+        }
         let delivered = sent(st.vel.send(step.cmd));
         st.status.put(BehaviourStatus {
             stamp: seen.stamp,
@@ -234,7 +279,135 @@ impl<C: Controller> Component for Behaviour<C> {
             offset_m: step.offset_m,
             alpha_rad: step.alpha_rad,
             delivered,
+            holding: judged.why,
         });
         Ok(())
+    }
+}
+
+/// What a behaviour makes of its inputs at a step (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Judged {
+    /// Whether each scan (infrared, sonar) may be steered on.
+    pub usable: [bool; 2],
+    /// The share of the controller's speed it keeps (0: it stops, turning included).
+    pub speed: f64,
+    /// Why it holds back, if it does.
+    pub why: Option<String>,
+}
+
+/// Judges the scans a controller `reads` (the newest of each, with its stamp: infrared,
+/// sonar) at `now`, against their age limits and the robot's `health`; `limits` are each
+/// scan's age limit, s, and shortest range, m.
+pub fn judge_inputs(
+    reads: &[Scan],
+    scans: [Option<&(Timestamp, Ranges)>; 2],
+    limits: [[f64; 2]; 2],
+    health: Option<&Health>,
+    now: Timestamp,
+) -> Judged {
+    let [age_limit_s, min_range_m] = limits;
+    let mut j = Judged { usable: [true; 2], speed: 1.0, why: None };
+    let mut reasons = Vec::new();
+    let (mut read, mut left) = (0, 0);
+    for (i, (scan, name)) in [(Scan::Infrared, "infrared"), (Scan::Sonar, "sonar")].into_iter().enumerate() {
+        if !reads.contains(&scan) {
+            continue;
+        }
+        // Not come yet: the controller starts without it, as it always has.
+        let Some((stamp, _)) = scans[i] else { continue };
+        read += 1;
+        let verdict = health.map_or(health::Verdict::Healthy, |h| h.verdict(name));
+        let age = now.0.saturating_sub(stamp.0) as f64 * 1e-9;
+        let limit = age_limit_s[i];
+        if verdict != health::Verdict::Healthy {
+            j.usable[i] = false;
+            reasons.push(format!("{name} judged {}", verdict.name()));
+        } else if age > 2.0 * limit {
+            j.usable[i] = false;
+            reasons.push(format!("{name} {age:.2} s old (limit {limit:.2} s)"));
+        } else {
+            left += 1;
+            if age > limit {
+                j.speed = j.speed.min(2.0 - age / limit);
+                reasons.push(format!("{name} {age:.2} s old (limit {limit:.2} s)"));
+            }
+        }
+    }
+    // What the scans left see closest; a scan dropped that saw closer leaves the robot blind
+    // next to its body.
+    let nearest_left = (0..2)
+        .filter(|&i| j.usable[i] && scans[i].is_some())
+        .map(|i| min_range_m[i])
+        .fold(f64::INFINITY, f64::min);
+    let near_lost = (0..2).any(|i| !j.usable[i] && min_range_m[i] < nearest_left);
+    if read > 0 && (left == 0 || near_lost) {
+        j.speed = 0.0;
+    } else if left < read {
+        j.speed = j.speed.min(WITHOUT_ONE_INPUT);
+    }
+    if !reasons.is_empty() {
+        j.why = Some(reasons.join(", "));
+    }
+    j
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use orsa_interfaces::health::{SensorHealth, Verdict};
+
+    const S: u64 = 1_000_000_000;
+
+    fn health(ir: Verdict) -> Health {
+        Health {
+            stamp: Timestamp(0),
+            sensors: vec![SensorHealth { sensor: "infrared".into(), verdict: ir, ..Default::default() }],
+        }
+    }
+
+    #[test]
+    fn fresh_healthy_inputs_are_used_whole() {
+        let r = [None; RING_SIZE];
+        let (ir, so) = ((Timestamp(10 * S), r), (Timestamp(10 * S), r));
+        let j = judge_inputs(
+            &[Scan::Infrared, Scan::Sonar],
+            [Some(&ir), Some(&so)],
+            [[0.2, 0.32], [0.0, 0.3]],
+            Some(&health(Verdict::Healthy)),
+            Timestamp(10 * S + S / 10),
+        );
+        assert_eq!(j, Judged { usable: [true, true], speed: 1.0, why: None });
+    }
+
+    #[test]
+    fn an_old_input_slows_then_is_dropped_and_an_unhealthy_one_is_never_steered_on() {
+        let r = [None; RING_SIZE];
+        let reads = [Scan::Infrared, Scan::Sonar];
+        let (ir, so) = ((Timestamp(10 * S), r), (Timestamp(10 * S), r));
+        // Infrared 0 to 0.6 m, sonar 0.3 to 6 m, with these age limits.
+        let limits = |ir_age: f64, so_age: f64| [[ir_age, so_age], [0.0, 0.3]];
+        let at = |s: u64, tenths: u64| Timestamp(s * S + tenths * S / 10);
+        // Infrared 0.3 s old against a 0.2 s limit: half speed on it.
+        let j = judge_inputs(&reads, [Some(&ir), Some(&so)], limits(0.2, 1.0), None, at(10, 3));
+        assert!((j.speed - 0.5).abs() < 1e-9 && j.usable == [true, true], "{j:?}");
+        assert!(j.why.as_deref().is_some_and(|w| w.starts_with("infrared 0.30 s old")), "{j:?}");
+        // 0.5 s old: past twice the limit, dropped; the sonar sees nothing under 0.3 m, so the
+        // behaviour stops.
+        let j = judge_inputs(&reads, [Some(&ir), Some(&so)], limits(0.2, 1.0), None, at(10, 5));
+        assert_eq!((j.usable, j.speed), ([false, true], 0.0));
+        // Fresh but judged stuck by the robot: not steered on, and the same.
+        let stuck = health(Verdict::Stuck);
+        let j = judge_inputs(&reads, [Some(&ir), Some(&so)], limits(0.2, 1.0), Some(&stuck), at(10, 0));
+        assert_eq!((j.usable, j.speed), ([false, true], 0.0));
+        assert_eq!(j.why.as_deref(), Some("infrared judged stuck"));
+        // The sonar too old instead: the infrared sees everything close, and the behaviour goes
+        // on it, slower.
+        let j = judge_inputs(&reads, [Some(&ir), Some(&so)], limits(1.0, 0.2), None, at(10, 5));
+        assert_eq!((j.usable, j.speed), ([true, false], WITHOUT_ONE_INPUT));
+        // A controller that reads the infrared alone has nothing left: it stops.
+        let dead = health(Verdict::Dead);
+        let j = judge_inputs(&[Scan::Infrared], [Some(&ir), None], limits(0.2, 1.0), Some(&dead), at(10, 0));
+        assert_eq!((j.usable[0], j.speed), (false, 0.0));
     }
 }

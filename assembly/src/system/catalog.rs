@@ -30,8 +30,9 @@ pub const SIM: &str = "sim";
 /// The robot's boards, for the process that hosts the robot server ([`Robot::boards`]).
 #[derive(Debug, Clone)]
 pub struct RobotBoards {
-    /// The sensor board, behind the fault switch.
-    pub sensors: FaultySensorBoard<AnySensorBoard>,
+    /// The sensor board, behind the fault switch, read through the guarded board so that the
+    /// judge of the sensors' health sees every scan the robot server reads.
+    pub sensors: Guarded<FaultySensorBoard<AnySensorBoard>, FaultyMotorBoard<AnyMotorBoard>>,
     /// The motor board, behind the fault switch, guarded by the safety monitor (`[safety]`),
     /// which reads the sensor board as the robot server does.
     pub motors: Guarded<FaultySensorBoard<AnySensorBoard>, FaultyMotorBoard<AnyMotorBoard>>,

@@ -184,7 +184,7 @@ impl Robot {
             self.params.clone(),
             safety.clone(),
         );
-        Ok(super::RobotBoards { sensors, motors, params: self.params.clone() })
+        Ok(super::RobotBoards { sensors: motors.clone(), motors, params: self.params.clone() })
     }
 
     /// The handle of its kind, if it is a `T` (e.g. [`SimRobot`], [`Ros2Robot`]).

@@ -39,16 +39,21 @@
 //! when any component above it crashes, hangs or is killed, and it is made from parameters read
 //! once at start (`[safety]`), which no client can change at run time.
 
-use crate::board::{AxisAccelerations, AxisVelocities, BoardError, MotorBoard, MotorState, SensorBoard};
-use orsa_interfaces::nomad200::{DistanceScan, MonitorCounters, RobotParams};
+use crate::board::{
+    AxisAccelerations, AxisVelocities, BoardError, CompassReading, MotorBoard, MotorState, SensorBoard,
+};
+use orsa_interfaces::health::{Health, HealthCounters};
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan, MonitorCounters, RingParams, RobotParams};
 use std::f64::consts::TAU;
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
+pub mod health;
 mod memory;
 mod params;
 mod sweep;
 
+use health::{Judge, ViewSpec};
 use memory::Memory;
 pub use params::SafetyParams;
 pub use sweep::{Beams, CLEAR_MARGIN_M, Look, Monitor, Reason, Seen, free_distance, stoppable_speed};
@@ -76,6 +81,8 @@ struct Inner<S, M> {
     motors: M,
     /// `None`: disabled.
     monitor: Option<Monitor>,
+    /// The judge of the sensors' health (`None`: `[safety.health]` disables it).
+    judge: Option<parking_lot::Mutex<Judge>>,
     /// Held while a command is decided and applied, so that the monitor's own look and a new
     /// command never apply in the wrong order.
     apply: tokio::sync::Mutex<()>,
@@ -103,12 +110,28 @@ impl<S: SensorBoard + 'static, M: MotorBoard + 'static> Guarded<S, M> {
     /// tokio runtime.
     pub fn new(sensors: S, motors: M, robot: RobotParams, params: SafetyParams) -> Self {
         let period = Duration::from_secs_f64(params.period_s);
+        let judge = params.health.enabled.then(|| {
+            let spec = |r: &RingParams, push_s: f64| ViewSpec {
+                period_s: (r.fire_period_s * r.angles_rad.len() as f64).max(push_s),
+                min_range_m: r.min_range_m,
+                max_range_m: r.max_range_m,
+            };
+            parking_lot::Mutex::new(Judge::new(
+                params.health.clone(),
+                [
+                    spec(&robot.infrared, robot.push.distanceir_s),
+                    spec(&robot.sonar, robot.push.distanceson_s),
+                ],
+                robot.push.bumpers_s,
+            ))
+        });
         let monitor = params.enabled.then(|| Monitor::new(params, robot));
         let guarded = Guarded {
             inner: Arc::new(Inner {
                 sensors,
                 motors,
                 monitor,
+                judge,
                 apply: tokio::sync::Mutex::new(()),
                 state: Default::default(),
             }),
@@ -165,6 +188,7 @@ fn account<S, M>(inner: &Inner<S, M>, v: f64, period: Duration) {
                 Some(Reason::Slowdown) => c.slowdown_s += s,
                 Some(Reason::Blind) => c.blind_s += s,
                 Some(Reason::Contact) => c.contact_s += s,
+                Some(Reason::Unhealthy) => c.unhealthy_s += s,
                 None => {}
             }
         }
@@ -172,29 +196,71 @@ fn account<S, M>(inner: &Inner<S, M>, v: f64, period: Duration) {
 }
 
 impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
+    /// Reads view `v` (0: infrared, 1: sonar) for whoever asks, and shows it to the judge.
+    async fn read_view(&self, v: usize) -> Result<DistanceScan, BoardError> {
+        let scan =
+            if v == 0 { self.sensors.read_infrared().await? } else { self.sensors.read_sonar().await? };
+        if let Some(j) = &self.judge {
+            j.lock().note_scan(v, &scan);
+        }
+        Ok(scan)
+    }
+
+    /// Reads the bumpers, and shows them to the judge.
+    async fn read_contacts(&self) -> Result<ContactScan, BoardError> {
+        let scan = self.sensors.read_bumpers().await?;
+        if let Some(j) = &self.judge {
+            j.lock().note_bumpers(&scan);
+        }
+        Ok(scan)
+    }
+
+    /// Reads the motors, and shows the odometry to the judge.
+    async fn read_motors(&self) -> Result<MotorState, BoardError> {
+        let m = self.motors.read_state().await?;
+        if let Some(j) = &self.judge {
+            j.lock().note_motion(m.x_m, m.y_m, m.heading_rad, m.stamp);
+        }
+        Ok(m)
+    }
+
     /// Looks at the sensors once.
     async fn look(&self) -> Result<Look, BoardError> {
         let Some(m) = &self.monitor else { return Ok(Look::default()) };
-        let motors = self.motors.read_state().await?;
-        let ir = self.sensors.read_infrared().await?;
-        let sonar = self.sensors.read_sonar().await?;
-        let bumpers = self.sensors.read_bumpers().await?;
+        let motors = self.read_motors().await?;
+        let ir = self.read_view(0).await?;
+        let sonar = self.read_view(1).await?;
+        let bumpers = self.read_contacts().await?;
         let now = motors.stamp;
         let stale = Duration::from_secs_f64(m.params.stale_after_s);
         let newest = |s: &DistanceScan| s.readings.iter().map(|r| r.stamp).max().unwrap_or(s.stamp);
-        let fresh = [&ir, &sonar].map(|s| now.saturating_since(newest(s)) <= stale);
+        let mut fresh = [&ir, &sonar].map(|s| now.saturating_since(newest(s)) <= stale);
+        // A view judged unhealthy is not looked at, nor one that reads nothing with no other
+        // view to vouch for its silence: their directions count as unseen.
+        let (trusted, bumpers_trusted) = match &self.judge {
+            Some(j) => {
+                let j = j.lock();
+                ([j.view_vouched(0), j.view_vouched(1)], j.bumpers_trusted())
+            }
+            None => ([true; 2], true),
+        };
+        for (f, t) in fresh.iter_mut().zip(trusted) {
+            *f &= t;
+        }
         let pose = (motors.x_m, motors.y_m, motors.heading_rad);
         let mut look = Look {
             seen: Vec::new(),
             fresh,
             // The bumpers are fixed to the base; the direction of travel is `steer_rad` from it.
+            // Bumpers judged stuck are not listened to.
             pressed: bumpers
                 .pressed
                 .iter()
                 .zip(&m.robot.bumper_angles_rad)
-                .filter(|(p, _)| **p)
+                .filter(|(p, _)| **p && bumpers_trusted)
                 .map(|(_, a)| a - motors.steer_rad)
                 .collect(),
+            unhealthy: !(trusted[0] && trusted[1] && bumpers_trusted),
             now,
         };
         let mut st = self.state.lock();
@@ -288,10 +354,53 @@ impl<S: SensorBoard + 'static, M: MotorBoard + 'static> MotorBoard for Guarded<S
     }
 
     async fn read_state(&self) -> Result<MotorState, BoardError> {
-        self.inner.motors.read_state().await
+        self.inner.read_motors().await
     }
 
     fn monitor(&self) -> Option<MonitorCounters> {
         self.inner.monitor.as_ref().map(|_| self.inner.state.lock().counters)
+    }
+
+    fn health_version(&self) -> Option<u64> {
+        self.inner.judge.as_ref().map(|j| j.lock().version())
+    }
+
+    fn health(&self) -> Option<(Health, HealthCounters)> {
+        self.inner.judge.as_ref().map(|j| {
+            let j = j.lock();
+            (j.health(), j.counters())
+        })
+    }
+}
+
+/// The guarded board reads the sensors as the monitor does: the robot server reads them
+/// through it, so the judge of their health sees every scan either reads.
+impl<S: SensorBoard + 'static, M: MotorBoard + 'static> SensorBoard for Guarded<S, M> {
+    async fn init(&self) -> Result<(), BoardError> {
+        self.inner.sensors.init().await
+    }
+    async fn set_sonar_fire_order(&self, order: &[u8]) -> Result<(), BoardError> {
+        self.inner.sensors.set_sonar_fire_order(order).await
+    }
+    async fn set_sonar_fire_period(&self, period: Duration) -> Result<(), BoardError> {
+        self.inner.sensors.set_sonar_fire_period(period).await
+    }
+    async fn set_infrared_fire_order(&self, order: &[u8]) -> Result<(), BoardError> {
+        self.inner.sensors.set_infrared_fire_order(order).await
+    }
+    async fn set_infrared_fire_period(&self, period: Duration) -> Result<(), BoardError> {
+        self.inner.sensors.set_infrared_fire_period(period).await
+    }
+    async fn read_sonar(&self) -> Result<DistanceScan, BoardError> {
+        self.inner.read_view(1).await
+    }
+    async fn read_infrared(&self) -> Result<DistanceScan, BoardError> {
+        self.inner.read_view(0).await
+    }
+    async fn read_bumpers(&self) -> Result<ContactScan, BoardError> {
+        self.inner.read_contacts().await
+    }
+    async fn read_compass(&self) -> Result<CompassReading, BoardError> {
+        self.inner.sensors.read_compass().await
     }
 }

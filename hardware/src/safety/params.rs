@@ -33,6 +33,8 @@ pub struct SafetyParams {
     /// How long what the sensors saw stays in view at most, carried by odometry, unless a
     /// reading sees through it first, s (default 10).
     pub memory_s: f64,
+    /// How the sensors' health is judged (`[safety.health]`, see [`super::health`]).
+    pub health: super::health::HealthParams,
 }
 
 impl Default for SafetyParams {
@@ -48,6 +50,7 @@ impl Default for SafetyParams {
             blind_speed_m_s: 0.05,
             stale_after_s: 1.0,
             memory_s: 10.0,
+            health: Default::default(),
         }
     }
 }
@@ -79,7 +82,7 @@ impl SafetyParams {
         {
             return bad("deceleration_m_s2", format!("must be above 0, got {a}"));
         }
-        Ok(())
+        self.health.validate()
     }
 
     /// The deceleration braking is counted at on `robot`.

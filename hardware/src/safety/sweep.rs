@@ -18,6 +18,9 @@ pub enum Reason {
     Blind,
     /// A bumper is pressed on the side the robot moves towards.
     Contact,
+    /// A sensor is judged unhealthy (`[safety.health]`): the path is free only as far as the
+    /// views still trusted reach.
+    Unhealthy,
 }
 
 /// The distance the robot's centre travels along the path of `(v, omega)` before a disc of
@@ -202,6 +205,8 @@ pub struct Look {
     pub fresh: [bool; 2],
     /// Bumpers pressed, by angle.
     pub pressed: Vec<f64>,
+    /// Whether a sensor is judged unhealthy.
+    pub unhealthy: bool,
     /// Now.
     pub now: Timestamp,
 }
@@ -268,6 +273,19 @@ impl Monitor {
             }
             speed = allowed;
         }
+        // With a view not looked at (judged unhealthy, or stale), the path is free only as far
+        // as the views still looked at reach in the direction of travel: nothing beyond was
+        // looked at. (With every view looked at, the configuration was checked to stop the
+        // robot from its top speed within their reach.)
+        if look.fresh.iter().any(|f| !f)
+            && let Some(reach) = self.reach(travel, look)
+        {
+            let stop = stoppable_speed(reach - p.stop_margin_m, a, t);
+            if stop < allowed {
+                let why = if look.unhealthy { Reason::Unhealthy } else { Reason::Blind };
+                (allowed, reason) = (stop, Some(why));
+            }
+        }
         if p.blind_speed_m_s < allowed && !self.sees(travel, look) {
             (allowed, reason) = (p.blind_speed_m_s, Some(Reason::Blind));
         }
@@ -275,6 +293,26 @@ impl Monitor {
             allowed = 0.0;
         }
         (allowed, reason)
+    }
+
+    /// How far from the body's edge the views looked at see in every sector within 60 degrees
+    /// of `direction`, at the least (`None` where no view looked at covers one of them: blind).
+    fn reach(&self, direction: f64, look: &Look) -> Option<f64> {
+        let views = [&self.robot.infrared, &self.robot.sonar];
+        let mut reach = f64::INFINITY;
+        for i in 0..RING_SIZE {
+            let axis = views[1].angles_rad.get(i).copied().unwrap_or(0.0);
+            let off = ((axis - direction + PI).rem_euclid(TAU) - PI).abs();
+            if off > 60f64.to_radians() {
+                continue;
+            }
+            let here = (0..2)
+                .filter(|&v| look.fresh[v] && self.covered[v][i])
+                .map(|v| views[v].mount_radius_m + views[v].max_range_m - self.robot.body_radius_m)
+                .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))))?;
+            reach = reach.min(here);
+        }
+        reach.is_finite().then_some(reach)
     }
 
     /// Whether a fresh view covers every sector within 60 degrees of `direction`.

@@ -123,6 +123,7 @@ impl Measured {
             command_timeouts: end.safety.timeouts,
             stale_commands_applied: end.safety.stale_applied,
             monitor: end.safety.monitor,
+            health: end.safety.health,
         };
         let mut report =
             Report::new(end.world_label, end.seed, end.simulated_s, &self.metrics, restarts, safety);

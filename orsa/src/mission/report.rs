@@ -139,6 +139,10 @@ pub struct SafetyFigures {
     /// stopped the robot, by reason, and the distance that cost (`None`: it was off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub monitor: Option<orsa_interfaces::nomad200::MonitorCounters>,
+    /// How the robot judged its sensors: per sensor, how often and how long it was judged stale,
+    /// stuck, dead or noisy (`None`: nothing judged them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub health: Option<orsa_interfaces::health::HealthCounters>,
 }
 
 /// One contact onset: when, where (ground truth), and who drove.
@@ -354,6 +358,16 @@ impl Report {
                 "-".into(),
                 format!("{:.1} s ({:.1} s), {:.1} m lost", m.limited_s, m.stopped_s, m.distance_lost_m),
             ));
+        }
+        if let Some(h) = &self.safety.health {
+            let judged: Vec<String> = orsa_interfaces::health::SENSORS
+                .iter()
+                .filter_map(|name| h.of(name).map(|t| (name, t)))
+                .filter(|(_, t)| t.episodes > 0)
+                .map(|(name, t)| format!("{name} {:.1} s ({}x)", t.unhealthy_s(), t.episodes))
+                .collect();
+            let text = if judged.is_empty() { "none".into() } else { judged.join(", ") };
+            rows.push(("sensors judged unhealthy".into(), "-".into(), text));
         }
         let head = ("", "thesis (2004)", format!("orsa (seed {})", self.seed));
         let w0 = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);

@@ -2,10 +2,12 @@
 
 use super::{NetworkOptions, open, runtime, secs, until_stopped, wait_for};
 use anyhow::{Context as _, bail};
+use orsa_actors::push_newest::PushNewestClient;
 use orsa_actors::switch::{Change, Switch, SwitchMaster};
 use orsa_actors::transport::Transport as _;
 use orsa_actors::wiring::WiringMaster;
-use orsa_actors::{PatternKind, Registry, ServiceAddr};
+use orsa_actors::{CommObject as _, PatternKind, Registry, ServiceAddr};
+use orsa_interfaces::health::Health;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -166,6 +168,10 @@ pub fn list(args: ListOptions) -> anyhow::Result<()> {
                         Err(_) => None,
                     }
                 }
+                // A robot's sensor health: its newest verdicts.
+                PatternKind::PushNewest if a.info.types.iter().any(|t| t == Health::ID) => {
+                    newest_health(&registry, &a.addr).await.and_then(|h| serde_json::to_value(h).ok())
+                }
                 _ => None,
             };
             let host = format!("{} ({})", a.host, roles.get(&a.host).map_or("?", String::as_str));
@@ -240,6 +246,14 @@ fn render_listing(l: &Listing) -> String {
                         ));
                     }
                 }
+                PatternKind::PushNewest => {
+                    if let Ok(h) = serde_json::from_value::<Health>(d.clone()) {
+                        for s in &h.sensors {
+                            let why = if s.why.is_empty() { String::new() } else { format!(": {}", s.why) };
+                            out.push_str(&format!("      {:<9} {}{why}\n", s.sensor, s.verdict.name()));
+                        }
+                    }
+                }
                 _ => {
                     let current = d.get("current").and_then(|c| c.as_str()).unwrap_or("?");
                     out.push_str(&format!("      state {current}\n"));
@@ -248,6 +262,15 @@ fn render_listing(l: &Listing) -> String {
         }
     }
     out
+}
+
+/// The newest health a robot pushed on `addr`, if it answers within a second.
+async fn newest_health(registry: &Registry, addr: &ServiceAddr) -> Option<Health> {
+    let client = PushNewestClient::<Health>::connect(registry, addr.clone()).ok()?;
+    client.subscribe().ok()?;
+    let update = client.get_update_wait_timeout(Duration::from_secs(1)).await.ok()?;
+    let _ = client.unsubscribe();
+    Some(update.value.clone())
 }
 
 /// `orsa echo`.

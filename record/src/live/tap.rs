@@ -286,7 +286,7 @@ mod tests {
     fn each_process_declares_the_channels_it_can_fill() {
         let mut run = Topics::default();
         Views::new(setup(true, true)).declare(&mut run).expect("declared");
-        assert_eq!(run.declared.len(), 10, "{:?}", run.declared);
+        assert_eq!(run.declared.len(), 11, "{:?}", run.declared);
         let mut executive = Topics::default();
         Views::new(setup(false, false)).declare(&mut executive).expect("declared");
         assert_eq!(executive.declared, ["/robot", "/driving", "/events"]);

@@ -18,6 +18,7 @@ use orsa_actors::state::StateStatus;
 use orsa_actors::wiring::PortStatus;
 use orsa_actors::{CommObject, Stamped, Timestamp};
 use orsa_actors::{PatternError, ServiceAddr, ServiceInfo};
+use orsa_interfaces::health::Health;
 use orsa_interfaces::nomad200::{BaseState, ContactScan, DistanceScan, RobotParams, SafetyCounters};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -47,6 +48,8 @@ pub enum Published {
     Bumpers(ContactScan),
     /// The base state (`basestate`).
     Base(BaseState),
+    /// The sensors' health (`health`); the robot server fires `healthchanges` with it too.
+    Health(Health),
 }
 
 /// The recorded answers of the robot server's queries, in order.
@@ -168,6 +171,7 @@ pub struct Recording {
 /// Which of the robot server's topics the replay feeds, and how to decode them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Feed {
+    Health,
     Ir,
     Sonar,
     Bumpers,
@@ -208,9 +212,10 @@ impl Feed {
             "distanceson" => Feed::Sonar,
             "bumpers" => Feed::Bumpers,
             "basestate" => Feed::Base,
+            "health" => Feed::Health,
             "robotparams/answer" => Feed::ParamsAnswer,
             "safety/answer" => Feed::SafetyAnswer,
-            "contact" | "state" | "wiring" => Feed::Remade,
+            "contact" | "healthchanges" | "state" | "wiring" => Feed::Remade,
             _ => return None,
         })
     }
@@ -220,6 +225,7 @@ impl Feed {
             Feed::Ir | Feed::Sonar => DistanceScan::ID,
             Feed::Bumpers => ContactScan::ID,
             Feed::Base => BaseState::ID,
+            Feed::Health => Health::ID,
             Feed::ParamsAnswer => RobotParams::ID,
             Feed::SafetyAnswer => SafetyCounters::ID,
             Feed::Port => PortStatus::ID,
@@ -455,6 +461,7 @@ impl Recording {
             Some(Feed::Sonar) => Published::Sonar(value(&data).map_err(decode)?),
             Some(Feed::Bumpers) => Published::Bumpers(value(&data).map_err(decode)?),
             Some(Feed::Base) => Published::Base(value(&data).map_err(decode)?),
+            Some(Feed::Health) => Published::Health(value(&data).map_err(decode)?),
             Some(Feed::ParamsAnswer) => {
                 self.answers.robotparams.push_back(value(&data).map_err(decode)?);
                 return Ok(());

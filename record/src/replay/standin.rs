@@ -11,10 +11,12 @@
 use super::file::{Answers, Published};
 use orsa_actors::event::EventServer;
 use orsa_actors::param::{PARAM, ParamRequest};
+use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::push_timed::{PushTimedServer, Tick};
 use orsa_actors::query::{QueryClient, QueryRequest};
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Registry, Stamped, Timestamp};
-use orsa_hardware::server::{ServerParams, contact_fires};
+use orsa_hardware::server::{ServerParams, contact_fires, health_fires};
+use orsa_interfaces::health::{self, Health};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RobotParams, SafetyCounters,
 };
@@ -68,6 +70,8 @@ struct Servers {
     bumpers: PushTimedServer<ContactScan>,
     base: PushTimedServer<BaseState>,
     contact: EventServer<Empty, ContactScan, ContactScan>,
+    health: PushNewestServer<Health>,
+    health_changes: EventServer<Empty, Health, Health>,
 }
 
 impl Component for RecordedRobot {
@@ -87,6 +91,8 @@ impl Component for RecordedRobot {
             bumpers: ctx.push_timed_server(nomad200::BUMPERS, secs(p.bumpers_period_s), StandInMsg::Tick)?,
             base: ctx.push_timed_server(nomad200::BASESTATE, secs(p.basestate_period_s), StandInMsg::Tick)?,
             contact: ctx.event_server(nomad200::CONTACT, contact_fires)?,
+            health: ctx.push_newest_server(health::HEALTH)?,
+            health_changes: ctx.event_server(health::HEALTH_CHANGES, health_fires)?,
         };
         ctx.send_server(nomad200::NAVIGATIONVELOCITY, StandInMsg::Velocity)?;
         ctx.send_server(nomad200::TELEOP, StandInMsg::Velocity)?;
@@ -163,6 +169,10 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
                 }
                 Published::Base(state) => {
                     servers.base.put(*state);
+                }
+                Published::Health(h) => {
+                    servers.health_changes.put(h);
+                    servers.health.put(h.clone());
                 }
             }
             i += 1;

@@ -19,6 +19,7 @@
 //! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |
+//! | [`HEALTH_TOPIC`] | `foxglove.Log` | the sensors' health at every change: a warning naming each sensor not trusted and why, info when all are healthy again |
 
 mod shapes;
 
@@ -27,6 +28,7 @@ use foxglove::schemas::{FrameTransforms, Log, Pose, PosesInFrame, SceneUpdate, l
 use orsa_actors::{Stamped, Timestamp};
 use orsa_hardware::world::World;
 use orsa_interfaces::executive::WiringChange;
+use orsa_interfaces::health::{Health, Verdict};
 use orsa_interfaces::nomad200::{BaseState, DistanceScan};
 
 /// The fixed frame: the world file's coordinates.
@@ -58,6 +60,8 @@ pub const TRAJECTORY_TOPIC: &str = "/trajectory";
 pub const DRIVING_TOPIC: &str = "/driving";
 /// Wiring and state changes, supervisor and link events.
 pub const EVENTS_TOPIC: &str = "/events";
+/// The sensors' health, at every change.
+pub const HEALTH_TOPIC: &str = "/health";
 
 /// Poses the trajectory holds at most; past that every other one is dropped (the oldest
 /// first is kept), so that a message stays under 11 kB however long the run. (The whole path
@@ -102,6 +106,7 @@ impl ViewSetup {
                 "distanceir" => Some(Input::Infrared),
                 "distanceson" => Some(Input::Sonar),
                 "basestate" => Some(Input::Base),
+                "health" => Some(Input::Health),
                 _ => None,
             };
         }
@@ -171,6 +176,8 @@ pub(crate) enum Input {
     Driving,
     /// A wiring or state change, a supervisor's or the link watchdog's event.
     Event,
+    /// The sensors' health.
+    Health,
 }
 
 /// The views' state on the recorder's thread.
@@ -187,7 +194,7 @@ pub(crate) struct Views {
     trajectory: Vec<Pose>,
     last_pose_ns: Option<u64>,
     /// Inputs that did not decode, warned about once each.
-    warned: [bool; 5],
+    warned: [bool; 6],
 }
 
 impl Views {
@@ -203,7 +210,7 @@ impl Views {
             last_driving: None,
             trajectory: Vec::new(),
             last_pose_ns: None,
-            warned: [false; 5],
+            warned: [false; 6],
         }
     }
 
@@ -226,6 +233,7 @@ impl Views {
             sink.declare::<LaserScan>(INFRARED_TOPIC)?;
             sink.declare::<LaserScan>(SONAR_TOPIC)?;
             sink.declare::<FrameTransforms>(TF_TOPIC)?;
+            sink.declare::<Log>(HEALTH_TOPIC)?;
         }
         if self.setup.truth {
             sink.declare::<SceneUpdate>(PEOPLE_TOPIC)?;
@@ -326,6 +334,32 @@ impl Views {
                     line: 0,
                 };
                 rec.view(EVENTS_TOPIC, at, &log)
+            }
+            Input::Health => {
+                let h = match serde_json::from_slice::<Stamped<Health>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                let bad: Vec<String> = h
+                    .sensors
+                    .iter()
+                    .filter(|s| s.verdict != Verdict::Healthy)
+                    .map(|s| format!("{} {}: {}", s.sensor, s.verdict.name(), s.why))
+                    .collect();
+                let (level, message) = if bad.is_empty() {
+                    (log::Level::Info, "every sensor healthy".to_owned())
+                } else {
+                    (log::Level::Warning, bad.join("; "))
+                };
+                let log = Log {
+                    timestamp: Some(shapes::stamp(h.stamp)),
+                    level: level as i32,
+                    message,
+                    name: topic.to_owned(),
+                    file: String::new(),
+                    line: 0,
+                };
+                rec.view(HEALTH_TOPIC, at, &log)
             }
             Input::Infrared | Input::Sonar => {
                 let scan = match serde_json::from_slice::<Stamped<DistanceScan>>(json) {

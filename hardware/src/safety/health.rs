@@ -1,0 +1,786 @@
+//! Sensor health: each sensor judged live from what it reads, the robot's motion and the other
+//! sensors (`[safety.health]`).
+//!
+//! The judge sees every scan the robot server and the safety monitor read, and the odometry.
+//! Each range view (`infrared`, the near one; `sonar`, the far one) is judged:
+//!
+//! - **stale**: its newest reading is older than `stale_periods` of its scan period;
+//! - **stuck**: every reading repeats the one before to the bit (with at least one valid), while
+//!   the robot turned `stuck_turn_deg` or travelled `stuck_travel_m`: what a ring sees changes
+//!   when the robot turns, and real readings carry noise (a noiseless simulator driving exactly
+//!   parallel to walls could look stuck; this judge is for sensors that have noise). Standing still, a stuck ring cannot be
+//!   told from a good one, and need not be: nothing moves towards anything;
+//! - **dead**: no valid reading at all while either the other view (trusted) sees at least two
+//!   things well within this view's range, or this view itself saw two such things a moment ago
+//!   and the robot has barely moved since (walls do not vanish between two scans); for
+//!   `dead_after_s`. No echo where nothing is in range is healthy. A view judged dead is
+//!   healthy again once it reads something, or once the other view, trusted, sees nothing
+//!   within its range either, for `recover_s`: not merely because nothing checks it any more;
+//! - **noisy**: its readings scatter more than `noisy_sd_m` + `noisy_fraction` x the distance
+//!   (standard deviation, m), estimated
+//!   over the last `window_s` from the second differences of each sensor's successive readings
+//!   (which smooth motion does not change: a robot or a person moving steadily leaves them near
+//!   zero), robustly (a median, so edges a beam sweeps over do not count).
+//!
+//! The bumpers are judged stale (no scan for `stale_periods` of their period) and
+//! stuck (the same bumpers pressed while the robot travelled `stuck_travel_m`: it cannot travel
+//! into what presses it). A bumper ring that reads nothing pressed cannot be told from one
+//! that is dead; the monitor does not count on them alone.
+//!
+//! A sensor becomes healthy again after `recover_s` with nothing against it.
+
+use orsa_actors::Timestamp;
+use orsa_actors::param::Invalid;
+use orsa_interfaces::health::{Health, HealthCounters, HealthTimes, SENSORS, SensorHealth, Verdict};
+use orsa_interfaces::nomad200::{ContactScan, DistanceScan};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// How sensors are judged (`[safety.health]`), read at start only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HealthParams {
+    /// Whether sensors are judged at all (default true).
+    pub enabled: bool,
+    /// Stale: no reading within this many of the view's scan periods (default 5).
+    pub stale_periods: f64,
+    /// Stuck: unchanged while the robot turned this much, deg (default 15) ...
+    pub stuck_turn_deg: f64,
+    /// ... or travelled this far, m (default 0.2).
+    pub stuck_travel_m: f64,
+    /// Dead: the evidence held this long, s (default 0.3).
+    pub dead_after_s: f64,
+    /// Noisy: readings scatter more than this, m, plus `noisy_fraction` of their distance
+    /// (default 0.03 m; the simulator's infrared scatters 0.005 m + 2 % of the distance, its
+    /// sonar 1 % of it) ...
+    pub noisy_sd_m: f64,
+    /// ... see `noisy_sd_m` (default 0.03).
+    pub noisy_fraction: f64,
+    /// The window the scatter is estimated over, s (default 1.0).
+    pub window_s: f64,
+    /// Healthy again after this long with nothing against it, s (default 1.0).
+    pub recover_s: f64,
+}
+
+impl Default for HealthParams {
+    fn default() -> Self {
+        HealthParams {
+            enabled: true,
+            stale_periods: 5.0,
+            stuck_turn_deg: 15.0,
+            stuck_travel_m: 0.2,
+            dead_after_s: 0.3,
+            noisy_sd_m: 0.03,
+            noisy_fraction: 0.03,
+            window_s: 1.0,
+            recover_s: 1.0,
+        }
+    }
+}
+
+impl HealthParams {
+    /// Why these parameters cannot be used, naming the key under `safety.health`.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let checks: [(&str, f64, f64, f64); 8] = [
+            ("stale_periods", self.stale_periods, 1.0, 1000.0),
+            ("stuck_turn_deg", self.stuck_turn_deg, 1.0, 360.0),
+            ("stuck_travel_m", self.stuck_travel_m, 0.01, 100.0),
+            ("dead_after_s", self.dead_after_s, 0.0, 60.0),
+            ("noisy_sd_m", self.noisy_sd_m, 1e-4, 10.0),
+            ("noisy_fraction", self.noisy_fraction, 0.0, 10.0),
+            ("window_s", self.window_s, 0.1, 60.0),
+            ("recover_s", self.recover_s, 0.0, 60.0),
+        ];
+        for (key, v, lo, hi) in checks {
+            if !(v.is_finite() && v >= lo && v <= hi) {
+                return Err(Invalid::new(
+                    format!("safety.health.{key}"),
+                    format!("must be between {lo} and {hi}, got {v}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the judge needs to know of a range view.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewSpec {
+    /// Its scan period, s.
+    pub period_s: f64,
+    /// Its shortest valid reading, m.
+    pub min_range_m: f64,
+    /// Its longest valid reading, m.
+    pub max_range_m: f64,
+}
+
+const NS: f64 = 1e-9;
+
+fn secs(a: Timestamp, b: Timestamp) -> f64 {
+    b.0.saturating_sub(a.0) as f64 * NS
+}
+
+/// The verdict on one sensor and its bookkeeping.
+#[derive(Debug, Clone, Default)]
+struct Judged {
+    verdict: Verdict,
+    since: Timestamp,
+    why: String,
+    /// When the evidence against it was last seen.
+    last_evidence: Option<Timestamp>,
+    /// Since when the signs say the verdict no longer holds.
+    recovering_from: Option<Timestamp>,
+    times: HealthTimes,
+}
+
+impl Judged {
+    /// Evidence of `v` at `now`: the verdict becomes `v` (a worse one is kept only while its own
+    /// evidence is fresh).
+    fn condemn(&mut self, v: Verdict, why: impl FnOnce() -> String, now: Timestamp) -> bool {
+        self.last_evidence = Some(now);
+        self.recovering_from = None;
+        if self.verdict == v {
+            return false;
+        }
+        if self.verdict == Verdict::Healthy {
+            self.times.episodes += 1;
+        }
+        self.verdict = v;
+        self.since = now;
+        self.why = why();
+        true
+    }
+
+    /// A sign at `now` that the verdict no longer holds (`Some(true)`: a valid reading after
+    /// dead, readings that change after stuck, calm after noisy, a fresh one after stale), that
+    /// it still holds (`Some(false)`), or neither (`None`: nothing to tell, e.g. a stuck ring
+    /// with the robot standing still). Healthy again once the signs have said so for
+    /// `recover_s`, with no evidence against it meanwhile: the mere absence of evidence (no
+    /// other view to check against any more) clears nothing.
+    fn absolve(&mut self, sign: Option<bool>, now: Timestamp, recover_s: f64) -> bool {
+        if self.verdict == Verdict::Healthy {
+            self.recovering_from = None;
+            return false;
+        }
+        match sign {
+            Some(true) => {
+                self.recovering_from.get_or_insert(now);
+            }
+            Some(false) => self.recovering_from = None,
+            None => {}
+        }
+        let Some(from) = self.recovering_from else { return false };
+        if secs(from, now) < recover_s || self.last_evidence.is_some_and(|t| secs(t, now) < recover_s) {
+            return false;
+        }
+        self.recovering_from = None;
+        self.verdict = Verdict::Healthy;
+        self.since = now;
+        self.why.clear();
+        true
+    }
+
+    /// Counts the time from `from` to `to` under the current verdict.
+    fn account(&mut self, from: Timestamp, to: Timestamp) {
+        let s = secs(from, to);
+        match self.verdict {
+            Verdict::Healthy => {}
+            Verdict::Stale => self.times.stale_s += s,
+            Verdict::Stuck => self.times.stuck_s += s,
+            Verdict::Dead => self.times.dead_s += s,
+            Verdict::Noisy => self.times.noisy_s += s,
+        }
+    }
+}
+
+/// What a range view read last, for the checks.
+#[derive(Debug, Clone, Default)]
+struct ViewState {
+    judged: Judged,
+    /// The stamp of the newest scan judged.
+    stamp: Option<Timestamp>,
+    /// Its readings: `Some(distance)` for a valid one.
+    last: Vec<Option<f64>>,
+    /// The two readings before, per sensor, for the scatter.
+    before: Vec<[Option<f64>; 2]>,
+    /// Motion (travel, turn) when the readings last changed.
+    unchanged_from: Option<(f64, f64)>,
+    /// The readings it was judged stuck on.
+    stuck_on: Vec<Option<f64>>,
+    /// The motion and time when the view last saw two things well within its range.
+    last_saw: Option<(f64, Timestamp)>,
+    /// When the evidence that it is dead began.
+    dead_from: Option<Timestamp>,
+    /// When it last read something valid.
+    last_valid: Option<Timestamp>,
+    /// Second differences of the window: (stamp, |d|).
+    scatter: VecDeque<(Timestamp, f64)>,
+}
+
+/// The judge of a robot's sensors (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Judge {
+    params: HealthParams,
+    specs: [ViewSpec; 2],
+    bumper_period_s: f64,
+    views: [ViewState; 2],
+    bumpers: Judged,
+    bumpers_stamp: Option<Timestamp>,
+    /// The pressed set and the travel when it began.
+    pressed: Option<(Vec<bool>, f64)>,
+    /// Path travelled and turned so far (odometry), m and rad.
+    travel: f64,
+    turn: f64,
+    pose: Option<(f64, f64, f64)>,
+    /// The latest time the judge knows.
+    now: Timestamp,
+    /// When times were last counted.
+    counted: Option<Timestamp>,
+    /// Bumped on every change of a verdict.
+    version: u64,
+}
+
+impl Judge {
+    /// A judge of two range views (`infrared`, `sonar`) and bumpers pushed every
+    /// `bumper_period_s`.
+    pub fn new(params: HealthParams, specs: [ViewSpec; 2], bumper_period_s: f64) -> Self {
+        Judge {
+            params,
+            specs,
+            bumper_period_s,
+            views: Default::default(),
+            bumpers: Judged::default(),
+            bumpers_stamp: None,
+            pressed: None,
+            travel: 0.0,
+            turn: 0.0,
+            pose: None,
+            now: Timestamp::ZERO,
+            counted: None,
+            version: 0,
+        }
+    }
+
+    /// Its parameters.
+    pub fn params(&self) -> &HealthParams {
+        &self.params
+    }
+
+    /// Changes with every change of a verdict.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    fn advance(&mut self, now: Timestamp) {
+        if now <= self.now {
+            return;
+        }
+        if let Some(from) = self.counted {
+            for v in &mut self.views {
+                v.judged.account(from, now);
+            }
+            self.bumpers.account(from, now);
+        }
+        self.counted = Some(now);
+        self.now = now;
+    }
+
+    /// The robot's odometry at `now`.
+    pub fn note_motion(&mut self, x: f64, y: f64, heading: f64, now: Timestamp) {
+        if !(x.is_finite() && y.is_finite() && heading.is_finite()) {
+            return;
+        }
+        if let Some((x0, y0, h0)) = self.pose {
+            self.travel += (x - x0).hypot(y - y0);
+            self.turn += ((heading - h0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI)
+                .abs();
+        }
+        self.pose = Some((x, y, heading));
+        self.advance(now);
+        self.check_stale();
+    }
+
+    fn check_stale(&mut self) {
+        let now = self.now;
+        let mut changed = false;
+        for (v, spec) in self.views.iter_mut().zip(&self.specs) {
+            let limit = self.params.stale_periods * spec.period_s;
+            if let Some(stamp) = v.stamp
+                && secs(stamp, now) > limit
+            {
+                changed |=
+                    v.judged.condemn(Verdict::Stale, || format!("no reading for over {limit:.2} s"), now);
+            }
+        }
+        let limit = self.params.stale_periods * self.bumper_period_s;
+        if let Some(stamp) = self.bumpers_stamp
+            && secs(stamp, now) > limit
+        {
+            changed |= self.bumpers.condemn(Verdict::Stale, || format!("no scan for over {limit:.2} s"), now);
+        }
+        if changed {
+            self.version += 1;
+        }
+    }
+
+    /// A scan of view `v` (0: infrared, 1: sonar).
+    pub fn note_scan(&mut self, v: usize, scan: &DistanceScan) {
+        if v > 1 {
+            return;
+        }
+        self.advance(scan.stamp);
+        let now = self.now;
+        if self.views[v].stamp.is_some_and(|s| scan.stamp <= s) {
+            self.check_stale();
+            return;
+        }
+        let p = self.params.clone();
+        let spec = self.specs[v];
+        let well_within = |d: f64, s: &ViewSpec| d >= s.min_range_m + 0.05 && d <= 0.8 * s.max_range_m;
+        let sees_two =
+            |r: &[Option<f64>], s: &ViewSpec| r.iter().flatten().filter(|d| well_within(**d, s)).count() >= 2;
+        // Whether the other view is trusted and fresh, and then whether it sees two things well
+        // within this one's range, or nothing within it at all (this one's silence agrees).
+        let (other_sees, other_sees_nothing) = {
+            let (o, o_spec) = (&self.views[1 - v], self.specs[1 - v]);
+            let vouches = o.judged.verdict == Verdict::Healthy
+                && o.stamp.is_some_and(|t| secs(t, now) <= 2.0 * o_spec.period_s.max(spec.period_s));
+            // (Only a view that reaches as far can say so.)
+            let nothing = o_spec.max_range_m >= spec.max_range_m
+                && o.last.iter().flatten().all(|d| *d > spec.max_range_m);
+            (vouches && sees_two(&o.last, &spec), vouches && nothing)
+        };
+        let (travel, turn) = (self.travel, self.turn);
+        let st = &mut self.views[v];
+        st.stamp = Some(scan.stamp);
+        let now_readings: Vec<Option<f64>> = scan
+            .readings
+            .iter()
+            .map(|r| (r.valid && r.distance_m.is_finite()).then_some(r.distance_m))
+            .collect();
+        let mut changed = false;
+        let mut evidence = false;
+        // Stuck.
+        let valid = now_readings.iter().flatten().count();
+        if valid > 0 {
+            st.last_valid = Some(now);
+        }
+        let same = st.last.len() == now_readings.len()
+            && st.last.iter().zip(&now_readings).all(|(a, b)| a.map(f64::to_bits) == b.map(f64::to_bits));
+        if !same || valid == 0 {
+            st.unchanged_from = Some((travel, turn));
+        } else if let Some((t0, w0)) = st.unchanged_from {
+            let (moved, turned) = (travel - t0, (turn - w0).to_degrees());
+            if moved >= p.stuck_travel_m || turned >= p.stuck_turn_deg {
+                evidence = true;
+                st.stuck_on.clone_from(&now_readings);
+                changed |= st.judged.condemn(
+                    Verdict::Stuck,
+                    || format!("the same readings while the robot travelled {moved:.2} m and turned {turned:.0} deg"),
+                    now,
+                );
+            }
+        }
+        // Dead.
+        if sees_two(&now_readings, &spec) {
+            st.last_saw = Some((travel, now));
+        }
+        // Alive: it reads something, or reads nothing where the other view sees nothing either.
+        let mut dead_sign = (valid > 0 || other_sees_nothing).then_some(true);
+        if valid == 0 {
+            let saw_a_moment_ago =
+                st.last_saw.is_some_and(|(t0, at)| travel - t0 < 0.1 && secs(at, now) < 2.0);
+            if other_sees || saw_a_moment_ago {
+                dead_sign = Some(false);
+                let from = *st.dead_from.get_or_insert(now);
+                if secs(from, now) >= p.dead_after_s {
+                    evidence = true;
+                    changed |= st.judged.condemn(
+                        Verdict::Dead,
+                        || {
+                            if other_sees {
+                                "no valid reading while the other view sees things within its range".into()
+                            } else {
+                                "every reading went invalid at once with things within its range".into()
+                            }
+                        },
+                        now,
+                    );
+                }
+            } else {
+                st.dead_from = None;
+            }
+        } else {
+            st.dead_from = None;
+        }
+        // Noisy.
+        if st.before.len() != now_readings.len() {
+            st.before = vec![[None; 2]; now_readings.len()];
+        }
+        for (b, d) in st.before.iter_mut().zip(&now_readings) {
+            if let (Some(d0), Some(d1), Some(d2)) = (b[0], b[1], *d) {
+                // In units of the scatter allowed at that distance.
+                let allowed = p.noisy_sd_m + p.noisy_fraction * d1;
+                st.scatter.push_back((now, (d2 - 2.0 * d1 + d0).abs() / allowed));
+            }
+            *b = [b[1], *d];
+        }
+        let window = (p.window_s / NS) as u64;
+        while st.scatter.front().is_some_and(|(t, _)| now.0.saturating_sub(t.0) > window) {
+            st.scatter.pop_front();
+        }
+        // Nothing valid to scatter: noise, if any, harms nothing.
+        let mut calm = (valid == 0 && st.scatter.len() < 20).then_some(true);
+        if st.scatter.len() >= 20 {
+            let mut d: Vec<f64> = st.scatter.iter().map(|(_, d)| *d).collect();
+            let mid = d.len() / 2;
+            let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+            // |N(0, 6 sd^2)| has median 0.6745 sqrt(6) sd.
+            let ratio = *median / (0.6745 * 6f64.sqrt());
+            calm = Some(ratio <= 1.0);
+            if ratio > 1.0 {
+                evidence = true;
+                changed |= st.judged.condemn(
+                    Verdict::Noisy,
+                    || format!("readings scatter {ratio:.1} times what the sensor may"),
+                    now,
+                );
+            }
+        }
+        st.last = now_readings;
+        if !evidence {
+            let sign = match st.judged.verdict {
+                Verdict::Healthy => None,
+                Verdict::Stale => Some(true),
+                // Anything but what it was stuck on, nothing valid included.
+                Verdict::Stuck => Some(st.stuck_on != st.last),
+                Verdict::Dead => dead_sign,
+                Verdict::Noisy => calm,
+            };
+            changed |= st.judged.absolve(sign, now, p.recover_s);
+        }
+        if changed {
+            self.version += 1;
+        }
+        self.check_stale();
+    }
+
+    /// A bumper scan.
+    pub fn note_bumpers(&mut self, scan: &ContactScan) {
+        self.advance(scan.stamp);
+        if self.bumpers_stamp.is_some_and(|s| scan.stamp <= s) {
+            return;
+        }
+        self.bumpers_stamp = Some(scan.stamp);
+        let now = self.now;
+        let travel = self.travel;
+        let mut changed = false;
+        let mut evidence = false;
+        let same_as_before = self.pressed.as_ref().is_some_and(|(p, _)| *p == scan.pressed);
+        if scan.any() {
+            match &self.pressed {
+                Some((p, t0)) if *p == scan.pressed => {
+                    let moved = travel - t0;
+                    if moved >= self.params.stuck_travel_m {
+                        evidence = true;
+                        changed |= self.bumpers.condemn(
+                            Verdict::Stuck,
+                            || format!("the same bumpers pressed while the robot travelled {moved:.2} m"),
+                            now,
+                        );
+                    }
+                }
+                _ => self.pressed = Some((scan.pressed.clone(), travel)),
+            }
+        } else {
+            self.pressed = None;
+        }
+        if !evidence {
+            let sign = match self.bumpers.verdict {
+                Verdict::Stuck => Some(!same_as_before),
+                _ => Some(true),
+            };
+            changed |= self.bumpers.absolve(sign, now, self.params.recover_s);
+        }
+        if changed {
+            self.version += 1;
+        }
+    }
+
+    /// Whether view `v` (0: infrared, 1: sonar) is trusted.
+    pub fn view_trusted(&self, v: usize) -> bool {
+        self.views.get(v).is_none_or(|s| s.judged.verdict == Verdict::Healthy)
+    }
+
+    /// Whether view `v` is trusted and its silence means something: the other view is trusted
+    /// too (and would show what this one misses), or this one read something valid within
+    /// `recover_s` (it is alive). A view that reads nothing at all with no one to check it
+    /// against may be dead where nothing proves it: the monitor does not count on it.
+    pub fn view_vouched(&self, v: usize) -> bool {
+        let Some(st) = self.views.get(v) else { return true };
+        if st.judged.verdict != Verdict::Healthy {
+            return false;
+        }
+        self.view_trusted(1 - v)
+            || st
+                .last_valid
+                .is_some_and(|t| secs(t, self.now) <= self.params.recover_s.max(4.0 * self.specs[v].period_s))
+    }
+
+    /// Whether the bumpers are trusted.
+    pub fn bumpers_trusted(&self) -> bool {
+        self.bumpers.verdict == Verdict::Healthy
+    }
+
+    /// Whether every sensor is trusted.
+    pub fn all_trusted(&self) -> bool {
+        self.view_trusted(0) && self.view_trusted(1) && self.bumpers_trusted()
+    }
+
+    /// The health of every sensor now.
+    pub fn health(&self) -> Health {
+        let judged = [&self.views[0].judged, &self.views[1].judged, &self.bumpers];
+        Health {
+            stamp: self.now,
+            sensors: SENSORS
+                .iter()
+                .zip(judged)
+                .map(|(name, j)| SensorHealth {
+                    sensor: (*name).into(),
+                    verdict: j.verdict,
+                    since: j.since,
+                    why: j.why.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    /// How long each sensor was judged what, so far.
+    pub fn counters(&self) -> HealthCounters {
+        HealthCounters {
+            infrared: self.views[0].judged.times,
+            sonar: self.views[1].judged.times,
+            bumpers: self.bumpers.times,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use orsa_interfaces::nomad200::{DistanceReading, Ring};
+
+    const MS: u64 = 1_000_000;
+
+    fn judge() -> Judge {
+        let ir = ViewSpec { period_s: 0.04, min_range_m: 0.0, max_range_m: 0.6 };
+        let sonar = ViewSpec { period_s: 0.064, min_range_m: 0.3, max_range_m: 6.0 };
+        Judge::new(HealthParams::default(), [ir, sonar], 0.03)
+    }
+
+    fn scan(ring: Ring, t_ms: u64, d: &[Option<f64>]) -> DistanceScan {
+        DistanceScan {
+            stamp: Timestamp(t_ms * MS),
+            ring,
+            readings: d
+                .iter()
+                .enumerate()
+                .map(|(i, d)| DistanceReading {
+                    sensor_id: i as u8,
+                    stamp: Timestamp(t_ms * MS),
+                    valid: d.is_some(),
+                    distance_m: d.unwrap_or(0.6),
+                })
+                .collect(),
+        }
+    }
+
+    /// A corridor seen while driving: left and right walls at slowly changing distances with a
+    /// little noise, the rest out of range.
+    fn seen(k: u64, noise: f64) -> Vec<Option<f64>> {
+        let wiggle = |i: u64| ((k * 7 + i * 13) % 11) as f64 / 11.0 - 0.5;
+        let mut r = vec![None; 16];
+        r[4] = Some(0.30 + 0.001 * k as f64 + noise * wiggle(4));
+        r[3] = Some(0.42 + 0.001 * k as f64 + noise * wiggle(3));
+        r[12] = Some(0.35 - 0.001 * k as f64 + noise * wiggle(12));
+        r
+    }
+
+    #[test]
+    fn a_ring_that_repeats_itself_while_the_robot_turns_is_stuck_and_recovers_after() {
+        let mut j = judge();
+        let frozen = seen(0, 0.004);
+        for k in 0..100u64 {
+            let t = k * 40;
+            j.note_motion(0.0, 0.0, k as f64 * 0.01, Timestamp(t * MS)); // 0.57 deg a scan
+            let r = if (20..80).contains(&k) { frozen.clone() } else { seen(k, 0.004) };
+            j.note_scan(0, &scan(Ring::Infrared, t, &r));
+            if k < 20 {
+                assert!(j.view_trusted(0), "healthy at first ({k})");
+            }
+            if k == 79 {
+                assert_eq!(j.health().verdict("infrared"), Verdict::Stuck);
+            }
+        }
+        // 20 scans after it changed again: 0.8 s < recover_s, still not trusted; then it is.
+        assert!(!j.view_trusted(0));
+        for k in 100..130u64 {
+            j.note_motion(0.0, 0.0, k as f64 * 0.01, Timestamp(k * 40 * MS));
+            j.note_scan(0, &scan(Ring::Infrared, k * 40, &seen(k, 0.004)));
+        }
+        assert!(j.view_trusted(0));
+        let c = j.counters().infrared;
+        assert_eq!(c.episodes, 1);
+        // Stuck from when it had turned 15 degrees (26 scans in) to 1 s after it changed.
+        assert!(c.stuck_s > 1.0 && c.stuck_s < 3.0, "{c:?}");
+    }
+
+    #[test]
+    fn a_ring_standing_still_may_repeat_itself() {
+        let mut j = judge();
+        let frozen = seen(0, 0.0);
+        for k in 0..200u64 {
+            j.note_motion(1.0, 2.0, 0.3, Timestamp(k * 40 * MS));
+            j.note_scan(0, &scan(Ring::Infrared, k * 40, &frozen));
+        }
+        assert!(j.all_trusted(), "{:?}", j.health());
+    }
+
+    #[test]
+    fn a_ring_with_nothing_valid_while_the_other_sees_walls_within_its_range_is_dead() {
+        let mut j = judge();
+        let nothing = vec![None; 16];
+        for k in 0..40u64 {
+            let t = k * 64;
+            j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
+            // Sonar sees walls at 0.35-0.45 m, well within the infrared's 0.6 m (with the
+            // little noise a sonar has: readings that never change would be stuck).
+            let n = ((k * 7) % 5) as f64 * 0.002;
+            let mut so = vec![None; 16];
+            so[4] = Some(0.40 + n);
+            so[12] = Some(0.45 - n);
+            so[0] = Some(3.0 + n);
+            j.note_scan(1, &scan(Ring::Sonar, t, &so));
+            j.note_scan(0, &scan(Ring::Infrared, t, &nothing));
+        }
+        assert_eq!(j.health().verdict("infrared"), Verdict::Dead, "{:?}", j.health());
+        assert!(j.view_trusted(1));
+        // With the walls beyond its range, nothing valid is healthy.
+        let mut j = judge();
+        for k in 0..40u64 {
+            let t = k * 64;
+            j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
+            let n = ((k * 7) % 5) as f64 * 0.002;
+            let mut so = vec![None; 16];
+            so[4] = Some(1.1 + n);
+            so[12] = Some(1.2 - n);
+            j.note_scan(1, &scan(Ring::Sonar, t, &so));
+            j.note_scan(0, &scan(Ring::Infrared, t, &nothing));
+        }
+        assert!(j.all_trusted(), "{:?}", j.health());
+    }
+
+    #[test]
+    fn a_dead_view_stays_dead_until_it_reads_again_and_silence_no_one_vouches_for_is_not_trusted() {
+        let mut j = judge();
+        let nothing = vec![None; 16];
+        let walls = |k: u64| {
+            let n = ((k * 7) % 5) as f64 * 0.002;
+            let mut so = vec![None; 16];
+            so[4] = Some(0.40 + n);
+            so[12] = Some(0.45 - n);
+            so
+        };
+        fn step(j: &mut Judge, k: &mut u64, so: Option<Vec<Option<f64>>>, ir: &[Option<f64>]) {
+            let t = *k * 64;
+            j.note_motion(*k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
+            if let Some(so) = so {
+                j.note_scan(1, &scan(Ring::Sonar, t, &so));
+            }
+            j.note_scan(0, &scan(Ring::Infrared, t, ir));
+            *k += 1;
+        }
+        let mut k = 0u64;
+        for _ in 0..20 {
+            let so = walls(k);
+            step(&mut j, &mut k, Some(so), &nothing);
+        }
+        assert_eq!(j.health().verdict("infrared"), Verdict::Dead);
+        // The sonar goes stale: nothing checks the infrared any more, and nothing proves it
+        // alive, so it stays dead however long that lasts.
+        for _ in 0..100 {
+            step(&mut j, &mut k, None, &nothing);
+        }
+        assert_eq!(j.health().verdict("infrared"), Verdict::Dead, "{:?}", j.health());
+        assert_eq!(j.health().verdict("sonar"), Verdict::Stale);
+        assert!(!j.view_vouched(0) && !j.view_vouched(1));
+        // It reads again: healthy once it has for recover_s, and vouched for by its own
+        // readings while the sonar is still stale.
+        for _ in 0..20 {
+            // Something near the edge of its range (not what vanishes at once when it passes).
+            let mut r = vec![None; 16];
+            r[4] = Some(0.52 + ((k * 3) % 7) as f64 * 0.003);
+            step(&mut j, &mut k, None, &r);
+        }
+        assert!(j.view_trusted(0), "{:?}", j.health());
+        assert!(j.view_vouched(0));
+        // Silent again, with the sonar still stale: trusted (nothing says it is dead) but not
+        // vouched for once recover_s has passed.
+        for _ in 0..20 {
+            step(&mut j, &mut k, None, &nothing);
+        }
+        assert!(j.view_trusted(0));
+        assert!(!j.view_vouched(0));
+    }
+
+    #[test]
+    fn every_reading_vanishing_at_once_is_dead_even_with_no_other_view() {
+        let mut j = judge();
+        for k in 0..30u64 {
+            let t = k * 40;
+            j.note_motion(0.0, 0.0, 0.0, Timestamp(t * MS));
+            let r = if k < 10 { seen(k, 0.004) } else { vec![None; 16] };
+            j.note_scan(0, &scan(Ring::Infrared, t, &r));
+        }
+        assert_eq!(j.health().verdict("infrared"), Verdict::Dead);
+    }
+
+    #[test]
+    fn scatter_beyond_the_limit_is_noisy_and_ordinary_noise_is_not() {
+        let run = |noise: f64| {
+            let mut j = judge();
+            for k in 0..60u64 {
+                let t = k * 40;
+                j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
+                j.note_scan(0, &scan(Ring::Infrared, t, &seen(k, noise)));
+            }
+            j.health().verdict("infrared")
+        };
+        // `seen` spreads the noise uniformly over +-noise/2: sd = noise / sqrt(12).
+        assert_eq!(run(0.03), Verdict::Healthy, "sd 9 mm");
+        assert_eq!(run(0.6), Verdict::Noisy, "sd 173 mm, over 0.03 m + 3 % of 0.3 m");
+    }
+
+    #[test]
+    fn a_ring_that_stops_reading_is_stale_and_bumpers_pressed_while_driving_are_stuck() {
+        let mut j = judge();
+        j.note_scan(0, &scan(Ring::Infrared, 0, &seen(0, 0.004)));
+        for k in 0..20u64 {
+            j.note_motion(k as f64 * 0.05, 0.0, 0.0, Timestamp(k * 40 * MS));
+            let mut pressed = vec![false; 20];
+            pressed[0] = true;
+            j.note_bumpers(&ContactScan { stamp: Timestamp(k * 40 * MS), pressed });
+        }
+        let h = j.health();
+        assert_eq!(h.verdict("infrared"), Verdict::Stale, "{h:?}");
+        assert_eq!(h.verdict("bumpers"), Verdict::Stuck, "{h:?}");
+        assert!(!j.bumpers_trusted());
+    }
+
+    #[test]
+    fn bad_parameters_are_refused_by_key() {
+        let p = HealthParams { noisy_sd_m: 0.0, ..Default::default() };
+        assert!(p.validate().unwrap_err().to_string().contains("safety.health.noisy_sd_m"));
+    }
+}
