@@ -162,8 +162,8 @@ mod tests {
         assert!(h.trusted("sonar"));
         assert!(h.trusted("bumpers"));
         assert_eq!(h.summary(), "infrared stuck");
-        let json = serde_json::to_string(&h).unwrap();
+        let json = serde_json::to_string(&h).expect("serialise");
         assert!(json.contains("\"stuck\""), "{json}");
-        assert_eq!(serde_json::from_str::<Health>(&json).unwrap(), h);
+        assert_eq!(serde_json::from_str::<Health>(&json).expect("deserialise"), h);
     }
 }

@@ -32,7 +32,8 @@ fn ring(max_range_m: f64) -> RingParams {
     }
 }
 
-/// Publishes the infrared ring only, with a wall 0.3 m to the left; answers `robotparams`.
+/// Publishes the infrared ring only, with a wall 0.3 m to the left; answers `robotparams`;
+/// serves `health` and `contact` without ever putting anything.
 struct FakeRobot;
 
 enum RobotMsg {
@@ -55,6 +56,8 @@ impl Component for FakeRobot {
             ctx.push_timed_server::<BaseState>(nomad200::BASESTATE, Duration::from_secs(1), RobotMsg::Base)?;
         ctx.query_server(nomad200::ROBOTPARAMS, RobotMsg::Params)?;
         ctx.event_server(nomad200::CONTACT, |_: &mut Empty, _: &ContactScan| None::<ContactScan>)?;
+        // Every robot server says how its sensors are (never pushed here: nothing judged).
+        ctx.push_newest_server(orsa_interfaces::health::HEALTH)?;
         ir.start();
         base.stop();
         Ok(RobotState { ir })

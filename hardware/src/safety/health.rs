@@ -781,6 +781,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_refused_by_key() {
         let p = HealthParams { noisy_sd_m: 0.0, ..Default::default() };
-        assert!(p.validate().unwrap_err().to_string().contains("safety.health.noisy_sd_m"));
+        let e = p.validate().expect_err("a zero scatter limit");
+        assert!(e.to_string().contains("safety.health.noisy_sd_m"), "{e}");
     }
 }
