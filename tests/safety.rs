@@ -182,7 +182,7 @@ until = 570.0
     let (report, watch) = ten_minutes(Some(plan)).await;
     assert_eq!(report.bumps, 0);
     let h = report.safety.health.expect("the robot judges its sensors");
-    // Nine stuck spells of 8 s: each judged once the robot has moved 0.2 m or turned 15
+    // Nine stuck spells of 8 s: each judged once the robot has moved 0.1 m or turned 10
     // degrees on it (the robot stops then: under 1 s), until 1 s after it reads anything else.
     assert!(h.infrared.episodes >= 9, "{h:?}");
     assert!(h.infrared.stuck_s > 9.0 * 7.0 && h.infrared.unhealthy_s() < 9.0 * 9.0, "{h:?}");
@@ -206,4 +206,66 @@ until = 570.0
         report.distance_m,
         clean.distance_m
     );
+}
+
+/// One simulated hour of the patrol in `world` (a file of `worlds/`, or the reference corridor)
+/// under the shipped plan `plan` (`config/faults.PLAN.toml`, or none), on a runtime of its own
+/// with tokio's paused clock: its bumps and distance.
+fn an_hour(world: Option<&str>, plan: Option<&str>, seed: u64) -> (u64, f64) {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let (world, label) = match world {
+        Some(w) => (World::from_path(format!("{root}/worlds/{w}.toml")).expect("a shipped world"), w),
+        None => (World::palazzina().expect("world"), "palazzina"),
+    };
+    let config = Config::default();
+    let mut opts = RunOptions::new(world, label, config.clone(), seed, 3600.0);
+    opts.faults = plan.map(|p| {
+        let path = format!("{root}/config/faults.{p}.toml");
+        let text = std::fs::read_to_string(&path).expect("a shipped plan");
+        FaultPlan::parse(&text, &path, &PlanTargets::for_stack(&config)).expect("a valid plan")
+    });
+    let rt =
+        tokio::runtime::Builder::new_current_thread().enable_all().start_paused(true).build().expect("rt");
+    let report = rt.block_on(mission::run(opts)).expect("the run completes").report;
+    assert_eq!(report.ended, orsa::mission::report::Ended::Completed, "{label} {plan:?} seed {seed}");
+    (report.bumps, report.distance_m)
+}
+
+/// The safety measurement, cut to what the test command can afford (docs/faults.md has
+/// seeds 1-10 of each): an hour under the overlapping and the harsh plans on the reference
+/// corridor, seeds 1-3, and under the harsh plan on each of the four other worlds, seed 1, end
+/// with no bump; under the overlapping plan the robot still drives 80 % of its fault-free
+/// distance. Each hour runs on a thread of its own.
+#[test]
+fn hours_under_the_harsh_and_overlapping_plans_on_five_worlds_end_without_a_bump() {
+    let mut cases: Vec<(Option<&'static str>, Option<&'static str>, u64)> = Vec::new();
+    for seed in 1..=3 {
+        for plan in [None, Some("overlapping"), Some("harsh")] {
+            cases.push((None, plan, seed));
+        }
+    }
+    for world in ["loop", "lshape", "narrow", "hall"] {
+        cases.push((Some(world), Some("harsh"), 1));
+    }
+    let results: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = cases
+            .iter()
+            .map(|&(world, plan, seed)| s.spawn(move || ((world, plan, seed), an_hour(world, plan, seed))))
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("an hour")).collect()
+    });
+    for ((world, plan, seed), (bumps, _)) in &results {
+        assert_eq!(*bumps, 0, "{} under {plan:?}, seed {seed}", world.unwrap_or("palazzina"));
+    }
+    let distance = |plan: Option<&str>, seed: u64| {
+        results.iter().find(|((w, p, s), _)| w.is_none() && *p == plan && *s == seed).map(|(_, (_, d))| *d)
+    };
+    for seed in 1..=3 {
+        let (clean, faulty) =
+            (distance(None, seed).expect("ran"), distance(Some("overlapping"), seed).expect("ran"));
+        assert!(
+            faulty >= 0.8 * clean,
+            "seed {seed}: {faulty:.0} m under the overlapping plan, {clean:.0} m without"
+        );
+    }
 }
