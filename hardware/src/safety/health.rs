@@ -44,9 +44,9 @@ pub struct HealthParams {
     pub enabled: bool,
     /// Stale: no reading within this many of the view's scan periods (default 5).
     pub stale_periods: f64,
-    /// Stuck: unchanged while the robot turned this much, deg (default 10) ...
+    /// Stuck: unchanged while the robot turned this much, deg (default 15) ...
     pub stuck_turn_deg: f64,
-    /// ... or travelled this far, m (default 0.1).
+    /// ... or travelled this far, m (default 0.2).
     pub stuck_travel_m: f64,
     /// Dead: the evidence held this long, s (default 0.3).
     pub dead_after_s: f64,
@@ -67,8 +67,8 @@ impl Default for HealthParams {
         HealthParams {
             enabled: true,
             stale_periods: 5.0,
-            stuck_turn_deg: 10.0,
-            stuck_travel_m: 0.1,
+            stuck_turn_deg: 15.0,
+            stuck_travel_m: 0.2,
             dead_after_s: 0.3,
             noisy_sd_m: 0.03,
             noisy_fraction: 0.03,
@@ -632,7 +632,7 @@ mod tests {
         assert!(j.view_trusted(0));
         let c = j.counters().infrared;
         assert_eq!(c.episodes, 1);
-        // Stuck from when it had turned 10 degrees (18 scans in) to 1 s after it changed.
+        // Stuck from when it had turned 15 degrees (26 scans in) to 1 s after it changed.
         assert!(c.stuck_s > 1.0 && c.stuck_s < 3.0, "{c:?}");
     }
 
