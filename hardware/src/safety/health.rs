@@ -647,37 +647,33 @@ mod tests {
         assert!(j.all_trusted(), "{:?}", j.health());
     }
 
-    #[test]
-    fn a_ring_with_nothing_valid_while_the_other_sees_walls_within_its_range_is_dead() {
+    /// 40 sonar scans of `walls` (sensor, distance; with the little noise a sonar has: readings
+    /// that never change would be stuck) while the infrared reads nothing, the robot driving.
+    fn sonar_sees_the_infrared_nothing(walls: &[(usize, f64)]) -> Judge {
         let mut j = judge();
         let nothing = vec![None; 16];
         for k in 0..40u64 {
             let t = k * 64;
             j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
-            // Sonar sees walls at 0.35-0.45 m, well within the infrared's 0.6 m (with the
-            // little noise a sonar has: readings that never change would be stuck).
             let n = ((k * 7) % 5) as f64 * 0.002;
             let mut so = vec![None; 16];
-            so[4] = Some(0.40 + n);
-            so[12] = Some(0.45 - n);
-            so[0] = Some(3.0 + n);
+            for (i, (sensor, d)) in walls.iter().enumerate() {
+                so[*sensor] = Some(d + if i % 2 == 0 { n } else { -n });
+            }
             j.note_scan(1, &scan(Ring::Sonar, t, &so));
             j.note_scan(0, &scan(Ring::Infrared, t, &nothing));
         }
+        j
+    }
+
+    #[test]
+    fn a_ring_with_nothing_valid_while_the_other_sees_walls_within_its_range_is_dead() {
+        // Sonar sees walls at 0.40-0.45 m, well within the infrared's 0.6 m.
+        let j = sonar_sees_the_infrared_nothing(&[(4, 0.40), (12, 0.45), (0, 3.0)]);
         assert_eq!(j.health().verdict("infrared"), Verdict::Dead, "{:?}", j.health());
         assert!(j.view_trusted(1));
         // With the walls beyond its range, nothing valid is healthy.
-        let mut j = judge();
-        for k in 0..40u64 {
-            let t = k * 64;
-            j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
-            let n = ((k * 7) % 5) as f64 * 0.002;
-            let mut so = vec![None; 16];
-            so[4] = Some(1.1 + n);
-            so[12] = Some(1.2 - n);
-            j.note_scan(1, &scan(Ring::Sonar, t, &so));
-            j.note_scan(0, &scan(Ring::Infrared, t, &nothing));
-        }
+        let j = sonar_sees_the_infrared_nothing(&[(4, 1.1), (12, 1.2)]);
         assert!(j.all_trusted(), "{:?}", j.health());
     }
 
