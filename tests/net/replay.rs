@@ -206,3 +206,160 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
         let _ = std::fs::remove_file(p);
     }
 }
+
+/// How one process of the deployment ends, or loses its peer, in
+/// [`recordings_ended_by_a_lost_peer_or_ctrl_c_replay`].
+#[derive(Clone, Copy, Debug)]
+enum Ending {
+    /// The executive is SIGKILLed; later the robot gets Ctrl-C. The robot's recording replays.
+    ExecutiveKilled,
+    /// The robot is SIGKILLed; later the executive gets Ctrl-C. The executive's recording
+    /// replays.
+    RobotKilled,
+    /// The executive gets Ctrl-C, then the robot: both replay.
+    ExecutiveInterrupted,
+    /// The robot gets Ctrl-C, then the executive: both replay.
+    RobotInterrupted,
+    /// The robot's link to the executive is cut (a `link_cut` fault from 3 s, for 4 s) and the
+    /// robot gets Ctrl-C at a moment in the cut or after it, then the executive: both replay.
+    InterruptedAroundALinkCut,
+}
+
+/// A moment in `[lo, hi)` seconds, from `state` (splitmix64): the moments differ from round to
+/// round and the test prints them, so a failing round can be run again as it was.
+fn moment(state: &mut u64, lo: f64, hi: f64) -> Duration {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    Duration::from_secs_f64(lo + (hi - lo) * (z >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+fn signal(p: &Proc, sig: &str) {
+    let ok =
+        std::process::Command::new("kill").args([sig, &p.child.id().to_string()]).status().expect("run kill");
+    assert!(ok.success(), "kill {sig} failed");
+}
+
+/// Waits for a process that got SIGKILL or Ctrl-C to be gone; Ctrl-C must end it with 130.
+async fn gone(p: Proc, interrupted: bool, what: &str) {
+    let (code, p) = tokio::task::spawn_blocking(move || {
+        let mut p = p;
+        (p.child.wait().expect("wait").code(), p)
+    })
+    .await
+    .expect("join");
+    if interrupted {
+        assert_eq!(code, Some(130), "{what} after Ctrl-C: {}", p.log_text());
+    }
+}
+
+/// One deployment (robot and executive, both recording) ended as `ending` says, after the
+/// executive drove and a moment drawn from `state`; what it recorded is replayed with
+/// `orsa replay`, which must say bit-exact. The moments, for the test's output.
+async fn one_ending(ending: Ending, round: usize, state: &mut u64) -> String {
+    let name = format!("end{round}{ending:?}");
+    let sys = System::new(&name);
+    let (robot_path, exec_path) = (temp(&format!("{name}-robot.mcap")), temp(&format!("{name}-exec.mcap")));
+    let plan = temp(&format!("{name}-plan.toml"));
+    std::fs::write(
+        &plan,
+        "[[fault]]\nat = 3.0\nkind = \"link_cut\"\ntarget = \"executive\"\nduration = 4.0\n",
+    )
+    .expect("write the plan");
+    let mut robot_args = vec!["--record", robot_path.to_str().expect("utf-8")];
+    if matches!(ending, Ending::InterruptedAroundALinkCut) {
+        robot_args.extend(["--faults", plan.to_str().expect("utf-8")]);
+    }
+    let robot = sys.robot(&robot_args);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    let exec = sys.run(&name, "executive", &["--record", exec_path.to_str().expect("utf-8")]);
+    until_base(&mut base, STARTUP, "the executive drives", |b| b.v_m_s > 0.15).await;
+    drop(base);
+    let (first, second) = match ending {
+        Ending::InterruptedAroundALinkCut => (moment(state, 1.0, 7.0), moment(state, 0.0, 2.0)),
+        _ => (moment(state, 0.0, 4.0), moment(state, 0.0, 3.0)),
+    };
+    tokio::time::sleep(first).await;
+    let replayed: Vec<&PathBuf> = match ending {
+        Ending::ExecutiveKilled => {
+            signal(&exec, "-KILL");
+            gone(exec, false, "the executive").await;
+            tokio::time::sleep(second).await;
+            signal(&robot, "-INT");
+            gone(robot, true, "the robot").await;
+            vec![&robot_path]
+        }
+        Ending::RobotKilled => {
+            signal(&robot, "-KILL");
+            gone(robot, false, "the robot").await;
+            tokio::time::sleep(second).await;
+            signal(&exec, "-INT");
+            gone(exec, true, "the executive").await;
+            vec![&exec_path]
+        }
+        Ending::ExecutiveInterrupted => {
+            signal(&exec, "-INT");
+            gone(exec, true, "the executive").await;
+            tokio::time::sleep(second).await;
+            signal(&robot, "-INT");
+            gone(robot, true, "the robot").await;
+            vec![&robot_path, &exec_path]
+        }
+        Ending::RobotInterrupted | Ending::InterruptedAroundALinkCut => {
+            signal(&robot, "-INT");
+            gone(robot, true, "the robot").await;
+            tokio::time::sleep(second).await;
+            signal(&exec, "-INT");
+            gone(exec, true, "the executive").await;
+            vec![&robot_path, &exec_path]
+        }
+    };
+    drop(t);
+    for path in replayed {
+        let report = temp(&format!("{name}-report.json"));
+        let r = orsa_replay(path, &report).await;
+        assert!(r["compared"].as_u64().expect("compared") > 0, "{ending:?}: {r}");
+        let _ = std::fs::remove_file(report);
+    }
+    for p in [robot_path, exec_path, plan] {
+        let _ = std::fs::remove_file(p);
+    }
+    format!("{ending:?} after {:.2} s and {:.2} s", first.as_secs_f64(), second.as_secs_f64())
+}
+
+/// `rounds` rounds of every ending, each at its own moments.
+async fn recordings_ended_by_a_lost_peer_or_ctrl_c_replay(rounds: usize, seed: u64) {
+    eprintln!("endings drawn from seed {seed}");
+    let mut state = seed;
+    for round in 0..rounds {
+        for ending in [
+            Ending::ExecutiveKilled,
+            Ending::RobotKilled,
+            Ending::ExecutiveInterrupted,
+            Ending::RobotInterrupted,
+            Ending::InterruptedAroundALinkCut,
+        ] {
+            let done = one_ending(ending, round, &mut state).await;
+            eprintln!("round {}: {done}: replayed bit-exact", round + 1);
+        }
+    }
+}
+
+/// The recordings of a robot and an executive process replay bit for bit (within the live
+/// tolerance), whatever ended them or their peer: the other process SIGKILLed, Ctrl-C at a
+/// moment drawn at random, Ctrl-C during or after a cut link. One round here; ten in a row in
+/// the long-test command (`.ci/long`).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn recordings_ended_by_a_lost_peer_or_ctrl_c_at_any_moment_replay() {
+    recordings_ended_by_a_lost_peer_or_ctrl_c_replay(1, std::process::id() as u64).await;
+}
+
+/// Ten rounds in a row of the test above (about ten minutes): run by `.ci/long`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[ignore = "ten rounds in a row, about ten minutes: run by .ci/long"]
+async fn long_recordings_ended_by_a_lost_peer_or_ctrl_c_replay_ten_times_in_a_row() {
+    recordings_ended_by_a_lost_peer_or_ctrl_c_replay(10, std::process::id() as u64).await;
+}

@@ -137,7 +137,12 @@ pub fn first_divergence(
     let mut first: Option<(u64, Divergence)> = None;
     let mut largest = 0u64;
     for topic in topics(recorded, replayed) {
-        let (a, b) = (window(recorded, topic, cut), window(replayed, topic, cut));
+        // The recorded messages before the cut are compared; each may be answered by a
+        // replayed one up to the end, as a message recorded just before the cut may be
+        // replayed just after it (live, the two sides' log times differ by up to the
+        // tolerance). Cutting both sides at the same instant made the last such message
+        // missing: a recording ended by Ctrl-C or a lost peer parted at its last instants.
+        let (a, b) = (window(recorded, topic, cut), window(replayed, topic, end));
         let differs = |i: usize| match (a.get(i), b.get(i)) {
             (Some(x), Some(y)) => x.log_time.abs_diff(y.log_time) > tolerance || !timing.same(x, y, false),
             (Some(_), None) => true,
@@ -215,10 +220,15 @@ pub fn what_if(
     timing: Timing,
 ) -> WhatIf {
     let mut out = WhatIf::default();
+    let full_end = end;
     let end = timing.cut(end);
     for topic in topics(recorded, replayed) {
         out.compared_topics += 1;
-        let (a, b) = (window(recorded, topic, end), window(replayed, topic, end));
+        // As in `first_divergence`, a recorded message before the cut may be answered after
+        // it: the replayed messages past the cut count as far as they pair with recorded ones.
+        let a = window(recorded, topic, end);
+        let (before, all) = (window(replayed, topic, end), window(replayed, topic, full_end));
+        let b = &all[..all.len().min(a.len().max(before.len()))];
         let mut d = TopicDiff { recorded: a.len(), replayed: b.len(), ..TopicDiff::default() };
         for (x, y) in paired(a, b, timing.tolerance()) {
             if let (Some(x), Some(y)) = (x, y)
@@ -512,5 +522,14 @@ mod tests {
         let extra = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 500, r#"{"seq":2}"#)]);
         let rec = messages(&[("v", 100, r#"{"seq":1}"#)]);
         assert!(first_divergence(&rec, &extra, 0, 1000, Timing::Within(20)).0.is_some());
+        // A message recorded just before the cut (979 < 980) and replayed just after it (985)
+        // is the same message: it is found, not missing.
+        let rec = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 979, r#"{"seq":2}"#)]);
+        let rep = messages(&[("v", 100, r#"{"seq":1}"#), ("v", 985, r#"{"seq":2}"#)]);
+        assert_eq!(first_divergence(&rec, &rep, 0, 1000, Timing::Within(20)), (None, 6));
+        // One replayed nowhere before the end is missing.
+        let rep = messages(&[("v", 100, r#"{"seq":1}"#)]);
+        let d = first_divergence(&rec, &rep, 0, 1000, Timing::Within(20)).0.expect("missing");
+        assert_eq!((d.index, d.replayed), (1, None));
     }
 }
