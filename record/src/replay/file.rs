@@ -146,6 +146,10 @@ pub struct Recording {
     pub outputs: BTreeMap<Arc<str>, Vec<Recorded>>,
     /// Control events from outside the replayed components, at their log times (ns).
     pub controls: Vec<(u64, Control)>,
+    /// For each of `controls`, how many of the robot's publications came before it in the
+    /// file: the replay keeps that order, whatever the timer's resolution (a live recording's
+    /// log times are finer than the timer's millisecond).
+    pub controls_after: Vec<usize>,
     /// When the process's fault plan started, if not at the start (ns).
     pub plan_started: Option<u64>,
     /// When the process started its system, if not at the start (ns).
@@ -345,6 +349,7 @@ impl Recording {
             answers: Answers::default(),
             outputs: BTreeMap::new(),
             controls: Vec::new(),
+            controls_after: Vec::new(),
             plan_started: None,
             system_starting: None,
             exchange: ExchangeLog::default(),
@@ -521,12 +526,14 @@ impl Recording {
             Some(Feed::Link) => {
                 let e = bare::<LinkEvent>(&data, LINK_EVENT).map_err(decode)?;
                 self.controls.push((log_time, Control::Link(e)));
+                self.controls_after.push(self.published.len());
                 return Ok(());
             }
             Some(Feed::Port) => {
                 let status = bare::<PortStatus>(&data, PortStatus::ID).map_err(decode)?;
                 let component = component_of(&c.topic);
                 self.controls.push((log_time, Control::Port { component, status }));
+                self.controls_after.push(self.published.len());
                 return Ok(());
             }
             Some(Feed::Param) => {
@@ -534,12 +541,14 @@ impl Recording {
                 let component = component_of(&c.topic);
                 let after = self.published.len();
                 self.controls.push((log_time, Control::Param { component, request, after }));
+                self.controls_after.push(self.published.len());
                 return Ok(());
             }
             Some(Feed::State) => {
                 let status = bare::<StateStatus>(&data, StateStatus::ID).map_err(decode)?;
                 let component = component_of(&c.topic);
                 self.controls.push((log_time, Control::State { component, status }));
+                self.controls_after.push(self.published.len());
                 return Ok(());
             }
             None => {

@@ -263,7 +263,12 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
             })
             .collect(),
         asked: Default::default(),
+        // Where the stand-in publishes, the controls keep their recorded place among its
+        // publications.
+        order: (standin_asks && !rec.controls.is_empty() && rec.controls_after.len() == rec.controls.len())
+            .then(|| standin::Order { controls_after: rec.controls_after.clone(), ..Default::default() }),
     });
+    let gate = playback.order.is_some().then(|| Arc::clone(&playback));
     let mut catalog = Catalog::builtin();
     let params = config.robot().clone();
     catalog.register(robot.kind(), crate::system::Place::Robot, move |_, _| {
@@ -361,6 +366,7 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         rec.controls.clone(),
         rec.meta.robot.clone(),
         !standin_asks,
+        gate,
     ));
 
     // A run's recording goes on while its process shuts the system down (a hung component
@@ -420,11 +426,22 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     })
 }
 
+/// How often the control feeder yields, after the publications recorded before a control are
+/// out, so that what they set going runs before the control (see [`feed_controls`]).
+const SETTLE_YIELDS: usize = 32;
+
 /// Feeds `controls` to the replayed components at their recorded times: a behaviour's port
 /// wired or its state set as the recording says, and, where the link watchdog lost an
 /// executive, the command it sent `robot` (zero), as it was; if `ask`, the requests to
-/// parameters too (otherwise the robot's stand-in makes them).
-async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot: String, ask: bool) {
+/// parameters too (otherwise the robot's stand-in makes them). With `gate`, each goes after
+/// the stand-in's publications recorded before it, and before those recorded after it.
+async fn feed_controls(
+    registry: Registry,
+    controls: Vec<(u64, Control)>,
+    robot: String,
+    ask: bool,
+    gate: Option<Arc<standin::Playback>>,
+) {
     use orsa_actors::send::SendClient;
     use orsa_actors::state::StateMaster;
     use orsa_actors::wiring::WiringMaster;
@@ -433,8 +450,19 @@ async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot:
     let wiring = WiringMaster::new(&registry);
     let motors = orsa_interfaces::nomad200::NAVIGATIONVELOCITY.on(robot.as_str()).untyped();
     let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors);
-    for (at, control) in controls {
+    let order = gate.as_ref().and_then(|p| p.order.as_ref().map(|o| (p, o)));
+    for (j, (at, control)) in controls.into_iter().enumerate() {
         tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
+        if let Some((playback, order)) = order {
+            let after = order.controls_after[j];
+            order.until(|| playback.cursor.load(std::sync::atomic::Ordering::SeqCst) >= after).await;
+            // What those publications set going (a behaviour's step, its command) runs first, as
+            // it did before the control in the recording: each yield lets every task that is
+            // ready run once, and a publication reaches a command in a few hops.
+            for _ in 0..SETTLE_YIELDS {
+                tokio::task::yield_now().await;
+            }
+        }
         match control {
             Control::Port { component, status } => {
                 let done = match &status.target {
@@ -446,14 +474,20 @@ async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot:
                 }
             }
             Control::State { component, status } => {
-                let Ok(master) = StateMaster::connect(&registry, &component) else { continue };
-                let wanted = status.pending.unwrap_or(status.current);
-                // Set on its own task: a state change waits for its substates to be released.
-                tokio::spawn(async move {
-                    if let Err(e) = master.set_state(&wanted).await {
-                        tracing::warn!("replay: cannot set {component} to '{wanted}' as recorded: {e}");
+                if let Ok(master) = StateMaster::connect(&registry, &component) {
+                    let wanted = status.pending.unwrap_or(status.current);
+                    // At once where nothing holds it up; else on its own task: a state change
+                    // waits for its substates to be released.
+                    if master.try_set_state(&wanted).await.is_err() {
+                        tokio::spawn(async move {
+                            if let Err(e) = master.set_state(&wanted).await {
+                                tracing::warn!(
+                                    "replay: cannot set {component} to '{wanted}' as recorded: {e}"
+                                );
+                            }
+                        });
                     }
-                });
+                }
             }
             Control::Param { component, request, .. } => {
                 if ask {
@@ -467,6 +501,9 @@ async fn feed_controls(registry: Registry, controls: Vec<(u64, Control)>, robot:
                     tracing::warn!("replay: cannot command zero as the link watchdog did: {e}");
                 }
             }
+        }
+        if let Some((_, order)) = order {
+            order.applied(j);
         }
     }
 }

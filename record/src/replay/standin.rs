@@ -39,6 +39,46 @@ pub struct Playback {
     pub requests: Vec<(u64, usize, String, ParamRequest)>,
     /// How many of them were made.
     pub asked: AtomicUsize,
+    /// The order between the publications and the controls fed from outside the stand-in
+    /// (`None`: no such controls, or nothing to keep in order with them).
+    pub order: Option<Order>,
+}
+
+/// Keeps the recorded order between the robot's publications and the controls fed from
+/// outside (wiring and state changes, what the link watchdog did) in a replay.
+///
+/// Each side sleeps until its next item's log time, but tokio's timer wakes on whole
+/// milliseconds: a state change recorded 0.6 ms before a scan would wake on the same tick as
+/// the scan and could go after it, and the behaviour would not step on that scan as it had.
+/// So the stand-in does not publish a scan before every control recorded before it is applied,
+/// and a control is not applied before every scan recorded before it is out.
+#[derive(Debug, Default)]
+pub struct Order {
+    /// For each control, in order: the publications recorded before it.
+    pub controls_after: Vec<usize>,
+    /// Controls applied so far.
+    pub applied: AtomicUsize,
+    /// Woken when a control is applied or a publication goes out.
+    pub moved: tokio::sync::Notify,
+}
+
+impl Order {
+    /// Waits until `ready` holds, checking again whenever the other side moves.
+    pub async fn until(&self, ready: impl Fn() -> bool) {
+        loop {
+            let moved = self.moved.notified();
+            if ready() {
+                return;
+            }
+            moved.await;
+        }
+    }
+
+    /// Notes that control `j` has been applied.
+    pub fn applied(&self, j: usize) {
+        self.applied.store(j + 1, Ordering::SeqCst);
+        self.moved.notify_waiters();
+    }
 }
 
 /// The stand-in component.
@@ -129,8 +169,8 @@ impl Component for RecordedRobot {
 }
 
 /// Publishes every recorded scan at its log time. Scans of one instant go out together, with
-/// nothing else running in between, as the robot server published them one handler after the
-/// other. Requests to parameters are made among them in the recorded order: a set recorded
+/// nothing else running in between (but a control recorded among them, see [`Order`]), as the
+/// robot server published them one handler after the other. Requests to parameters are made among them in the recorded order: a set recorded
 /// after a scan of the same instant reaches its component after that scan, as it did.
 async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
     let clock = registry.clock();
@@ -156,6 +196,11 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
                 continue;
             }
             let Some((_, p)) = playback.published.get(i).filter(|(t, _)| *t == at) else { break };
+            if let Some(order) = &playback.order {
+                // Every control recorded before this publication first.
+                let before = order.controls_after.partition_point(|&after| after <= i);
+                order.until(|| order.applied.load(Ordering::SeqCst) >= before).await;
+            }
             match p {
                 Published::Ir(scan) => {
                     servers.ir.put(scan.clone());
@@ -176,6 +221,10 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
                 }
             }
             i += 1;
+            playback.cursor.store(i, Ordering::SeqCst);
+            if let Some(order) = &playback.order {
+                order.moved.notify_waiters();
+            }
         }
         playback.cursor.store(i, Ordering::SeqCst);
     }
