@@ -6,7 +6,8 @@
 //!   their rates, and it is driven through `/cmd_vel` and stops when the commands cease;
 //! - bad input on `/cmd_vel` (undecodable, wrong type, not finite, a burst of 5000) is refused
 //!   and counted, and the robot stays at rest and keeps running;
-//! - `orsa robot --hardware ros2` drives the fixture's simulated ROS 2 robot along its wall.
+//! - `orsa robot --hardware ros2` drives the fixture's simulated ROS 2 robot along its wall;
+//! - a ROS 2 teleop driving `/cmd_vel` straight at a wall at top speed is stopped short of it.
 
 use super::*;
 use orsa::remote::RobotReport;
@@ -129,4 +130,47 @@ async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
     assert!(lo > 0.3 && hi < 0.7, "held near the wall in the second half: {run}");
     let ros2 = r.ros2.expect("a ros2 section in the report");
     assert!(ros2.node.received > 100 && ros2.node.undecodable == 0, "{ros2:?}");
+}
+
+/// A ROS 2 teleop node (the fixture) turns the robot to face the corridor's wall and drives it
+/// straight at it through `/cmd_vel` at the top speed (0.5 m/s) for 6 s: the safety monitor in
+/// the robot's process stops it short of the wall, no bumper is pressed, and the robot's report
+/// counts the monitor's interventions. Without the monitor (`[safety] enabled = false`) the
+/// same commands press the bumpers: the check can fail.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ros2_cmd_vel_at_a_wall_at_top_speed_stops_short_of_it() {
+    let at_wall = |monitor: bool| async move {
+        let name = if monitor { "ros2wall" } else { "ros2wallunguarded" };
+        let sys = System::new(name);
+        let report = report_path(name);
+        let config = report_path(&format!("{name}-config"));
+        std::fs::write(&config, format!("[safety]\nenabled = {monitor}\n")).expect("write the config");
+        let robot = sys.robot(&[
+            "--ros2",
+            "--report",
+            report.to_str().expect("utf-8"),
+            "--config",
+            config.to_str().expect("utf-8"),
+        ]);
+        let seen = fixture(&sys, "at-wall", &["--seconds", "6"], Duration::from_secs(90), &[&robot]).await;
+        eprintln!("at the wall, monitor {monitor}: {seen}");
+        let r = interrupt_and_report(robot, &report).await;
+        let _ = std::fs::remove_file(config);
+        (seen, r.safety)
+    };
+    let (seen, safety) = at_wall(true).await;
+    assert_eq!(seen["bumped_while_turning"], false, "{seen}");
+    assert_eq!(seen["bumped"], false, "the robot touched the wall: {seen}");
+    // It drove, and it was standing when the commands were still asking for 0.5 m/s.
+    assert!(seen["top_speed_m_s"].as_f64().expect("top speed") > 0.2, "{seen}");
+    assert!(seen["moved_m"].as_f64().expect("moved") > 0.2, "{seen}");
+    assert_eq!(seen["speed_at_end_m_s"].as_f64(), Some(0.0), "{seen}");
+    let front = seen["front_ir_at_end_m"].as_f64().expect("the wall is in the front infrared's range");
+    assert!(front > 0.0 && front < 0.3, "stopped {front:.3} m from the wall: {seen}");
+    let m = safety.monitor.expect("the monitor's counters");
+    assert!(m.interventions >= 1 && m.obstacle_s > 1.0 && m.distance_lost_m > 0.5, "{m:?}");
+
+    let (seen, safety) = at_wall(false).await;
+    assert_eq!(seen["bumped"], true, "without the monitor the commands drive it into the wall: {seen}");
+    assert_eq!(safety.monitor, None, "no monitor, no counters");
 }

@@ -6,6 +6,7 @@ message definitions, CDR codec and RIHS01 type hashes are rosbags' (its ROS 2 Ja
     ros2_node.py --connect tcp/127.0.0.1:7447 observe     # see and drive a ROS 2 robot
     ros2_node.py --connect tcp/127.0.0.1:7447 bad-input   # feed its /cmd_vel what it must refuse
     ros2_node.py --connect tcp/127.0.0.1:7447 robot       # be a ROS 2 robot in a corridor
+    ros2_node.py --connect tcp/127.0.0.1:7447 at-wall     # drive a robot at a wall at top speed
 
 Each mode prints one line of JSON (its findings) and exits 0, or exits non-zero saying what did
 not hold.
@@ -338,6 +339,89 @@ def robot(node, args):
     }
 
 
+def at_wall(node, args):
+    """Turns the robot to face the wall on its left (from its /odom yaw), then drives it straight
+    at that wall at `--speed` through /cmd_vel for `--seconds`, 20 commands a second, as a
+    teleop node that does not look would. What the robot's /bumper, /odom and forward /ir_scan
+    said meanwhile."""
+    want = {"/odom": "nav_msgs/msg/Odometry", "/bumper": "std_msgs/msg/Bool",
+            "/ir_scan": "sensor_msgs/msg/LaserScan"}
+    discover(node, want)
+    lock = threading.Lock()
+    st = {"yaw": None, "v": None, "x": None, "y": None, "bumper": 0, "bumped": False, "front": []}
+
+    def on_odom(msg, attachment):
+        q = msg.pose.pose.orientation
+        with lock:
+            st["yaw"] = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+            st["v"] = msg.twist.twist.linear.x
+            st["x"], st["y"] = msg.pose.pose.position.x, msg.pose.pose.position.y
+
+    def on_bumper(msg, attachment):
+        with lock:
+            st["bumper"] += 1
+            st["bumped"] = st["bumped"] or bool(msg.data)
+
+    def on_ir(msg, attachment):
+        # The ray nearest straight ahead (angle 0).
+        k = round((0.0 - msg.angle_min) / msg.angle_increment) % len(msg.ranges)
+        with lock:
+            st["front"].append(float(msg.ranges[k]))
+
+    subs = [node.subscribe("/odom", want["/odom"], on_odom), node.subscribe("/bumper", want["/bumper"], on_bumper),
+            node.subscribe("/ir_scan", want["/ir_scan"], on_ir, QOS_SENSOR)]
+    cmd = node.publisher("/cmd_vel", "geometry_msgs/msg/Twist")
+    deadline = time.monotonic() + 30.0
+    while True:
+        with lock:
+            yaw = st["yaw"]
+        if yaw is not None:
+            start = yaw
+            break
+        if time.monotonic() > deadline:
+            fail("no /odom within 30 s")
+        time.sleep(0.05)
+    # Face the left wall, turning in place (a quarter turn at 0.5 rad/s takes about 3 s).
+    deadline = time.monotonic() + 30.0
+    while True:
+        with lock:
+            turned = (st["yaw"] - start) % (2 * math.pi)
+        if math.pi / 2 <= turned < math.pi:
+            break
+        if time.monotonic() > deadline:
+            fail(f"the robot did not turn to face the wall: turned {math.degrees(turned):.0f} deg")
+        cmd(twist(0.0, 0.5))
+        time.sleep(0.05)
+    with lock:
+        x0, y0, bumped_before = st["x"], st["y"], st["bumped"]
+        st["front"].clear()
+    # At the wall at top speed.
+    end = time.monotonic() + args.seconds
+    top = 0.0
+    while time.monotonic() < end:
+        cmd(twist(args.speed, 0.0))
+        time.sleep(0.05)
+        with lock:
+            top = max(top, st["v"] or 0.0)
+    with lock:
+        v_end, front, bumped = st["v"], [r for r in st["front"] if math.isfinite(r)], st["bumped"]
+        moved = math.hypot(st["x"] - x0, st["y"] - y0)
+        bumper_msgs = st["bumper"]
+    for s in subs:
+        s.undeclare()
+    if bumper_msgs == 0:
+        fail("no /bumper messages: cannot tell whether it bumped")
+    return {
+        "bumped": bumped,
+        "bumped_while_turning": bumped_before,
+        "top_speed_m_s": round(top, 3),
+        "speed_at_end_m_s": v_end,
+        "moved_m": round(moved, 3),
+        "front_ir_at_end_m": front[-1] if front else None,
+        "bumper_messages": bumper_msgs,
+    }
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--connect", required=True)
@@ -345,12 +429,14 @@ def main():
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--wall-y", type=float, default=0.5)
     parser.add_argument("--radius", type=float, default=0.25)
-    parser.add_argument("mode", choices=["observe", "bad-input", "robot"])
+    parser.add_argument("--speed", type=float, default=0.5, help="at-wall: the speed commanded, m/s")
+    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall"])
     args = parser.parse_args()
     node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",
-                                             "robot": "fixture_robot"}[args.mode])
+                                             "robot": "fixture_robot", "at-wall": "fixture_teleop"}[args.mode])
     try:
-        result = {"observe": observe, "bad-input": bad_input, "robot": robot}[args.mode](node, args)
+        modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall}
+        result = modes[args.mode](node, args)
     finally:
         node.close()
     print(json.dumps(result), flush=True)
