@@ -63,6 +63,39 @@ pub fn ros2_only(samples: usize) -> anyhow::Result<()> {
     ros2::run(samples).map(|_| ())
 }
 
+/// Measures only what the safety monitor costs sense to act (`orsa-bench --monitor-only
+/// SECONDS`): the stack with the monitor, without it, and with it again, `seconds` each, in
+/// this run; prints the figures, the cost and the spread.
+pub fn monitor_only(seconds: f64) -> anyhow::Result<()> {
+    say("sense to act with the safety monitor");
+    let with = sense::run(seconds, false)?;
+    say("sense to act without the safety monitor, then with it again (the spread)");
+    let without = sense::run_with(seconds, false, false)?;
+    let again = sense::run(seconds, false)?;
+    let m = MonitorCost { without, again };
+    println!("| sensor update published | n | p50 us | p99 us | max us |\n|---|---:|---:|---:|---:|");
+    for (name, s) in [("with the monitor", &with), ("without it", &m.without), ("with it again", &m.again)] {
+        let l = &s.from_update;
+        println!(
+            "| {name} | {} | {:.1} | {:.1} | {:.1} |",
+            l.n,
+            l.p50_ns / 1e3,
+            l.p99_ns / 1e3,
+            l.max_ns / 1e3
+        );
+    }
+    for (name, pick) in [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)] {
+        let (cost, spread) = m.cost_and_spread(&with, pick);
+        println!(
+            "{name}: the monitor costs {:+.1} us; the spread is {:.1} us: {}",
+            cost / 1e3,
+            spread / 1e3,
+            if cost.abs() <= spread { "within it" } else { "outside it" }
+        );
+    }
+    Ok(())
+}
+
 /// Runs one simulation part of the bench in this process and prints its figures
 /// (`orsa-bench --sim-part SPEC`, which `orsa-bench` starts by itself: each simulation part
 /// runs in a fresh process).
@@ -251,6 +284,10 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let fanout = fanout::run(&plan.fanout, |n| fanout::rounds_for(n, budget, min))?;
     say("sense to act");
     let sense = sense::run(plan.sense_s, false)?;
+    say("sense to act without the safety monitor, then with it again (the spread)");
+    let without = sense::run_with(plan.sense_s, false, false)?;
+    let again = sense::run(plan.sense_s, false)?;
+    let monitor_cost = Some(MonitorCost { without, again });
     say("sense to act with a live server (--foxglove) and a client subscribed to everything");
     let sense_live = sense::run(plan.sense_s, true)?;
     say("mode switch");
@@ -364,6 +401,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         fanout,
         sense_to_act: sense,
         sense_to_act_live: sense_live,
+        monitor_cost,
         net,
         net_error,
         ros2,
@@ -504,6 +542,32 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         measured: format!("{:.1} us ({} commands)", s.from_update.p99_ns / 1e3, s.attributed),
         met: (s.attributed > 0).then_some(s.from_update.p99_ns < 200_000.0),
     });
+    match &r.monitor_cost {
+        Some(m) => {
+            for (name, pick) in
+                [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)]
+            {
+                let (cost, spread) = m.cost_and_spread(&r.sense_to_act, pick);
+                t.push(TargetCheck {
+                    target: format!("the safety monitor's cost on sense to act {name}: within the run's spread"),
+                    measured: format!(
+                        "{:.1} us with it ({:.1} us again), {:.1} us without: costs {:+.1} us, spread {:.1} us",
+                        pick(&r.sense_to_act.from_update) / 1e3,
+                        pick(&m.again.from_update) / 1e3,
+                        pick(&m.without.from_update) / 1e3,
+                        cost / 1e3,
+                        spread / 1e3
+                    ),
+                    met: (m.without.attributed > 0 && m.again.attributed > 0).then_some(cost.abs() <= spread),
+                });
+            }
+        }
+        None => t.push(TargetCheck {
+            target: "the safety monitor's cost on sense to act: within the run's spread".into(),
+            measured: "not measured".into(),
+            met: None,
+        }),
+    }
     let s = &r.sense_to_act_live;
     let client = s.live_client.as_ref();
     t.push(TargetCheck {

@@ -31,6 +31,10 @@ struct Args {
     /// pushes each way, and print it (the full run measures it with 5000).
     #[arg(long, value_name = "SAMPLES", conflicts_with_all = ["quick", "peer", "sim_part"])]
     ros2_only: Option<usize>,
+    /// Measure only what the safety monitor costs sense to act: the stack with it, without it
+    /// and with it again, this many seconds each, and print it (the full run does it too).
+    #[arg(long, value_name = "SECONDS", conflicts_with_all = ["quick", "peer", "sim_part", "ros2_only"])]
+    monitor_only: Option<f64>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -51,6 +55,13 @@ fn main() -> anyhow::Result<()> {
     if let Some(samples) = args.ros2_only {
         anyhow::ensure!(samples > 0, "--ros2-only {samples}: give at least one sample");
         return orsa_bench::ros2_only(samples);
+    }
+    if let Some(seconds) = args.monitor_only {
+        anyhow::ensure!(
+            seconds.is_finite() && seconds > 0.0,
+            "--monitor-only {seconds}: give a positive number of seconds"
+        );
+        return orsa_bench::monitor_only(seconds);
     }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
         orsa::output::ensure_parent(p)?;

@@ -161,6 +161,29 @@ pub fn render_markdown(r: &BenchReport) -> String {
         lat_cells(&st.from_sensor_firing)
     );
     leg_rows(&mut s, st);
+    if let Some(m) = &r.monitor_cost {
+        let _ = writeln!(
+            s,
+            "\nThe safety monitor's cost: the same run without it (`safety.enabled = false`), then with it again, \
+             right after the one above. Its cost is the mean of the two runs with it less the run without; the \
+             spread is how far the two runs with it are apart.\n"
+        );
+        let _ = writeln!(s, "| sensor update published | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+        let _ = writeln!(s, "| with the monitor | {} |", lat_cells(&st.from_update));
+        let _ = writeln!(s, "| without it | {} |", lat_cells(&m.without.from_update));
+        let _ = writeln!(s, "| with it again | {} |", lat_cells(&m.again.from_update));
+        for (name, pick) in [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)]
+        {
+            let (cost, spread) = m.cost_and_spread(st, pick);
+            let _ = writeln!(
+                s,
+                "\n{name}: the monitor costs {:+.1} us; the spread is {:.1} us: {}.",
+                cost / 1e3,
+                spread / 1e3,
+                if cost.abs() <= spread { "within it" } else { "outside it" }
+            );
+        }
+    }
     let lv = &r.sense_to_act_live;
     if let Some(c) = &lv.live_client {
         let _ = writeln!(

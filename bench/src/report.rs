@@ -88,6 +88,27 @@ pub struct FanoutRow {
     pub handled: u64,
 }
 
+/// What the safety monitor between the robot server and the motor board costs sense to act:
+/// runs with it (`sense_to_act`, then `again`) and without it (`without`, between the two)
+/// in one bench run. Its cost is within the run's spread when the figure without it is no
+/// further from the mean of the two runs with it than those two are from each other.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MonitorCost {
+    /// Sense to act with `safety.enabled = false`.
+    pub without: SenseToAct,
+    /// Sense to act with the monitor, again, after the run without it.
+    pub again: SenseToAct,
+}
+
+impl MonitorCost {
+    /// For `pick` (a percentile of the figure from the update, ns) and the first run with the
+    /// monitor `with`: (mean with - without, spread |with - again|), ns.
+    pub fn cost_and_spread(&self, with: &SenseToAct, pick: impl Fn(&Latency) -> f64) -> (f64, f64) {
+        let (a, b) = (pick(&with.from_update), pick(&self.again.from_update));
+        ((a + b) / 2.0 - pick(&self.without.from_update), (a - b).abs())
+    }
+}
+
 /// Sense to act in process, in real time.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SenseToAct {
@@ -111,6 +132,8 @@ pub struct SenseToAct {
     pub legs: Vec<SenseLeg>,
     /// Commands the server refused as stale.
     pub stale_refused: u64,
+    /// Whether a safety monitor guarded the motors (the robot server's counters have one).
+    pub monitor: bool,
     /// Supervisor restarts during the run.
     pub restarts: u64,
     /// With a live server (`--foxglove`) serving the views to a client subscribed to
@@ -380,6 +403,9 @@ pub struct BenchReport {
     pub sense_to_act: SenseToAct,
     /// Sense to act while a live server serves the views to a client subscribed to everything.
     pub sense_to_act_live: SenseToAct,
+    /// What the safety monitor costs sense to act: the same run without it, and again with
+    /// it (the spread).
+    pub monitor_cost: Option<MonitorCost>,
     /// Across processes (`None` if that bench failed; see `net_error`).
     pub net: Option<NetReport>,
     /// Why the cross-process bench failed, if it did.

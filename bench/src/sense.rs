@@ -331,13 +331,21 @@ pub(crate) fn attribute(acts: &[Act], steps: &[Step], max_v: f64, max_w: f64, ma
 /// Runs the instrumented stack in real time for `duration_s` and reports sense to act; with
 /// `live`, while a live server (`--foxglove`) serves its views to a client subscribed to
 /// everything ([`super::live::Client`]).
+/// Sense to act for `duration_s` s; with a live server and client if `live`; without the safety
+/// monitor between the robot server and the motor board if not `monitor` (`safety.enabled =
+/// false`: its cost is the difference).
 pub(crate) fn run(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
+    run_with(duration_s, live, true)
+}
+
+/// [`run`], the safety monitor on or off.
+pub(crate) fn run_with(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<SenseToAct> {
     if !(duration_s.is_finite() && duration_s > 0.0) {
         anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
     }
     let rt = super::inproc::RuntimeKind::CurrentThread.build()?;
     let out = rt.block_on(async {
-        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s, live))
+        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s, live, monitor))
             .await
             .map_err(|_| anyhow!("sense to act did not finish in time"))?
     });
@@ -345,8 +353,9 @@ pub(crate) fn run(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
     out
 }
 
-async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
-    let config = Config::default();
+async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<SenseToAct> {
+    let mut config = Config::default();
+    config.safety.enabled = monitor;
     let world = World::palazzina()?;
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
@@ -417,6 +426,7 @@ async fn measure(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
         from_sensor_firing: stats::summarize(m.from_firing),
         legs: legs(m.legs),
         stale_refused: safety.stale_refused,
+        monitor: safety.monitor.is_some(),
         restarts: restarts.load(std::sync::atomic::Ordering::Relaxed),
         live_client,
     })
@@ -598,6 +608,7 @@ pub(crate) async fn across(
             from_sensor_firing: stats::summarize(m.from_firing),
             legs: legs(m.legs),
             stale_refused: safety.stale_refused,
+            monitor: safety.monitor.is_some(),
             restarts: restarts.load(std::sync::atomic::Ordering::Relaxed) + peer_restarts,
             live_client: None,
         };

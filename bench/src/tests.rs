@@ -66,9 +66,11 @@ fn sample_report() -> BenchReport {
             from_sensor_firing: Latency::default(),
             legs: Vec::new(),
             stale_refused: 0,
+            monitor: true,
             restarts: 0,
             live_client: None,
         },
+        monitor_cost: None,
         sense_to_act_live: SenseToAct {
             duration_s: 1.0,
             commands_received: 0,
@@ -79,6 +81,7 @@ fn sample_report() -> BenchReport {
             from_sensor_firing: Latency::default(),
             legs: Vec::new(),
             stale_refused: 0,
+            monitor: true,
             restarts: 0,
             live_client: None,
         },
@@ -262,7 +265,11 @@ fn sense_to_act_attributes_commands_in_a_short_real_time_run() {
     assert_eq!(s.attributed + s.unattributed, s.commands_received);
     assert_eq!(s.from_update.n as u64, s.attributed);
     assert!(s.live_client.is_none());
+    assert!(s.monitor, "the stack as `orsa run` starts it has its safety monitor");
     assert!(sense::run(-1.0, false).is_err());
+    // The baseline of the monitor's cost: the same stack without it, still measured.
+    let without = sense::run_with(1.5, false, false).expect("sense to act without the monitor");
+    assert!(!without.monitor && without.attributed > 0, "{without:?}");
 }
 
 #[test]
@@ -443,6 +450,7 @@ fn sample_net() -> NetReport {
             from_sensor_firing: lat(5_000_000.0),
             legs: vec![SenseLeg { leg: "a leg".into(), latency: lat(100_000.0) }],
             stale_refused: 0,
+            monitor: true,
             restarts: 0,
             live_client: None,
         }),
