@@ -84,7 +84,7 @@ pub fn monitor_only(seconds: f64) -> anyhow::Result<()> {
             l.max_ns / 1e3
         );
     }
-    for (name, pick) in [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)] {
+    for (name, pick) in MonitorCost::PERCENTILES {
         let (cost, spread) = m.cost_and_spread(&with, pick);
         println!(
             "{name}: the monitor costs {:+.1} us; the spread is {:.1} us: {}",
@@ -544,9 +544,7 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
     });
     match &r.monitor_cost {
         Some(m) => {
-            for (name, pick) in
-                [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)]
-            {
+            for (name, pick) in MonitorCost::PERCENTILES {
                 let (cost, spread) = m.cost_and_spread(&r.sense_to_act, pick);
                 t.push(TargetCheck {
                     target: format!("the safety monitor's cost on sense to act {name}: within the run's spread"),

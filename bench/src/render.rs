@@ -1,6 +1,6 @@
 //! The report as Markdown tables.
 
-use super::{BenchReport, Latency, SwitchPair};
+use super::{BenchReport, Latency, MonitorCost, SwitchPair};
 use std::fmt::Write as _;
 
 /// A duration in nanoseconds, in the unit that reads best.
@@ -172,8 +172,7 @@ pub fn render_markdown(r: &BenchReport) -> String {
         let _ = writeln!(s, "| with the monitor | {} |", lat_cells(&st.from_update));
         let _ = writeln!(s, "| without it | {} |", lat_cells(&m.without.from_update));
         let _ = writeln!(s, "| with it again | {} |", lat_cells(&m.again.from_update));
-        for (name, pick) in [("p50", (|l: &Latency| l.p50_ns) as fn(&Latency) -> f64), ("p99", |l| l.p99_ns)]
-        {
+        for (name, pick) in MonitorCost::PERCENTILES {
             let (cost, spread) = m.cost_and_spread(st, pick);
             let _ = writeln!(
                 s,

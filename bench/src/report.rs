@@ -100,7 +100,13 @@ pub struct MonitorCost {
     pub again: SenseToAct,
 }
 
+/// Reads one percentile of a [`Latency`], ns.
+pub type Percentile = fn(&Latency) -> f64;
+
 impl MonitorCost {
+    /// The percentiles the cost is judged at, with how to read each from a [`Latency`].
+    pub const PERCENTILES: [(&'static str, Percentile); 2] = [("p50", |l| l.p50_ns), ("p99", |l| l.p99_ns)];
+
     /// For `pick` (a percentile of the figure from the update, ns) and the first run with the
     /// monitor `with`: (mean with - without, spread |with - again|), ns.
     pub fn cost_and_spread(&self, with: &SenseToAct, pick: impl Fn(&Latency) -> f64) -> (f64, f64) {

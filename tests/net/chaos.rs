@@ -19,15 +19,9 @@ const FREEZE: Duration = Duration::from_millis(700);
 /// A freeze longer than zenoh's 1 s lease: the peers' sessions to the frozen process close.
 const LONG_FREEZE: Duration = Duration::from_millis(2500);
 
-fn signal(p: &Proc, sig: &str) {
-    let ok =
-        std::process::Command::new("kill").args([sig, &p.child.id().to_string()]).status().expect("run kill");
-    assert!(ok.success(), "kill {sig} failed");
-}
-
 /// SIGTERMs `p` and waits for it: its exit code.
 async fn terminate(p: Proc) -> (Option<i32>, Proc) {
-    signal(&p, "-TERM");
+    p.signal("-TERM");
     tokio::task::spawn_blocking(move || {
         let mut p = p;
         let s = p.child.wait().expect("wait");
@@ -57,9 +51,9 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     driving(&mut base, "the executive drives").await;
 
     // 1. The robot's process frozen: it patrols again once it runs.
-    signal(&robot1, "-STOP");
+    robot1.signal("-STOP");
     tokio::time::sleep(FREEZE).await; // the fault's own length, not a wait for something
-    signal(&robot1, "-CONT");
+    robot1.signal("-CONT");
     driving(&mut base, "patrols again after the robot's freeze").await;
 
     // 2. The robot's process killed and started again: the executive wires the new one.
@@ -73,10 +67,10 @@ async fn killed_frozen_and_restarted_processes_come_back_by_themselves_and_the_c
     //    heartbeat, zenoh then closes the session, and the executive, once it runs again,
     //    opens a new one and gets its behaviour back.
     let frozen = tokio::time::Instant::now();
-    signal(&exec1, "-STOP");
+    exec1.signal("-STOP");
     stopped(&mut base, "stops while the executive is frozen").await;
     tokio::time::sleep_until(frozen + LONG_FREEZE).await; // the fault's own length
-    signal(&exec1, "-CONT");
+    exec1.signal("-CONT");
     driving(&mut base, "patrols again after the executive's freeze").await;
 
     // 4. The executive killed, then another one started.

@@ -35,14 +35,6 @@ fn read<T: serde::de::DeserializeOwned>(path: &std::path::Path, p: &Proc) -> T {
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()))
 }
 
-fn sigterm(p: &Proc) {
-    let ok = std::process::Command::new("kill")
-        .args(["-TERM", &p.child.id().to_string()])
-        .status()
-        .expect("run kill");
-    assert!(ok.success(), "kill -TERM failed");
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sigterm_ends_the_robot_and_the_executive_with_their_reports_and_exit_code_130() {
     let sys = System::new("term");
@@ -53,7 +45,7 @@ async fn sigterm_ends_the_robot_and_the_executive_with_their_reports_and_exit_co
     let exec = sys.run("exec", "executive", &["--report", exec_json.to_str().expect("utf-8")]);
     until_base(&mut base, STARTUP, "the executive drives", |b| b.v_m_s > 0.15).await;
 
-    sigterm(&exec);
+    exec.signal("-TERM");
     let (code, exec) = exit_code(exec, Duration::from_secs(10)).await;
     assert_eq!(code, 130, "{}", exec.log_text());
     let r: ExecutiveReport = read(&exec_json, &exec);
@@ -61,7 +53,7 @@ async fn sigterm_ends_the_robot_and_the_executive_with_their_reports_and_exit_co
     // The robot saw its executive leave and stopped.
     until_base(&mut base, Duration::from_secs(5), "the robot stops", |b| b.v_m_s == 0.0).await;
 
-    sigterm(&robot);
+    robot.signal("-TERM");
     let (code, robot) = exit_code(robot, Duration::from_secs(10)).await;
     assert_eq!(code, 130, "{}", robot.log_text());
     let r: RobotReport = read(&robot_json, &robot);

@@ -135,8 +135,7 @@ async fn until_speed(rx: &mut mpsc::UnboundedReceiver<f64>, what: &str, pred: im
 }
 
 async fn terminate(p: Proc) -> Proc {
-    let ok = Command::new("kill").args(["-TERM", &p.child.id().to_string()]).status().expect("kill");
-    assert!(ok.success());
+    p.signal("-TERM");
     tokio::task::spawn_blocking(move || {
         let mut p = p;
         let s = p.child.wait().expect("wait");

@@ -42,6 +42,12 @@ pub(crate) struct Proc {
 }
 
 impl Proc {
+    /// Sends it `sig` (`-KILL`, `-INT`, `-TERM`, `-STOP`, `-CONT`) with `kill`.
+    pub(crate) fn signal(&self, sig: &str) {
+        let ok = Command::new("kill").args([sig, &self.child.id().to_string()]).status().expect("run kill");
+        assert!(ok.success(), "kill {sig} failed");
+    }
+
     pub(crate) fn log_text(&self) -> String {
         std::fs::read_to_string(&self.log).unwrap_or_default()
     }

@@ -236,12 +236,6 @@ fn moment(state: &mut u64, lo: f64, hi: f64) -> Duration {
     Duration::from_secs_f64(lo + (hi - lo) * (z >> 11) as f64 / (1u64 << 53) as f64)
 }
 
-fn signal(p: &Proc, sig: &str) {
-    let ok =
-        std::process::Command::new("kill").args([sig, &p.child.id().to_string()]).status().expect("run kill");
-    assert!(ok.success(), "kill {sig} failed");
-}
-
 /// Waits for a process that got SIGKILL or Ctrl-C to be gone; Ctrl-C must end it with 130.
 async fn gone(p: Proc, interrupted: bool, what: &str) {
     let (code, p) = tokio::task::spawn_blocking(move || {
@@ -283,40 +277,24 @@ async fn one_ending(ending: Ending, round: usize, state: &mut u64) -> String {
         _ => (moment(state, 0.0, 4.0), moment(state, 0.0, 3.0)),
     };
     tokio::time::sleep(first).await;
-    let replayed: Vec<&PathBuf> = match ending {
-        Ending::ExecutiveKilled => {
-            signal(&exec, "-KILL");
-            gone(exec, false, "the executive").await;
-            tokio::time::sleep(second).await;
-            signal(&robot, "-INT");
-            gone(robot, true, "the robot").await;
-            vec![&robot_path]
-        }
-        Ending::RobotKilled => {
-            signal(&robot, "-KILL");
-            gone(robot, false, "the robot").await;
-            tokio::time::sleep(second).await;
-            signal(&exec, "-INT");
-            gone(exec, true, "the executive").await;
-            vec![&exec_path]
-        }
-        Ending::ExecutiveInterrupted => {
-            signal(&exec, "-INT");
-            gone(exec, true, "the executive").await;
-            tokio::time::sleep(second).await;
-            signal(&robot, "-INT");
-            gone(robot, true, "the robot").await;
-            vec![&robot_path, &exec_path]
-        }
-        Ending::RobotInterrupted | Ending::InterruptedAroundALinkCut => {
-            signal(&robot, "-INT");
-            gone(robot, true, "the robot").await;
-            tokio::time::sleep(second).await;
-            signal(&exec, "-INT");
-            gone(exec, true, "the executive").await;
-            vec![&robot_path, &exec_path]
-        }
+    // Who goes first and how; the other always gets Ctrl-C after `second`. A process that was
+    // SIGKILLed cannot close its recording: only the other's is replayed.
+    let (robot_first, kill) = match ending {
+        Ending::ExecutiveKilled => (false, true),
+        Ending::RobotKilled => (true, true),
+        Ending::ExecutiveInterrupted => (false, false),
+        Ending::RobotInterrupted | Ending::InterruptedAroundALinkCut => (true, false),
     };
+    let ((a, a_name, a_path), (b, b_name, b_path)) = {
+        let (r, e) = ((robot, "the robot", &robot_path), (exec, "the executive", &exec_path));
+        if robot_first { (r, e) } else { (e, r) }
+    };
+    a.signal(if kill { "-KILL" } else { "-INT" });
+    gone(a, !kill, a_name).await;
+    tokio::time::sleep(second).await;
+    b.signal("-INT");
+    gone(b, true, b_name).await;
+    let replayed: Vec<&PathBuf> = if kill { vec![b_path] } else { vec![a_path, b_path] };
     drop(t);
     for path in replayed {
         let report = temp(&format!("{name}-report.json"));

@@ -46,8 +46,7 @@ async fn fixture(
 
 /// Interrupts `p` (it writes its report) and reads the report at `path`.
 async fn interrupt_and_report(p: Proc, path: &std::path::Path) -> RobotReport {
-    let ok = Command::new("kill").args(["-INT", &p.child.id().to_string()]).status().expect("run kill");
-    assert!(ok.success());
+    p.signal("-INT");
     let p = tokio::time::timeout(
         Duration::from_secs(20),
         tokio::task::spawn_blocking(move || {
@@ -166,7 +165,9 @@ async fn a_ros2_cmd_vel_at_a_wall_at_top_speed_stops_short_of_it() {
     assert!(seen["moved_m"].as_f64().expect("moved") > 0.2, "{seen}");
     assert_eq!(seen["speed_at_end_m_s"].as_f64(), Some(0.0), "{seen}");
     let front = seen["front_ir_at_end_m"].as_f64().expect("the wall is in the front infrared's range");
-    assert!(front > 0.0 && front < 0.3, "stopped {front:.3} m from the wall: {seen}");
+    // The monitor holds it about 0.29-0.30 m from the wall as the front infrared reads it
+    // (noise 5 mm + 2 %): it drove up to the wall, not just somewhere short of it.
+    assert!(front > 0.0 && front < 0.4, "stopped {front:.3} m from the wall: {seen}");
     let m = safety.monitor.expect("the monitor's counters");
     assert!(m.interventions >= 1 && m.obstacle_s > 1.0 && m.distance_lost_m > 0.5, "{m:?}");
 

@@ -23,12 +23,6 @@ fn top_speed_config() -> PathBuf {
     p
 }
 
-fn signal(p: &Proc, sig: &str) {
-    let ok =
-        std::process::Command::new("kill").args([sig, &p.child.id().to_string()]).status().expect("run kill");
-    assert!(ok.success(), "kill {sig} failed");
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn at_top_speed_the_robot_commands_zero_within_0_1_s_of_losing_its_executive_and_brakes_in_its_distance()
  {
@@ -43,7 +37,7 @@ async fn at_top_speed_the_robot_commands_zero_within_0_1_s_of_losing_its_executi
     until_base(&mut base, STARTUP, "a behaviour drives at top speed", |b| b.v_m_s >= 0.45).await;
     exec.child.kill().expect("kill -9 the executive");
     until_base(&mut base, Duration::from_secs(10), "the robot stops", |b| b.v_m_s == 0.0).await;
-    signal(&robot, "-TERM");
+    robot.signal("-TERM");
     let status = tokio::task::spawn_blocking(move || {
         let s = robot.child.wait().expect("the robot ends");
         (s, robot)
