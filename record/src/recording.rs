@@ -46,6 +46,8 @@ struct Batch {
     json: Vec<u8>,
     /// Ground-truth samples for the views, each with the number of items before it.
     truth: Vec<(usize, TruthSample)>,
+    /// Metadata records, written after the batch's messages.
+    metadata: Vec<(String, BTreeMap<String, String>)>,
 }
 
 /// The control loop's side: topic numbers and the batch being filled.
@@ -76,7 +78,11 @@ impl Producer {
     }
 
     fn flush(&mut self) {
-        if self.batch.items.is_empty() && self.batch.new_topics.is_empty() && self.batch.truth.is_empty() {
+        if self.batch.items.is_empty()
+            && self.batch.new_topics.is_empty()
+            && self.batch.truth.is_empty()
+            && self.batch.metadata.is_empty()
+        {
             return;
         }
         let capacity = self.batch.json.capacity();
@@ -87,6 +93,7 @@ impl Producer {
                 items: Vec::with_capacity(BATCH),
                 json: Vec::with_capacity(capacity),
                 truth: Vec::new(),
+                metadata: Vec::new(),
             },
         );
         if let Some(queue) = &self.queue {
@@ -146,6 +153,15 @@ impl McapTap {
         let mut p = self.producer.lock();
         let before = p.batch.items.len();
         p.batch.truth.push((before, sample));
+    }
+
+    /// Says when and how the run ended (the [`RUN_ENDED_METADATA`](crate::record::meta::RUN_ENDED_METADATA)
+    /// record, written with what is recorded until [`McapTap::finish`]): `at` is the moment
+    /// the run ended, before its components were shut down.
+    pub fn ended(&self, at: Timestamp, how: &str) {
+        let ended = crate::record::meta::RunEnded { at_ns: at.as_nanos(), how: how.to_owned() };
+        let name = crate::record::meta::RUN_ENDED_METADATA.to_owned();
+        self.producer.lock().batch.metadata.push((name, ended.to_metadata()));
     }
 
     /// Closes the file once everything recorded is written: its summary, or the first error
@@ -245,6 +261,9 @@ fn write_batch(
         for (_, sample) in truth {
             views.truth(recorder, sample)?;
         }
+    }
+    for (name, metadata) in batch.metadata {
+        recorder.write_metadata(&name, metadata)?;
     }
     Ok(())
 }

@@ -130,7 +130,14 @@ fn run_one(args: &ReplayArgs, path: &std::path::Path) -> anyhow::Result<()> {
         m.world,
         rec.messages
     ));
-    let span_s = orsa_actors::Timestamp(rec.last_log_time.saturating_sub(m.clock_origin_ns)).as_secs_f64();
+    let last = match &rec.ended {
+        Some(e) => {
+            say(&format!("  the {} {}", m.process, e.how));
+            e.at_ns.max(rec.last_log_time)
+        }
+        None => rec.last_log_time,
+    };
+    let span_s = orsa_actors::Timestamp(last.saturating_sub(m.clock_origin_ns)).as_secs_f64();
     let bar = progress_bar(span_s, args.quiet, "replayed");
     let b = bar.clone();
     let opts = ReplayOptions {

@@ -155,6 +155,12 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
     let py = read_in_python(&exec_path).await;
     assert_eq!(py["process"].as_str(), Some("executive"));
     assert_eq!(py["counts"]["exchange/update/nomad200/distanceir"].as_u64(), Some(ir as u64), "{py}");
+    // The executive's run ended when its 9 s were up (counted once it joined its robot), and
+    // its recording says so.
+    let origin = py["clock_origin_ns"].as_u64().expect("origin");
+    let ended_at = py["ended"]["at_ns"].as_u64().expect("the run's end").saturating_sub(origin);
+    assert_eq!(py["ended"]["how"].as_str(), Some("completed"), "{py}");
+    assert!((9.0..11.0).contains(&(ended_at as f64 / 1e9)), "{py}");
     let exec_report = temp("replay-exec-report.json");
     let r = orsa_replay(&exec_path, &exec_report).await;
     assert!(r["fed"].as_u64().expect("fed") as usize >= ir, "{r}");
@@ -294,12 +300,19 @@ async fn one_ending(ending: Ending, round: usize, state: &mut u64) -> String {
     tokio::time::sleep(second).await;
     b.signal("-INT");
     gone(b, true, b_name).await;
-    let replayed: Vec<&PathBuf> = if kill { vec![b_path] } else { vec![a_path, b_path] };
+    // Each replayed recording runs to the moment its run ended, which is at least as late
+    // as the signal: the first process ran `first` after the robot drove, the second `first`
+    // and `second`. (A quiet executive's last message may come seconds before.)
+    let replayed: Vec<(&PathBuf, Duration)> =
+        if kill { vec![(b_path, first + second)] } else { vec![(a_path, first), (b_path, first + second)] };
     drop(t);
-    for path in replayed {
+    for (path, ran) in replayed {
         let report = temp(&format!("{name}-report.json"));
         let r = orsa_replay(path, &report).await;
-        assert!(r["compared"].as_u64().expect("compared") > 0, "{ending:?}: {r}");
+        let what = format!("{ending:?}, {} after {first:?} and {second:?}", path.display());
+        assert!(r["compared"].as_u64().expect("compared") > 0, "{what}: {r}");
+        let replayed_s = r["replayed_s"].as_f64().expect("replayed_s");
+        assert!(replayed_s >= ran.as_secs_f64(), "{what}: the replay stopped short of the run's end: {r}");
         let _ = std::fs::remove_file(report);
     }
     for p in [robot_path, exec_path, plan] {

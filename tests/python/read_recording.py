@@ -40,6 +40,10 @@ def main(path):
         missing = [k for k in REQUIRED if k not in meta]
         if missing:
             sys.exit(f"{path}: the 'run' metadata lacks {missing}")
+        # The run's end, written as the file closes (absent in older recordings).
+        ended = [m.metadata for m in reader.iter_metadata() if m.name == "run_ended"]
+        if len(ended) > 1:
+            sys.exit(f"{path}: {len(ended)} 'run_ended' metadata records, expected at most 1")
         config = tomllib.loads(meta["config_toml"])
         world = tomllib.loads(meta["world_toml"])
         counts = {}
@@ -67,6 +71,8 @@ def main(path):
         "seed": int(meta["seed"]),
         "process": meta["process"],
         "clock": meta["clock"],
+        "clock_origin_ns": int(meta["clock_origin_ns"]),
+        "ended": {"at_ns": int(ended[0]["at_ns"]), "how": ended[0].get("how")} if ended else None,
         "robot_name": robot_name(config),
         "config_sections": sorted(config),
         "world_name": world.get("name"),

@@ -17,12 +17,21 @@
 //! | `clock` | `paused` (simulated time: a replay is bit for bit, instants included) or `live` (real time: a replay matches values and order; times within a tolerance) |
 //! | `clock_origin_ns` | the recording clock's first stamp: 0 on a simulated clock, UNIX time live |
 //! | `faults_toml` | the fault plan, if the run had one |
+//!
+//! A process that ends well (its duration, Ctrl-C, its supervisor giving up) writes a second
+//! record, [`RUN_ENDED_METADATA`] ([`RunEnded`]), as it closes the file: the instant its run
+//! ended, before it shut its components down, and how. A quiet process (an executive that
+//! decided everything in its first milliseconds) records nothing for seconds before it ends;
+//! without this record its recording would seem to end at its last message.
 
 use orsa_actors::wire::WIRE_VERSION;
 use std::collections::BTreeMap;
 
 /// The name of the metadata record that describes the run.
 pub const RUN_METADATA: &str = "run";
+
+/// The name of the metadata record that says when and how the run ended ([`RunEnded`]).
+pub const RUN_ENDED_METADATA: &str = "run_ended";
 
 /// The processes that record: the whole stack (`orsa run`), and the robot and executive of a
 /// distributed system.
@@ -196,6 +205,36 @@ impl RunMeta {
     }
 }
 
+/// When and how a recorded run ended (the [`RUN_ENDED_METADATA`] record): `at_ns`, the
+/// recording clock's stamp at the moment the run ended, before its components were shut down
+/// (what they sent while shutting down lies after it); `how`, in words.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RunEnded {
+    /// The recording clock's stamp when the run ended, ns.
+    pub at_ns: u64,
+    /// How it ended, for people (`was interrupted by SIGINT (Ctrl-C) at 7.5 s`).
+    pub how: String,
+}
+
+impl RunEnded {
+    /// As an MCAP metadata map.
+    pub fn to_metadata(&self) -> BTreeMap<String, String> {
+        BTreeMap::from([("at_ns".to_string(), self.at_ns.to_string()), ("how".to_string(), self.how.clone())])
+    }
+
+    /// Reads it back; the error names the key that is missing or wrong.
+    pub fn from_metadata(m: &BTreeMap<String, String>) -> Result<RunEnded, String> {
+        let at =
+            m.get("at_ns").ok_or_else(|| format!("metadata '{RUN_ENDED_METADATA}' has no key 'at_ns'"))?;
+        let at_ns = at.parse().map_err(|_| {
+            format!(
+                "metadata '{RUN_ENDED_METADATA}': key 'at_ns' is '{at}', not a whole number of nanoseconds"
+            )
+        })?;
+        Ok(RunEnded { at_ns, how: m.get("how").cloned().unwrap_or_default() })
+    }
+}
+
 /// Why a recording's run metadata cannot be read, or replayed by this orsa.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum MetaError {
@@ -258,6 +297,12 @@ mod tests {
         let live = RunMeta { live: true, clock_origin_ns: 1_764_000_000_000_000_000, ..meta() };
         assert_eq!(RunMeta::from_metadata(&live.to_metadata()).expect("it reads back"), live);
         let with_faults = RunMeta { faults_toml: Some("[[fault]]".into()), ..meta() };
+        let ended = RunEnded { at_ns: 1_764_000_007_500_000_000, how: "was interrupted".into() };
+        assert_eq!(RunEnded::from_metadata(&ended.to_metadata()), Ok(ended));
+        let mut bad = BTreeMap::from([("at_ns".to_string(), "7.5".to_string())]);
+        assert!(RunEnded::from_metadata(&bad).expect_err("refused").contains("'at_ns' is '7.5'"));
+        bad.clear();
+        assert!(RunEnded::from_metadata(&bad).expect_err("refused").contains("no key 'at_ns'"));
         assert_eq!(RunMeta::from_metadata(&with_faults.to_metadata()).expect("it reads back"), with_faults);
     }
 

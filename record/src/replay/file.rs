@@ -168,6 +168,9 @@ pub struct Recording {
     pub schemas: BTreeMap<Arc<str>, String>,
     /// Every message's log time ends at or before this (ns).
     pub last_log_time: u64,
+    /// When the run ended, before its components were shut down, if the recording says
+    /// ([`RunEnded`](crate::record::meta::RunEnded)); it may lie well after the last message.
+    pub ended: Option<crate::record::meta::RunEnded>,
     /// Messages read, in all.
     pub messages: u64,
 }
@@ -328,11 +331,16 @@ impl Recording {
         }
         // The description first: it is a top-level record, found without decompressing chunks.
         let mut metadata: Option<BTreeMap<String, String>> = None;
+        let mut ended = None;
         for record in mcap::read::LinearReader::new(bytes).map_err(|e| corrupt(e.to_string()))? {
-            if let mcap::records::Record::Metadata(m) = record.map_err(|e| corrupt(e.to_string()))?
-                && m.name == RUN_METADATA
-            {
-                metadata = Some(m.metadata);
+            if let mcap::records::Record::Metadata(m) = record.map_err(|e| corrupt(e.to_string()))? {
+                if m.name == RUN_METADATA {
+                    metadata = Some(m.metadata);
+                } else if m.name == crate::record::meta::RUN_ENDED_METADATA {
+                    let e = crate::record::meta::RunEnded::from_metadata(&m.metadata)
+                        .map_err(|problem| ReplayError::Metadata { path: path.to_path_buf(), problem })?;
+                    ended = Some(e);
+                }
             }
         }
         let Some(metadata) = metadata else {
@@ -358,6 +366,7 @@ impl Recording {
             robot_events: 0,
             schemas: BTreeMap::new(),
             last_log_time: 0,
+            ended,
             messages: 0,
         };
 

@@ -369,15 +369,17 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         gate,
     ));
 
-    // A run's recording goes on while its process shuts the system down (a hung component
-    // may hold that up for seconds); what the system decided ends with the run's last instant.
+    // A recording goes on while its process shuts the system down (a hung component may hold
+    // that up for seconds); what the system decided ends with the run's last instant, which
+    // the recording says (a process may have been quiet for seconds before it: an executive
+    // that decided everything at its start). Older recordings end at their last message.
     let end = match rec.meta.process.as_str() {
         "run" => {
             let ended =
                 Timestamp(rec.meta.clock_origin_ns).after(Duration::from_secs_f64(rec.meta.duration_s));
-            rec.last_log_time.min(ended.as_nanos())
+            rec.last_log_time.min(ended.as_nanos()).min(rec.ended.as_ref().map_or(u64::MAX, |e| e.at_ns))
         }
-        _ => rec.last_log_time,
+        _ => rec.ended.as_ref().map_or(rec.last_log_time, |e| e.at_ns),
     };
     let end_at = clock.instant_of(Timestamp(end));
     let every = Duration::from_secs_f64(opts.progress_every_s.unwrap_or(10.0).max(0.001));

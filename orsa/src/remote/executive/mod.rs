@@ -119,8 +119,12 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
     if let Some(p) = plan_task {
         p.abort();
     }
-    let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
+    let ended_at = registry.now();
+    let at_s = registry.clock().since_start(ended_at).as_secs_f64();
     let (ended, unwired_all) = ending::ended(run, &registry, config, at_s).await;
+    if let Some(tap) = &recording {
+        tap.ended(ended_at, &ended.describe());
+    }
     ending::tell(&ended, unwired_all);
     if let Some(s) = supervisor {
         s.shutdown().await;

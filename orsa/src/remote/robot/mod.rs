@@ -167,7 +167,8 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     if let Some(p) = plan_task {
         p.abort();
     }
-    let at_s = registry.clock().since_start(registry.now()).as_secs_f64();
+    let ended_at = registry.now();
+    let at_s = registry.clock().since_start(ended_at).as_secs_f64();
     let ended = match run {
         Ok(crate::ending::Stop::GaveUp(e)) => {
             // The robot server is gone with its watchdog: the motors are stopped on the board.
@@ -211,7 +212,10 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
         let s = live.finish();
         eprintln!("robot: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
     }
-    let recorded = recording.map(|r| r.finish());
+    let recorded = recording.map(|r| {
+        r.ended(ended_at, &ended.describe());
+        r.finish()
+    });
     let end_s = registry.clock().since_start(registry.now()).as_secs_f64();
     let faults = checked.plan.as_ref().map(|plan| {
         let plan_end = end_s - plan_started_at.map_or(0.0, |t| registry.clock().since_start(t).as_secs_f64());
