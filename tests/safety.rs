@@ -189,9 +189,17 @@ until = 570.0
     // Nine dead spells of 8 s, judged 0.3 s after every reading vanished at once, until 1 s
     // after it reads again.
     assert!(h.sonar.episodes >= 9 && h.sonar.dead_s > 60.0 && h.sonar.unhealthy_s() < 9.0 * 9.0, "{h:?}");
+    // The robot pushes its health every second and at every change: the changes to each.
     let pushed = watch.health.lock();
-    assert!(pushed.iter().filter(|(_, s)| s == "infrared stuck").count() >= 9, "{pushed:?}");
-    assert!(pushed.iter().filter(|(_, s)| s == "sonar dead").count() >= 9, "{pushed:?}");
+    let changes_to = |summary: &str| {
+        let mut last = None;
+        pushed.iter().filter(|(_, s)| last.replace(s) != Some(s) && s == summary).count()
+    };
+    assert!(changes_to("infrared stuck") >= 9, "{pushed:?}");
+    assert!(changes_to("sonar dead") >= 9, "{pushed:?}");
+    // And between changes, once a second.
+    let gaps = pushed.windows(2).map(|w| w[1].0.saturating_since(w[0].0));
+    assert!(gaps.max().is_some_and(|g| g <= Duration::from_millis(1100)), "{pushed:?}");
     // Wall following reads the infrared: it held back for it, and said so.
     let holding = watch.holding.lock();
     assert!(

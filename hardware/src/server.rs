@@ -131,6 +131,9 @@ pub fn contact_fires(_: &mut Empty, scan: &ContactScan) -> Option<ContactScan> {
     scan.any().then(|| scan.clone())
 }
 
+/// How often the health is pushed when it does not change.
+pub const HEALTH_EVERY: Duration = Duration::from_secs(1);
+
 /// The `healthchanges` event's condition: the server puts the health only when it changed, so
 /// every put fires.
 pub fn health_fires(_: &mut Empty, health: &Health) -> Option<Health> {
@@ -188,6 +191,8 @@ pub struct Nomad200State {
     health_changes: EventServer<Empty, Health, Health>,
     /// The judge's version last pushed.
     health_version: Option<u64>,
+    /// When the health was last pushed.
+    health_pushed: Option<Timestamp>,
     deadline: watch::Sender<Option<Timestamp>>,
     /// Whether the watchdog waits for a deadline (it enforced the last one).
     watchdog_idle: Arc<AtomicBool>,
@@ -209,18 +214,28 @@ where
     S: SensorBoard + 'static,
     M: MotorBoard + Clone + 'static,
 {
-    /// Pushes the sensors' health, and fires it, if it changed since it was last pushed.
-    fn push_health(&self, st: &mut Nomad200State) {
+    /// Pushes the sensors' health if it changed since it was last pushed, or if
+    /// [`HEALTH_EVERY`] has passed since (so that a subscriber that comes late, such as
+    /// `orsa list`, has it within that time); fires it only when it changed.
+    fn push_health(&self, st: &mut Nomad200State, now: Timestamp) {
         let version = self.motors.health_version();
-        if version.is_none() || version == st.health_version {
+        if version.is_none() {
+            return;
+        }
+        let changed = version != st.health_version;
+        let due = st.health_pushed.is_none_or(|t| now.saturating_since(t) >= HEALTH_EVERY);
+        if !(changed || due) {
             return;
         }
         st.health_version = version;
+        st.health_pushed = Some(now);
         if let Some((health, _)) = self.motors.health() {
-            if st.health_version.is_some_and(|v| v > 0) {
-                tracing::info!("sensor health: {}", health.summary());
+            if changed {
+                if st.health_version.is_some_and(|v| v > 0) {
+                    tracing::info!("sensor health: {}", health.summary());
+                }
+                st.health_changes.put(&health);
             }
-            st.health_changes.put(&health);
             st.health.put(health);
         }
     }
@@ -354,6 +369,7 @@ where
             health,
             health_changes,
             health_version: None,
+            health_pushed: None,
             deadline,
             watchdog_idle,
             last_applied: None,
@@ -373,7 +389,7 @@ where
         match msg {
             Nomad200Msg::Ir(_) => {
                 st.ir.put(self.sensors.read_infrared().await?);
-                self.push_health(st);
+                self.push_health(st, ctx.now());
             }
             Nomad200Msg::Sonar(_) => {
                 st.sonar.put(self.sensors.read_sonar().await?);
@@ -387,7 +403,7 @@ where
                 let m = self.motors.read_state().await?;
                 let c = self.sensors.read_compass().await?;
                 st.base.put(base_state(&m, &c));
-                self.push_health(st);
+                self.push_health(st, ctx.now());
             }
             Nomad200Msg::Velocity(cmd) => self.on_velocity(ctx, st, cmd.value, false).await,
             Nomad200Msg::Teleop(cmd) => self.on_velocity(ctx, st, cmd.value, true).await,

@@ -2,7 +2,7 @@
 //!
 //! | service | pattern | object |
 //! |---|---|---|
-//! | [`HEALTH`] | Push newest, on every change | [`Health`] of every sensor |
+//! | [`HEALTH`] | Push newest, on every change and every second | [`Health`] of every sensor |
 //! | [`HEALTH_CHANGES`] | Event, on every change | [`Empty`] -> [`Health`] |
 //!
 //! Both are services of the robot server (`HEALTH.on(robot_name)`). The sensors are named as
@@ -15,7 +15,8 @@ use orsa_actors::service::{EventService, PushNewestService};
 use orsa_actors::{Empty, Timestamp, comm_object};
 use serde::{Deserialize, Serialize};
 
-/// The health of every sensor, pushed whenever a verdict changes.
+/// The health of every sensor, pushed whenever a verdict changes and once a second otherwise
+/// (a subscriber that comes late has it within a second).
 pub const HEALTH: PushNewestService<Health> = PushNewestService::new("health");
 /// Fires to every activation whenever a verdict changes.
 pub const HEALTH_CHANGES: EventService<Empty, Health> = EventService::new("healthchanges");

@@ -11,7 +11,7 @@
 //! | [`TELEOP`] | Send | [`NavigationVelocity`] from teleoperation, which takes priority |
 //! | [`ROBOTPARAMS`] | Query | [`Empty`] -> [`RobotParams`], so no behaviour hard-codes the robot |
 //! | [`SAFETY`] | Query | [`Empty`] -> [`SafetyCounters`], what the server did with commands |
-//! | [`HEALTH`](crate::health::HEALTH) | Push newest, on change | [`Health`](crate::health::Health) of every sensor |
+//! | [`HEALTH`](crate::health::HEALTH) | Push newest, on change and every second | [`Health`](crate::health::Health) of every sensor |
 //! | [`HEALTH_CHANGES`](crate::health::HEALTH_CHANGES) | Event, on change | [`Empty`] -> [`Health`](crate::health::Health) |
 //!
 //! The component is called [`NAME`] in the default configuration; a system may host it under

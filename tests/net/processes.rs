@@ -273,3 +273,56 @@ async fn a_command_older_than_the_timeout_is_not_acted_on_across_processes() {
     assert_eq!(after.stale_refused, before.stale_refused + 1, "the old command was refused");
     assert_eq!(after.applied, before.applied + 1, "only the fresh one was applied");
 }
+
+/// `orsa list` shows the robot's sensor verdicts whenever it looks, not only while a verdict
+/// changes: the robot pushes its health every second too. The sonar ring reads nothing from its
+/// first second on (a `sensor_dropout` for the whole test: dead, as it saw walls within its
+/// range a moment before); seconds later, long after the verdict changed, two listings four
+/// seconds apart both show it, and the other rings healthy. (Before the robot pushed its health
+/// every second, neither showed any verdict.)
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn orsa_list_shows_the_sensor_verdicts_whenever_it_looks() {
+    let sys = System::new("listhealth");
+    let plan = std::env::temp_dir().join(format!("orsa-test-{}-listhealth.toml", std::process::id()));
+    std::fs::write(
+        &plan,
+        "[[fault]]\nat = 1.0\nkind = \"sensor_dropout\"\ntarget = \"sonar\"\nduration = 600.0\n",
+    )
+    .expect("write the plan");
+    let _robot = sys.robot(&["--faults", plan.to_str().expect("utf-8")]);
+    let (registry, t) = sys.observe().await;
+    let (_c, mut base) = base_stream(&registry, &t).await;
+    for listing in 0..2 {
+        // Four seconds of base states (one every 100 ms) go by before each listing.
+        for _ in 0..40 {
+            base.recv().await.expect("base states");
+        }
+        let mut p = sys.run(&format!("list{listing}"), "list", &["--json", "--wait", "2"]);
+        let (status, out) =
+            tokio::task::block_in_place(|| p.child.wait_with_output_keep()).expect("list output");
+        assert!(status.success(), "orsa list failed: {}", p.log_text());
+        let listing: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+        let health = listing["services"]
+            .as_array()
+            .expect("services")
+            .iter()
+            .find(|s| s["service"] == "nomad200/health")
+            .unwrap_or_else(|| panic!("the robot's health service is listed: {listing}"));
+        let verdict = |sensor: &str| {
+            let sensors =
+                health["detail"]["sensors"].as_array().unwrap_or_else(|| panic!("verdicts: {health}"));
+            let s = sensors
+                .iter()
+                .find(|s| s["sensor"] == sensor)
+                .unwrap_or_else(|| panic!("{sensor}: {health}"));
+            s["verdict"].as_str().expect("a verdict").to_owned()
+        };
+        assert_eq!(verdict("sonar"), "dead", "{health}");
+        assert_eq!(
+            (verdict("infrared").as_str(), verdict("bumpers").as_str()),
+            ("healthy", "healthy"),
+            "{health}"
+        );
+    }
+    let _ = std::fs::remove_file(plan);
+}

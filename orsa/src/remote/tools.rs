@@ -264,11 +264,13 @@ fn render_listing(l: &Listing) -> String {
     out
 }
 
-/// The newest health a robot pushed on `addr`, if it answers within a second.
+/// The newest health a robot pushed on `addr`, if it comes within a little more than the
+/// robot's period for it (it pushes its health on every change and every second).
 async fn newest_health(registry: &Registry, addr: &ServiceAddr) -> Option<Health> {
     let client = PushNewestClient::<Health>::connect(registry, addr.clone()).ok()?;
     client.subscribe().ok()?;
-    let update = client.get_update_wait_timeout(Duration::from_secs(1)).await.ok()?;
+    let within = orsa_hardware::server::HEALTH_EVERY + Duration::from_millis(500);
+    let update = client.get_update_wait_timeout(within).await.ok()?;
     let _ = client.unsubscribe();
     Some(update.value.clone())
 }

@@ -19,7 +19,7 @@
 //! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |
-//! | [`HEALTH_TOPIC`] | `foxglove.Log` | the sensors' health at every change: a warning naming each sensor not trusted and why, info when all are healthy again |
+//! | [`HEALTH_TOPIC`] | `foxglove.Log` | the sensors' health at every change (the robot pushes it every second too; the view logs only changes): a warning naming each sensor not trusted and why, info when all are healthy again |
 
 mod shapes;
 
@@ -193,6 +193,9 @@ pub(crate) struct Views {
     last_driving: Option<(Timestamp, Log)>,
     trajectory: Vec<Pose>,
     last_pose_ns: Option<u64>,
+    /// The last health message logged: the robot pushes its health every second, and the
+    /// view logs it only when it changes.
+    last_health: Option<String>,
     /// Inputs that did not decode, warned about once each.
     warned: [bool; 6],
 }
@@ -210,6 +213,7 @@ impl Views {
             last_driving: None,
             trajectory: Vec::new(),
             last_pose_ns: None,
+            last_health: None,
             warned: [false; 6],
         }
     }
@@ -351,6 +355,10 @@ impl Views {
                 } else {
                     (log::Level::Warning, bad.join("; "))
                 };
+                if self.last_health.as_ref() == Some(&message) {
+                    return Ok(());
+                }
+                self.last_health = Some(message.clone());
                 let log = Log {
                     timestamp: Some(shapes::stamp(h.stamp)),
                     level: level as i32,
