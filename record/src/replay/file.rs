@@ -150,6 +150,12 @@ pub struct Recording {
     /// file: the replay keeps that order, whatever the timer's resolution (a live recording's
     /// log times are finer than the timer's millisecond).
     pub controls_after: Vec<usize>,
+    /// For each control, in order: the outputs recorded before it of what it acts on (the
+    /// component whose port or state it sets, its topics; for the link watchdog's command, the
+    /// robot's velocity commands), per topic. A live replay applies a control once those are
+    /// out, and not later: where a control came between a scan and a behaviour's step on it,
+    /// the step sees it as it did.
+    pub controls_outputs: Vec<Vec<(Arc<str>, usize)>>,
     /// When the process's fault plan started, if not at the start (ns).
     pub plan_started: Option<u64>,
     /// When the process started its system, if not at the start (ns).
@@ -358,6 +364,7 @@ impl Recording {
             outputs: BTreeMap::new(),
             controls: Vec::new(),
             controls_after: Vec::new(),
+            controls_outputs: Vec::new(),
             plan_started: None,
             system_starting: None,
             exchange: ExchangeLog::default(),
@@ -462,6 +469,26 @@ impl Recording {
         Ok(rec)
     }
 
+    /// Files a control at `log_time`, with what the recording has before it: the robot's
+    /// publications, and the outputs of what it acts on (see [`Recording::controls_outputs`]).
+    fn control(&mut self, log_time: u64, control: Control) {
+        let touched = match &control {
+            Control::Port { component, .. }
+            | Control::State { component, .. }
+            | Control::Param { component, .. } => format!("{component}/"),
+            Control::Link(_) => {
+                format!("{}/{}", self.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name())
+            }
+        };
+        let before = (self.outputs.iter())
+            .filter(|(topic, _)| topic.starts_with(touched.as_str()))
+            .map(|(topic, list)| (topic.clone(), list.len()))
+            .collect();
+        self.controls.push((log_time, control));
+        self.controls_after.push(self.published.len());
+        self.controls_outputs.push(before);
+    }
+
     /// Files one message: decoded into what the stand-in plays back, or kept for comparison.
     fn sort(&mut self, path: &Path, c: &Channel, log_time: u64, data: Vec<u8>) -> Result<(), ReplayError> {
         let decode = |problem| ReplayError::Decode {
@@ -534,30 +561,26 @@ impl Recording {
             }
             Some(Feed::Link) => {
                 let e = bare::<LinkEvent>(&data, LINK_EVENT).map_err(decode)?;
-                self.controls.push((log_time, Control::Link(e)));
-                self.controls_after.push(self.published.len());
+                self.control(log_time, Control::Link(e));
                 return Ok(());
             }
             Some(Feed::Port) => {
                 let status = bare::<PortStatus>(&data, PortStatus::ID).map_err(decode)?;
                 let component = component_of(&c.topic);
-                self.controls.push((log_time, Control::Port { component, status }));
-                self.controls_after.push(self.published.len());
+                self.control(log_time, Control::Port { component, status });
                 return Ok(());
             }
             Some(Feed::Param) => {
                 let request = value::<ParamRequest>(&data).map_err(decode)?;
                 let component = component_of(&c.topic);
                 let after = self.published.len();
-                self.controls.push((log_time, Control::Param { component, request, after }));
-                self.controls_after.push(self.published.len());
+                self.control(log_time, Control::Param { component, request, after });
                 return Ok(());
             }
             Some(Feed::State) => {
                 let status = bare::<StateStatus>(&data, StateStatus::ID).map_err(decode)?;
                 let component = component_of(&c.topic);
-                self.controls.push((log_time, Control::State { component, status }));
-                self.controls_after.push(self.published.len());
+                self.control(log_time, Control::State { component, status });
                 return Ok(());
             }
             None => {

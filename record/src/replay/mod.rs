@@ -22,6 +22,7 @@
 pub mod diff;
 pub mod exchange;
 pub mod file;
+mod sequence;
 pub mod standin;
 
 use crate::config::Config;
@@ -32,6 +33,7 @@ use orsa_actors::supervision::SupervisorEvent;
 use orsa_actors::tap::Tap;
 use orsa_actors::{Clock, Registry, Timestamp};
 use parking_lot::Mutex;
+use std::future::Future;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -190,7 +192,9 @@ pub fn recorded_config(rec: &Recording) -> Result<Config, ReplayError> {
 /// A tap that keeps what the replayed components produce, leaving out what is fed.
 struct Capture {
     meta: crate::record::RunMeta,
-    messages: Mutex<Messages>,
+    messages: Arc<Mutex<Messages>>,
+    /// Told of every output, in a live replay (see [`sequence`]).
+    sequencer: std::sync::OnceLock<std::sync::Weak<sequence::Sequencer>>,
 }
 
 impl Capture {
@@ -206,6 +210,10 @@ impl Capture {
             None => m.entry(Arc::from(topic)).or_default(),
         };
         list.push(Recorded { log_time: stamp.as_nanos(), data });
+        drop(m);
+        if let Some(seq) = self.sequencer.get().and_then(std::sync::Weak::upgrade) {
+            seq.moved.notify_one();
+        }
     }
 }
 
@@ -240,7 +248,11 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
         origin => Clock::starting_at(tokio::time::Instant::now(), Timestamp(origin)),
     };
     let registry = Registry::with_clock(clock);
-    let capture = Arc::new(Capture { meta: rec.meta.clone(), messages: Mutex::default() });
+    let capture = Arc::new(Capture {
+        meta: rec.meta.clone(),
+        messages: Arc::default(),
+        sequencer: std::sync::OnceLock::new(),
+    });
     registry.set_tap(Some(capture.clone() as Arc<dyn Tap>));
     registry.ledger().enable(true);
 
@@ -269,6 +281,28 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
             .then(|| standin::Order { controls_after: rec.controls_after.clone(), ..Default::default() }),
     });
     let gate = playback.order.is_some().then(|| Arc::clone(&playback));
+    // Live, each control goes where the recording has it among the publications and the
+    // outputs of what it acts on (see `sequence`).
+    let sequencer = (rec.meta.live && gate.is_some() && rec.controls_outputs.len() == rec.controls.len())
+        .then(|| {
+            let seq = Arc::new(sequence::Sequencer::new(
+                registry.clone(),
+                rec,
+                !standin_asks,
+                Arc::clone(&playback),
+                Arc::clone(&capture.messages),
+            ));
+            let _ = capture.sequencer.set(Arc::downgrade(&seq));
+            if let Some(order) = &playback.order {
+                let weak = Arc::downgrade(&seq);
+                order.on_publish.set(move || {
+                    if let Some(seq) = weak.upgrade() {
+                        seq.apply_ready();
+                    }
+                });
+            }
+            seq
+        });
     let mut catalog = Catalog::builtin();
     let params = config.robot().clone();
     catalog.register(robot.kind(), crate::system::Place::Robot, move |_, _| {
@@ -361,13 +395,16 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     };
 
     // What came from outside the replayed components, at its recorded time.
-    let controls = tokio::spawn(feed_controls(
-        registry.clone(),
-        rec.controls.clone(),
-        rec.meta.robot.clone(),
-        !standin_asks,
-        gate,
-    ));
+    let controls = match sequencer {
+        Some(seq) => tokio::spawn(sequence::feed(seq)),
+        None => tokio::spawn(feed_controls(
+            registry.clone(),
+            rec.controls.clone(),
+            rec.meta.robot.clone(),
+            !standin_asks,
+            gate,
+        )),
+    };
 
     // A recording goes on while its process shuts the system down (a hung component may hold
     // that up for seconds); what the system decided ends with the run's last instant, which
@@ -444,14 +481,8 @@ async fn feed_controls(
     ask: bool,
     gate: Option<Arc<standin::Playback>>,
 ) {
-    use orsa_actors::send::SendClient;
-    use orsa_actors::state::StateMaster;
-    use orsa_actors::wiring::WiringMaster;
-    use orsa_interfaces::nomad200::NavigationVelocity;
     let clock = registry.clock();
-    let wiring = WiringMaster::new(&registry);
-    let motors = orsa_interfaces::nomad200::NAVIGATIONVELOCITY.on(robot.as_str()).untyped();
-    let motors = SendClient::<NavigationVelocity>::connect(&registry, &motors);
+    let applier = Applier::new(&registry, &robot, ask);
     let order = gate.as_ref().and_then(|p| p.order.as_ref().map(|o| (p, o)));
     for (j, (at, control)) in controls.into_iter().enumerate() {
         tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
@@ -465,8 +496,48 @@ async fn feed_controls(
                 tokio::task::yield_now().await;
             }
         }
+        if let Some(pending) = applier.apply(control) {
+            pending.await;
+        }
+        if let Some((_, order)) = order {
+            order.applied(j);
+        }
+    }
+}
+
+/// Applies the controls fed from outside the replayed components.
+pub(crate) struct Applier {
+    registry: Registry,
+    /// The robot's velocity commands, as the link watchdog sent them (one client: its
+    /// sequence numbers go on from one command to the next, as the watchdog's did).
+    /// Connected at the first command (the stand-in serves it once the system is up).
+    motors: std::sync::OnceLock<
+        Option<orsa_actors::send::SendClient<orsa_interfaces::nomad200::NavigationVelocity>>,
+    >,
+    robot: String,
+    /// Whether it makes the requests to parameters (otherwise the robot's stand-in does).
+    ask: bool,
+}
+
+impl Applier {
+    /// An applier for the components of `registry`, with `robot` the robot server's name.
+    pub(crate) fn new(registry: &Registry, robot: &str, ask: bool) -> Applier {
+        Applier { registry: registry.clone(), motors: Default::default(), robot: robot.to_owned(), ask }
+    }
+
+    /// Applies `control`: a behaviour's port wired or its state set as the recording says
+    /// (what may wait is the future returned: a local change does not), the command the link
+    /// watchdog sent (zero), a request to a component's parameters.
+    pub(crate) fn apply(
+        &self,
+        control: Control,
+    ) -> Option<std::pin::Pin<Box<dyn Future<Output = ()> + Send>>> {
+        use orsa_actors::state::StateMaster;
+        use orsa_actors::wiring::WiringMaster;
+        let registry = self.registry.clone();
         match control {
-            Control::Port { component, status } => {
+            Control::Port { component, status } => Some(Box::pin(async move {
+                let wiring = WiringMaster::new(&registry);
                 let done = match &status.target {
                     Some(target) => wiring.connect_named(&component, &status.port, target).await,
                     None => wiring.disconnect_named(&component, &status.port).await,
@@ -474,8 +545,8 @@ async fn feed_controls(
                 if let Err(e) = done {
                     tracing::warn!("replay: cannot wire {component}.{} as recorded: {e}", status.port);
                 }
-            }
-            Control::State { component, status } => {
+            })),
+            Control::State { component, status } => Some(Box::pin(async move {
                 if let Ok(master) = StateMaster::connect(&registry, &component) {
                     let wanted = status.pending.unwrap_or(status.current);
                     // At once where nothing holds it up; else on its own task: a state change
@@ -490,22 +561,28 @@ async fn feed_controls(
                         });
                     }
                 }
-            }
+            })),
             Control::Param { component, request, .. } => {
-                if ask {
+                if self.ask {
                     standin::ask(&registry, &component, request);
                 }
+                None
             }
             Control::Link(e) => {
-                if let (Some(command), Ok(m)) = (e.command, &motors)
+                let motors = self.motors.get_or_init(|| {
+                    let motors =
+                        orsa_interfaces::nomad200::NAVIGATIONVELOCITY.on(self.robot.as_str()).untyped();
+                    orsa_actors::send::SendClient::connect(&self.registry, &motors)
+                        .inspect_err(|e| tracing::warn!("replay: cannot reach the robot's motors: {e}"))
+                        .ok()
+                });
+                if let (Some(command), Some(m)) = (e.command, motors)
                     && let Err(e) = m.send(command)
                 {
                     tracing::warn!("replay: cannot command zero as the link watchdog did: {e}");
                 }
+                None
             }
-        }
-        if let Some((_, order)) = order {
-            order.applied(j);
         }
     }
 }

@@ -60,6 +60,33 @@ pub struct Order {
     pub applied: AtomicUsize,
     /// Woken when a control is applied or a publication goes out.
     pub moved: tokio::sync::Notify,
+    /// Called before each publication and right after it goes out, before anything it sets
+    /// going runs (a live replay applies there the controls whose place it is).
+    pub on_publish: Hook,
+}
+
+/// A function called where something happens; none until it is set.
+#[derive(Default)]
+pub struct Hook(std::sync::OnceLock<Box<dyn Fn() + Send + Sync>>);
+
+impl Hook {
+    /// Sets the function (once: later calls change nothing).
+    pub fn set(&self, f: impl Fn() + Send + Sync + 'static) {
+        let _ = self.0.set(Box::new(f));
+    }
+
+    /// Calls it, if it is set.
+    pub fn call(&self) {
+        if let Some(f) = self.0.get() {
+            f();
+        }
+    }
+}
+
+impl std::fmt::Debug for Hook {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() { "Hook(set)" } else { "Hook(none)" })
+    }
 }
 
 impl Order {
@@ -174,6 +201,7 @@ impl Component for RecordedRobot {
 /// after a scan of the same instant reaches its component after that scan, as it did.
 async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
     let clock = registry.clock();
+    let mut last_health: Option<Health> = None;
     loop {
         let first = playback.cursor.load(Ordering::SeqCst);
         let asked = playback.asked.load(Ordering::SeqCst);
@@ -198,6 +226,7 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
             let Some((_, p)) = playback.published.get(i).filter(|(t, _)| *t == at) else { break };
             if let Some(order) = &playback.order {
                 // Every control recorded before this publication first.
+                order.on_publish.call();
                 let before = order.controls_after.partition_point(|&after| after <= i);
                 order.until(|| order.applied.load(Ordering::SeqCst) >= before).await;
             }
@@ -216,7 +245,11 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
                     servers.base.put(*state);
                 }
                 Published::Health(h) => {
-                    servers.health_changes.put(h);
+                    // The server pushes its health every second and fires it on a change.
+                    if last_health.as_ref().is_none_or(|l: &Health| l.sensors != h.sensors) {
+                        servers.health_changes.put(h);
+                        last_health = Some(h.clone());
+                    }
                     servers.health.put(h.clone());
                 }
             }
@@ -224,6 +257,7 @@ async fn play(registry: Registry, servers: Servers, playback: Arc<Playback>) {
             playback.cursor.store(i, Ordering::SeqCst);
             if let Some(order) = &playback.order {
                 order.moved.notify_waiters();
+                order.on_publish.call();
             }
         }
         playback.cursor.store(i, Ordering::SeqCst);
