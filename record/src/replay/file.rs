@@ -156,6 +156,13 @@ pub struct Recording {
     /// out, and not later: where a control came between a scan and a behaviour's step on it,
     /// the step sees it as it did.
     pub controls_outputs: Vec<Vec<(Arc<str>, usize)>>,
+    /// For each control, in order: whether it went before the step of what it acts on, on the
+    /// last publication before it (see the replay's `sequence` module). Live, a control can land between
+    /// a scan and a behaviour's step on it, on another thread, or after that step; the
+    /// recording shows which by what the behaviour made between the control and the next
+    /// publication: an output there came from a step after the control (wiring, activation),
+    /// and none after a deactivation says the step came after it too.
+    pub controls_early: Vec<bool>,
     /// When the process's fault plan started, if not at the start (ns).
     pub plan_started: Option<u64>,
     /// When the process started its system, if not at the start (ns).
@@ -365,6 +372,7 @@ impl Recording {
             controls: Vec::new(),
             controls_after: Vec::new(),
             controls_outputs: Vec::new(),
+            controls_early: Vec::new(),
             plan_started: None,
             system_starting: None,
             exchange: ExchangeLog::default(),
@@ -487,6 +495,44 @@ impl Recording {
         self.controls.push((log_time, control));
         self.controls_after.push(self.published.len());
         self.controls_outputs.push(before);
+        self.controls_early.push(false);
+    }
+
+    /// The outputs of what control `j` acts on, recorded so far.
+    fn outputs_of(&self, j: usize) -> usize {
+        let touched = match &self.controls[j].1 {
+            Control::Port { component, .. }
+            | Control::State { component, .. }
+            | Control::Param { component, .. } => format!("{component}/"),
+            Control::Link(_) => {
+                format!("{}/{}", self.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name())
+            }
+        };
+        (self.outputs.iter())
+            .filter(|(topic, _)| topic.starts_with(touched.as_str()))
+            .map(|(_, l)| l.len())
+            .sum()
+    }
+
+    /// Before a publication is filed: settles whether each control since the last publication
+    /// went before the step on that publication ([`Recording::controls_early`]).
+    fn settle_controls(&mut self) {
+        let n = self.published.len();
+        let first = self.controls_after.partition_point(|&after| after < n);
+        for j in first..self.controls.len() {
+            let before: usize = self.controls_outputs[j].iter().map(|(_, c)| c).sum();
+            let made = self.outputs_of(j) > before;
+            // A state that does not compute (no substates) stops the steps: none made after it
+            // says it went first.
+            let stops = match &self.controls[j].1 {
+                Control::State { status, .. } => {
+                    let wanted = status.pending.as_ref().unwrap_or(&status.current);
+                    status.main_states.get(wanted).is_some_and(std::collections::BTreeSet::is_empty)
+                }
+                _ => false,
+            };
+            self.controls_early[j] = made != stops;
+        }
     }
 
     /// Files one message: decoded into what the stand-in plays back, or kept for comparison.
@@ -594,6 +640,7 @@ impl Recording {
                 return Ok(());
             }
         };
+        self.settle_controls();
         self.published.push((log_time, published));
         Ok(())
     }

@@ -297,7 +297,9 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
                 let weak = Arc::downgrade(&seq);
                 order.on_publish.set(move || {
                     if let Some(seq) = weak.upgrade() {
-                        seq.apply_ready();
+                        seq.apply_ready(false);
+                        // What goes after the steps on it is the feeder's.
+                        seq.moved.notify_one();
                     }
                 });
             }
@@ -467,7 +469,7 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
 
 /// How often the control feeder yields, after the publications recorded before a control are
 /// out, so that what they set going runs before the control (see [`feed_controls`]).
-const SETTLE_YIELDS: usize = 32;
+pub(super) const SETTLE_YIELDS: usize = 32;
 
 /// Feeds `controls` to the replayed components at their recorded times: a behaviour's port
 /// wired or its state set as the recording says, and, where the link watchdog lost an

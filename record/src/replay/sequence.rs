@@ -9,8 +9,9 @@
 //! control is applied at the first moment that its recorded time has come (on the replay's
 //! timer, which wakes on whole milliseconds), the publications recorded before it are out and
 //! the outputs recorded before it of what it acts on (see [`Recording::controls_outputs`])
-//! are made: right after a publication, before anything it sets going runs, where that is its
-//! place; else as soon as the last of those outputs is captured, or its time comes.
+//! are made: right after a publication, before anything it sets going runs, where the
+//! recording says it went before the step on that publication
+//! ([`Recording::controls_early`]); else once what the publication set going has run.
 //!
 //! A paused-clock recording is replayed at its exact instants and does not need this (see
 //! [`super::feed_controls`]).
@@ -32,6 +33,9 @@ pub(super) struct Sequencer {
     controls: Vec<(u64, Control)>,
     after: Vec<usize>,
     outputs: Vec<Vec<(Arc<str>, usize)>>,
+    /// Whether each goes before the step on the publication before it (applied right after
+    /// that publication), or after it (see [`Recording::controls_early`]).
+    early: Vec<bool>,
     applier: super::Applier,
     playback: Arc<Playback>,
     /// What the replayed components made so far, per topic.
@@ -58,6 +62,11 @@ impl Sequencer {
             controls: rec.controls.clone(),
             after: rec.controls_after.clone(),
             outputs: rec.controls_outputs.clone(),
+            early: if rec.controls_early.len() == rec.controls.len() {
+                rec.controls_early.clone()
+            } else {
+                vec![true; rec.controls.len()]
+            },
             applier: super::Applier::new(&registry, &rec.meta.robot, ask),
             playback,
             made,
@@ -83,11 +92,12 @@ impl Sequencer {
     }
 
     /// Applies, in order, every control whose place has come. Called by the stand-in before
-    /// and right after each publication, and by [`feed`] whenever an output is captured or a
-    /// control's time comes.
-    pub(super) fn apply_ready(&self) {
+    /// and right after each publication (`settled` false: a control that goes after the steps
+    /// on the publication waits for [`feed`]), and by [`feed`] whenever an output is captured
+    /// or a control's time comes, once what is ready to run has run (`settled`).
+    pub(super) fn apply_ready(&self, settled: bool) {
         let Some(mut next) = self.next.try_lock() else { return };
-        while *next < self.controls.len() && self.ready(*next) {
+        while *next < self.controls.len() && (settled || self.early[*next]) && self.ready(*next) {
             let j = *next;
             let control = self.controls[j].1.clone();
             if let Some(pending) = self.applier.apply(control) {
@@ -111,7 +121,14 @@ impl Sequencer {
 /// with a publication are applied by the stand-in), until all are.
 pub(super) async fn feed(seq: Arc<Sequencer>) {
     loop {
-        seq.apply_ready();
+        if seq.next().is_some_and(|j| seq.ready(j)) {
+            // What the publications before it set going runs first (a step on the last one),
+            // as it did before the control in the recording.
+            for _ in 0..super::SETTLE_YIELDS {
+                tokio::task::yield_now().await;
+            }
+        }
+        seq.apply_ready(true);
         let Some(j) = seq.next() else { return };
         let due = seq.due(j);
         tokio::select! {
