@@ -271,7 +271,6 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
         let p = &m.params;
         let near =
             m.robot.body_radius_m + p.stopping_distance(&m.robot, m.robot.max_v_m_s) + p.slowdown_margin_m;
-        memory.begin();
         for (v, scan) in [&ir, &sonar].into_iter().enumerate() {
             if fresh[v] {
                 memory.place(v, scan, &m.beams[v], pose, now, speed, near);

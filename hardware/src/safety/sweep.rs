@@ -5,7 +5,7 @@ use super::SafetyParams;
 use orsa_actors::Timestamp;
 use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, RingParams, RobotParams};
 use orsa_interfaces::range::sector_coverage;
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{PI, TAU};
 
 /// Why the monitor limited a command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,14 +55,12 @@ pub fn free_distance(p: (f64, f64), v: f64, omega: f64, r: f64) -> f64 {
     if rho < 1e-9 {
         return f64::INFINITY; // on the centre of rotation: its distance never changes
     }
+    let phi0 = (-rc).atan2(0.0);
+    let delta = (omega.signum() * (qy.atan2(qx) - phi0)).rem_euclid(TAU);
     let cos_contact = (big_r * big_r + rho * rho - r * r) / (2.0 * big_r * rho);
     if cos_contact >= 1.0 {
-        return f64::INFINITY; // the swept annulus misses it (most points: checked first)
+        return f64::INFINITY; // the swept annulus misses it
     }
-    // The robot's centre starts at angle phi0 about the centre of rotation: atan2(-rc, 0),
-    // which is exactly -pi/2 or pi/2.
-    let phi0 = if rc > 0.0 { -FRAC_PI_2 } else { FRAC_PI_2 };
-    let delta = (omega.signum() * (qy.atan2(qx) - phi0)).rem_euclid(TAU);
     let contact = cos_contact.max(-1.0).acos();
     if delta > contact && delta < TAU - contact {
         return (delta - contact) * big_r;
@@ -172,27 +170,6 @@ impl Beams {
         })
     }
 
-    /// The part of the world `r` (a reading of this view) sees free, in the frame of the pose
-    /// it is placed at (the odometry frame; `at` the position, `(sin, cos)` of the heading):
-    /// its beam from the sensor out to [`CLEAR_MARGIN_M`] short of what it read. `None` if it
-    /// sees nothing free (invalid, or shorter than what the sensor vouches for).
-    pub fn wedge(&self, r: &DistanceReading, at: (f64, f64), (s, c): (f64, f64)) -> Option<Wedge> {
-        let i = usize::from(r.sensor_id);
-        let (((ox, oy), _), (ax, ay)) = (self.sensors.get(i)?, *self.axes.get(i)?);
-        let hi = r.distance_m - CLEAR_MARGIN_M;
-        if !(r.valid && r.distance_m.is_finite() && hi > self.min_range_m) {
-            return None;
-        }
-        Some(Wedge {
-            origin: (at.0 + c * ox - s * oy, at.1 + s * ox + c * oy),
-            axis: (c * ax - s * ay, s * ax + c * ay),
-            cos2_half: self.cos_half * self.cos_half,
-            lo2: self.min_range_m * self.min_range_m,
-            hi2: hi * hi,
-            stamp: r.stamp,
-        })
-    }
-
     /// The points the valid `readings` stand for: each reading anywhere across its beam.
     pub fn seen<'a>(&self, readings: impl Iterator<Item = &'a DistanceReading>, out: &mut Vec<Seen>) {
         for r in readings.filter(|r| r.valid && r.distance_m.is_finite()) {
@@ -205,33 +182,6 @@ impl Beams {
                 });
             }
         }
-    }
-}
-
-/// What one reading sees free (see [`Beams::wedge`]), in the frame it was placed in.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Wedge {
-    origin: (f64, f64),
-    /// The beam's axis, a unit vector.
-    axis: (f64, f64),
-    /// The square of the cosine of half the beam's width.
-    cos2_half: f64,
-    /// The squares of the shortest and longest distances from the sensor it sees free.
-    lo2: f64,
-    hi2: f64,
-    /// When the reading was taken.
-    pub stamp: Timestamp,
-}
-
-impl Wedge {
-    /// Whether it sees through `p` (same frame): `p` lies within the beam, beyond the shortest
-    /// range the sensor vouches for and more than [`CLEAR_MARGIN_M`] short of what it read,
-    /// as [`Beams::clears`] judges it.
-    pub fn clears(&self, p: (f64, f64)) -> bool {
-        let (vx, vy) = (p.0 - self.origin.0, p.1 - self.origin.1);
-        let d2 = vx * vx + vy * vy;
-        let along = vx * self.axis.0 + vy * self.axis.1;
-        d2 > self.lo2 && d2 < self.hi2 && along > 0.0 && along * along >= d2 * self.cos2_half
     }
 }
 
@@ -431,15 +381,6 @@ mod tests {
             } else {
                 assert!(exact > 5.9, "{p:?} v {v} w {w}: {exact} against a walk that never met it");
             }
-        }
-    }
-
-    /// The start angle about the centre of rotation is taken as the constant atan2 gives.
-    #[test]
-    fn the_start_angle_is_atan2s_to_the_bit() {
-        for rc in [1e-9f64, 0.3, 7.0, -1e-9, -0.3, -7.0] {
-            let phi0 = if rc > 0.0 { -FRAC_PI_2 } else { FRAC_PI_2 };
-            assert_eq!(phi0.to_bits(), (-rc).atan2(0.0).to_bits(), "rc {rc}");
         }
     }
 
