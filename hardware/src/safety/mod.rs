@@ -44,7 +44,6 @@ use crate::board::{
 };
 use orsa_interfaces::health::{Health, HealthCounters};
 use orsa_interfaces::nomad200::{ContactScan, DistanceScan, MonitorCounters, RingParams, RobotParams};
-use std::f64::consts::TAU;
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
@@ -56,7 +55,7 @@ mod sweep;
 use health::{Judge, ViewSpec};
 use memory::Memory;
 pub use params::SafetyParams;
-pub use sweep::{Beams, CLEAR_MARGIN_M, Look, Monitor, Reason, Seen, free_distance, stoppable_speed};
+pub use sweep::{Beams, CLEAR_MARGIN_M, Look, Monitor, Reason, Seen, Sight, free_distance, stoppable_speed};
 
 /// A motor board guarded by the safety monitor (see the module docs). Cheap to clone; the
 /// monitor's own task ends with the last clone.
@@ -277,12 +276,31 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
             }
         }
         let keep = Duration::from_secs_f64(m.params.memory_s);
+        // What each fresh view sees free, set out once for every point remembered.
+        let sights: Vec<Sight> = [&ir, &sonar]
+            .into_iter()
+            .enumerate()
+            .filter(|(v, _)| fresh[*v])
+            .map(|(v, scan)| m.beams[v].sight(scan))
+            .collect();
         let seen_through = |p: &Seen, at: (f64, f64)| {
-            let bearing = at.1.atan2(at.0).rem_euclid(TAU);
-            [&ir, &sonar]
-                .into_iter()
-                .enumerate()
-                .any(|(v, scan)| fresh[v] && m.beams[v].clears(scan, p.stamp, at, bearing))
+            if !sights.iter().any(|s| s.newer_than(p.stamp)) {
+                return false;
+            }
+            // The sensor `at` faces, for each ring size the views have (most often one).
+            let mut faced: Option<(usize, usize)> = None;
+            sights.iter().any(|s| {
+                let n = s.len();
+                let nearest = match faced {
+                    Some((m, i)) if m == n => i,
+                    _ => {
+                        let i = sweep::facing(at, n);
+                        faced = Some((n, i));
+                        i
+                    }
+                };
+                s.clears(p.stamp, at, nearest)
+            })
         };
         memory.recall(pose, now, keep, near, seen_through, &mut look.seen);
         Ok(look)
