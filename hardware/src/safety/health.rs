@@ -201,8 +201,8 @@ struct ViewState {
     stamp: Option<Timestamp>,
     /// Its readings: `Some(distance)` for a valid one.
     last: Vec<Option<f64>>,
-    /// The two readings before, per sensor, for the scatter, and the newest one's stamp.
-    before: Vec<([Option<f64>; 2], Timestamp)>,
+    /// The two readings before, per sensor, for the scatter.
+    before: Vec<[Option<f64>; 2]>,
     /// Motion (travel, turn) when the readings last changed.
     unchanged_from: Option<(f64, f64)>,
     /// The readings it was judged stuck on.
@@ -215,14 +215,7 @@ struct ViewState {
     last_valid: Option<Timestamp>,
     /// Second differences of the window: (stamp, |d|).
     scatter: VecDeque<(Timestamp, f64)>,
-    /// When the scatter was last weighed, and whether it was calm then (see
-    /// [`SCATTER_EVERY_NS`]).
-    weighed: Option<(Timestamp, bool)>,
 }
-
-/// How often a view's scatter is weighed, at most (its median is a sort of the window: about
-/// a thousand values for the infrared): 0.1 s.
-const SCATTER_EVERY_NS: u64 = 100_000_000;
 
 /// The judge of a robot's sensors (see the module docs).
 #[derive(Debug, Clone)]
@@ -423,16 +416,9 @@ impl Judge {
         }
         // Noisy.
         if st.before.len() != now_readings.len() {
-            st.before = vec![([None; 2], Timestamp::default()); now_readings.len()];
+            st.before = vec![[None; 2]; now_readings.len()];
         }
-        // Each sensor's own successive readings: a scan read again before a sensor fired again
-        // repeats its reading, which is no new sample of its scatter.
-        for ((b, d), r) in st.before.iter_mut().zip(&now_readings).zip(&scan.readings) {
-            if r.stamp <= b.1 {
-                continue;
-            }
-            b.1 = r.stamp;
-            let b = &mut b.0;
+        for (b, d) in st.before.iter_mut().zip(&now_readings) {
             if let (Some(d0), Some(d1), Some(d2)) = (b[0], b[1], *d) {
                 // In units of the scatter allowed at that distance.
                 let allowed = p.noisy_sd_m + p.noisy_fraction * d1;
@@ -446,17 +432,13 @@ impl Judge {
         }
         // Nothing valid to scatter: noise, if any, harms nothing.
         let mut calm = (valid == 0 && st.scatter.len() < 20).then_some(true);
-        let due = st.weighed.is_none_or(|(t, _)| now.0.saturating_sub(t.0) >= SCATTER_EVERY_NS);
-        if st.scatter.len() >= 20 && !due {
-            calm = st.weighed.map(|(_, calm)| calm);
-        } else if st.scatter.len() >= 20 {
+        if st.scatter.len() >= 20 {
             let mut d: Vec<f64> = st.scatter.iter().map(|(_, d)| *d).collect();
             let mid = d.len() / 2;
             let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
             // |N(0, 6 sd^2)| has median 0.6745 sqrt(6) sd.
             let ratio = *median / (0.6745 * 6f64.sqrt());
             calm = Some(ratio <= 1.0);
-            st.weighed = Some((now, ratio <= 1.0));
             if ratio > 1.0 {
                 evidence = true;
                 changed |= st.judged.condemn(
@@ -774,31 +756,6 @@ mod tests {
         // `seen` spreads the noise uniformly over +-noise/2: sd = noise / sqrt(12).
         assert_eq!(run(0.03), Verdict::Healthy, "sd 9 mm");
         assert_eq!(run(0.6), Verdict::Noisy, "sd 173 mm, over 0.03 m + 3 % of 0.3 m");
-    }
-
-    /// The scatter is each sensor's own: a ring read again and again before its sensors fire
-    /// again (the monitor reads it at every command) repeats readings, which neither hide
-    /// noise nor make it.
-    #[test]
-    fn readings_read_again_are_no_new_samples_of_the_scatter() {
-        let run = |noise: f64| {
-            let mut j = judge();
-            for k in 0..60u64 {
-                let t = k * 40;
-                j.note_motion(k as f64 * 0.01, 0.0, 0.0, Timestamp(t * MS));
-                let fired = scan(Ring::Infrared, t, &seen(k, noise));
-                j.note_scan(0, &fired);
-                // Read again nine times in the next 40 ms: the same readings, later scans.
-                for again in 1..10u64 {
-                    let mut read = fired.clone();
-                    read.stamp = Timestamp((t + again * 4) * MS);
-                    j.note_scan(0, &read);
-                }
-            }
-            j.health().verdict("infrared")
-        };
-        assert_eq!(run(0.03), Verdict::Healthy, "sd 9 mm");
-        assert_eq!(run(0.6), Verdict::Noisy, "sd 173 mm, read ten times per firing");
     }
 
     #[test]
