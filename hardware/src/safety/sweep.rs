@@ -212,7 +212,7 @@ impl Sight {
 
     /// Whether a reading taken after `since` sees through `p` (body frame): `p` lies within a
     /// sensor's beam, beyond the shortest range it vouches for and more than [`CLEAR_MARGIN_M`]
-    /// short of what it read there. `nearest` is the sensor `p` faces ([`facing`]).
+    /// short of what it read there. `nearest` is the sensor `p` faces (the module's `facing`).
     pub fn clears(&self, since: Timestamp, p: (f64, f64), nearest: usize) -> bool {
         let n = self.sensors.len();
         if nearest >= n {
