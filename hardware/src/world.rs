@@ -47,6 +47,25 @@ pub struct World {
     /// Moving round obstacles (people).
     #[serde(default)]
     pub movers: Vec<Mover>,
+    /// Named places a mission can send the robot to.
+    #[serde(default)]
+    pub places: Vec<Place>,
+}
+
+/// A named place a mission can send the robot to: where its body's centre is to arrive, and
+/// with which heading if one is given.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Place {
+    /// Unique in the world; letters, digits, `-` and `_`.
+    pub name: String,
+    /// x of the body's centre, m.
+    pub x: f64,
+    /// y of the body's centre, m.
+    pub y: f64,
+    /// The heading to arrive with, degrees counter-clockwise from +x (absent: any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading_deg: Option<f64>,
 }
 
 /// Where the robot starts.
@@ -163,6 +182,18 @@ impl Mover {
     }
 }
 
+impl Place {
+    /// Where the body's centre is to arrive.
+    pub fn position(&self) -> Point {
+        Point::new(self.x, self.y)
+    }
+
+    /// The heading to arrive with, in radians (absent: any).
+    pub fn heading_rad(&self) -> Option<f64> {
+        self.heading_deg.map(f64::to_radians)
+    }
+}
+
 impl RobotStart {
     /// The body's centre.
     pub fn position(&self) -> Point {
@@ -180,6 +211,11 @@ impl World {
     /// door recesses, three static obstacles and three people walking.
     pub fn palazzina() -> Result<World, WorldError> {
         World::from_str(PALAZZINA_TOML, "palazzina.toml (built in)")
+    }
+
+    /// The place named `name`, if the world has one.
+    pub fn place(&self, name: &str) -> Option<&Place> {
+        self.places.iter().find(|p| p.name == name)
     }
 
     /// Reads and checks the world file at `path`.

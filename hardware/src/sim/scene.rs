@@ -326,6 +326,7 @@ mod tests {
             boxes: vec![],
             discs: vec![],
             movers: vec![],
+            places: vec![],
         }
     }
 

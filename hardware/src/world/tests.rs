@@ -154,3 +154,56 @@ fn worlds_built_in_code_are_checked_too() {
     let msg = w.check("test").expect_err("one-point path").to_string();
     assert_eq!(msg, "test: movers[2].path: a mover's path needs at least 2 points, got 1");
 }
+
+#[test]
+fn places_load_with_their_optional_heading_and_are_found_by_name() {
+    let text = format!(
+        "{HEAD}[[places]]\nname = \"lab\"\nx = 6.0\ny = 1.2\nheading_deg = 180.0\n\
+         [[places]]\nname = \"door_2-b\"\nx = 9.0\ny = 1.0\n"
+    );
+    let w = World::from_str(&text, "ok.toml").expect("places load");
+    assert_eq!(w.places.len(), 2);
+    let lab = w.place("lab").expect("lab");
+    assert_eq!((lab.x, lab.y, lab.heading_deg), (6.0, 1.2, Some(180.0)));
+    assert!((lab.heading_rad().expect("heading") - std::f64::consts::PI).abs() < 1e-12);
+    assert_eq!(w.place("door_2-b").expect("door").heading_deg, None, "no heading: any");
+    assert!(w.place("kitchen").is_none());
+}
+
+#[test]
+fn places_need_a_good_unique_name_finite_numbers_and_room_for_the_body() {
+    const PLACE: &str = "[[places]]\nname = \"lab\"\nx = 6.0\ny = 1.2\n";
+    let msg = error_of(&PLACE.replace("name = \"lab\"", "name = \"\""));
+    assert_names(&msg, ":7:8", "places[0].name", "must not be empty");
+    let msg = error_of(&PLACE.replace("lab", "room 3"));
+    assert_names(&msg, ":7:8", "places[0].name", "letters, digits, '-' and '_' only, got \"room 3\"");
+    let msg = error_of(&format!("{PLACE}{}", PLACE.replace("x = 6.0", "x = 8.0")));
+    assert_names(&msg, ":11:8", "places[1].name", "\"lab\" is taken by places[0]");
+    let msg = error_of(&PLACE.replace("y = 1.2", "y = nan"));
+    assert_names(&msg, ":9:5", "places[0].y", "finite number, got NaN");
+    let msg = error_of(&format!("{PLACE}heading_deg = inf\n"));
+    assert_names(&msg, ":10:15", "places[0].heading_deg", "finite number, got inf");
+    let msg = error_of(&format!("{PLACE}floor = 2\n"));
+    assert_names(&msg, ":10:1", "places[0].floor", "unknown field `floor`");
+    let msg = error_of(&PLACE.replace("name = \"lab\"\n", ""));
+    assert!(msg.contains("places[0].name") && msg.contains("missing"), "{msg}");
+    // The body must fit: a disc 0.2 m from the place's centre is in the way, a mover is not.
+    let msg = error_of(&format!("{PLACE}[[discs]]\ncenter = [6.3, 1.2]\nradius = 0.1\n"));
+    assert_names(
+        &msg,
+        ":6:1",
+        "places[0]",
+        "does not fit at place \"lab\" (6, 1.2): it would overlap discs[0]",
+    );
+    let ok = format!("{HEAD}{PLACE}[[movers]]\nradius = 0.25\nspeed = 1\npath = [[6.0, 1.2], [9.0, 1.2]]\n");
+    assert!(World::from_str(&ok, "ok.toml").is_ok(), "a mover may walk through a place");
+}
+
+#[test]
+fn the_office_floor_loads_with_its_places() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../worlds/office.toml");
+    let w = World::from_path(path).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = w.places.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["dock", "room-1", "room-2", "room-3", "room-4", "room-5"]);
+    assert_eq!(w.place("dock").and_then(|p| p.heading_deg), Some(0.0));
+}

@@ -4,7 +4,7 @@
 //! is ever adjusted.
 
 use super::locate::KeyPath;
-use super::{Mover, World};
+use super::{Mover, Place, World};
 use crate::geometry::{Point, Shape};
 
 /// A broken rule: where and what.
@@ -60,8 +60,32 @@ fn mover(path: &KeyPath, m: &Mover) -> Check {
     non_negative(path.k("start_delay"), m.start_delay, "a mover's start_delay")
 }
 
-/// Every static obstacle and mover start with the key path that declares it.
-fn labelled_obstacles(w: &World) -> Vec<(String, Shape)> {
+/// Whether `name` is a place's name: letters, digits, `-` and `_`, at least one.
+fn place_name(path: KeyPath, name: &str) -> Check {
+    if name.is_empty() {
+        return fail(path, "a place's name must not be empty");
+    }
+    match name.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '-' || *c == '_')) {
+        None => Ok(()),
+        Some(c) => fail(
+            path,
+            format!("a place's name may hold letters, digits, '-' and '_' only, got {name:?} (with {c:?})"),
+        ),
+    }
+}
+
+fn place(path: &KeyPath, p: &Place) -> Check {
+    place_name(path.k("name"), &p.name)?;
+    finite(path.k("x"), p.x)?;
+    finite(path.k("y"), p.y)?;
+    if let Some(h) = p.heading_deg {
+        finite(path.k("heading_deg"), h)?;
+    }
+    Ok(())
+}
+
+/// Every static obstacle (walls, boxes, discs) with the key path that declares it.
+fn labelled_statics(w: &World) -> Vec<(String, Shape)> {
     let mut out = Vec::new();
     for (i, wall) in w.walls.iter().enumerate() {
         for (j, s) in wall.segments().enumerate() {
@@ -75,6 +99,12 @@ fn labelled_obstacles(w: &World) -> Vec<(String, Shape)> {
     }
     out.extend(w.boxes.iter().enumerate().map(|(i, b)| (format!("boxes[{i}]"), Shape::Aabb(b.aabb()))));
     out.extend(w.discs.iter().enumerate().map(|(i, d)| (format!("discs[{i}]"), Shape::Circle(d.circle()))));
+    out
+}
+
+/// Every static obstacle and mover start with the key path that declares it.
+fn labelled_obstacles(w: &World) -> Vec<(String, Shape)> {
+    let mut out = labelled_statics(w);
     out.extend(
         w.movers
             .iter()
@@ -115,6 +145,14 @@ pub(crate) fn check(w: &World, robot_radius_m: f64) -> Check {
     for (i, m) in w.movers.iter().enumerate() {
         mover(&KeyPath::key("movers").i(i), m)?;
     }
+    let mut names = std::collections::HashMap::new();
+    for (i, p) in w.places.iter().enumerate() {
+        let path = KeyPath::key("places").i(i);
+        place(&path, p)?;
+        if let Some(first) = names.insert(p.name.as_str(), i) {
+            return fail(path.k("name"), format!("the place name {:?} is taken by places[{first}]", p.name));
+        }
+    }
     let start = Point::new(w.robot.x, w.robot.y);
     for (label, shape) in labelled_obstacles(w) {
         let gap = shape.distance(&start);
@@ -127,6 +165,23 @@ pub(crate) fn check(w: &World, robot_radius_m: f64) -> Check {
                     w.robot.x, w.robot.y
                 ),
             );
+        }
+    }
+    let statics = labelled_statics(w);
+    for (i, p) in w.places.iter().enumerate() {
+        let at = Point::new(p.x, p.y);
+        for (label, shape) in &statics {
+            let gap = shape.distance(&at);
+            if gap < robot_radius_m {
+                return fail(
+                    KeyPath::key("places").i(i),
+                    format!(
+                        "the robot's body does not fit at place {:?} ({}, {}): it would overlap {label}, \
+                         {gap:.3} m from its centre, less than the body's radius {robot_radius_m} m",
+                        p.name, p.x, p.y
+                    ),
+                );
+            }
         }
     }
     Ok(())

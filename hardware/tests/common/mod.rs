@@ -14,6 +14,7 @@ pub fn empty(x: f64, y: f64, heading_deg: f64) -> World {
         boxes: vec![],
         discs: vec![],
         movers: vec![],
+        places: vec![],
     }
 }
 
