@@ -15,11 +15,13 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 mod error;
+mod grid;
 mod locate;
 mod validate;
 mod xy;
 
 pub use error::{LineCol, WorldError};
+pub use grid::{GridError, MAX_CELLS};
 
 /// The radius of a Nomad 200's body (0.50 m across), used to check the robot's start pose.
 pub const NOMAD200_RADIUS_M: f64 = 0.25;

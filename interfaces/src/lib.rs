@@ -15,6 +15,7 @@
 //! | [`behaviour`] | every behaviour | the wireable `vel` port, `status`, the `active` state |
 //! | [`executive`] | the master | goals and goal events, which behaviour drives |
 //! | [`planner`] | the planner | where the mission stands |
+//! | [`map`] | the map | the occupancy grid of the robot's world |
 //! | [`range`] | any robot | its drive and range sensors described (ring or laser), and their projection onto sectors |
 //!
 //! Every communication object is a plain serde struct in SI units with unit-suffixed field names
@@ -33,6 +34,7 @@
 pub mod behaviour;
 pub mod executive;
 pub mod health;
+pub mod map;
 pub mod nomad200;
 pub mod planner;
 pub mod range;
