@@ -43,11 +43,26 @@ fn the_views_of_a_run_decode_and_agree_with_the_world_and_the_json_channels() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the reader prints JSON");
     let views = &v["views"];
-    for topic in
-        ["/world", "/people", "/robot", "/tf", "/truth/tf", "/infrared", "/sonar", "/trajectory", "/driving"]
-    {
+    for topic in [
+        "/world",
+        "/map",
+        "/people",
+        "/robot",
+        "/tf",
+        "/truth/tf",
+        "/infrared",
+        "/sonar",
+        "/trajectory",
+        "/driving",
+    ] {
         assert!(views[topic].as_u64().is_some_and(|n| n > 0), "no {topic}: {v}");
     }
+    // The corridor's map: a floor with walls round it, and nothing known outside.
+    let cells = &v["map_cells"];
+    for kind in ["free", "occupied", "unknown"] {
+        assert!(cells[kind].as_u64().is_some_and(|n| n > 100), "{kind}: {v}");
+    }
+    assert!(cells["free"].as_u64() > cells["occupied"].as_u64(), "{v}");
     // 120 s of truth sampled every 100 ms, and the first sample at 0.
     assert_eq!(views["/truth/tf"], 1201, "{v}");
     assert_eq!(v["scan_period_ms"]["/infrared"], 40.0);

@@ -49,6 +49,7 @@ EXPECTED = {
     "/truth/tf": ("foxglove.FrameTransforms", 100.0),
     "/robot": ("foxglove.SceneUpdate", None),
     "/world": ("foxglove.SceneUpdate", None),
+    "/map": ("foxglove.Grid", None),
     "/people": ("foxglove.SceneUpdate", None),
     "/trajectory": ("foxglove.PosesInFrame", None),
     "/driving": ("foxglove.Log", None),
@@ -232,6 +233,9 @@ async def watch(url, seconds):
         fail(f"/tf: the chain {chain}")
     if not decoded["/world"].entities:
         fail("/world: no entities (the world is re-sent to a client that subscribes late)")
+    grid = decoded.get("/map")
+    if grid is None or grid.column_count == 0 or len(grid.data) % (grid.column_count * grid.cell_stride) != 0:
+        fail("/map: no grid, or one whose data does not fill whole rows (it is re-sent to a late client)")
     return {
         "server": {"name": info.get("name"), "capabilities": info.get("capabilities", [])},
         "topics": sorted(by_topic),

@@ -58,6 +58,65 @@ def periods_ms(times):
 
 
 
+def check_map(path, world, maps):
+    """`/map` is written once, as a grid of int8 occupancy plus RGBA per cell laid out as its
+    fields say; every point on a wall, inside a box or a disc of the world file is in an
+    occupied cell, the robot's start in a free one, and unknown cells are not drawn."""
+    if len(maps) != 1:
+        fail(path, f"/map has {len(maps)} messages, expected 1")
+    g = maps[0][1]
+    fields = {f.name: (f.offset, f.type) for f in g.fields}
+    # NumericType: UINT8 = 1, INT8 = 2.
+    want = {"occupancy": (0, 2), "red": (1, 1), "green": (2, 1), "blue": (3, 1), "alpha": (4, 1)}
+    if fields != want:
+        fail(path, f"/map fields {fields}, expected {want}")
+    cols, stride, row = g.column_count, g.cell_stride, g.row_stride
+    if stride != 5 or row != cols * stride or len(g.data) % row != 0:
+        fail(path, f"/map: {cols} columns, cell stride {stride}, row stride {row}, {len(g.data)} bytes")
+    rows = len(g.data) // row
+    res = g.cell_size.x
+    if not (g.cell_size.y == res and 0 < res <= 0.05):
+        fail(path, f"/map cells {g.cell_size.x} x {g.cell_size.y} m: a map's cells are square, 5 cm or finer")
+    ox, oy = g.pose.position.x, g.pose.position.y
+    if g.pose.orientation.z != 0 or g.frame_id != "world":
+        fail(path, f"/map is rotated or not in the world frame: {g.pose}, {g.frame_id!r}")
+
+    def cell(x, y):
+        ix, iy = math.floor((x - ox) / res), math.floor((y - oy) / res)
+        if not (0 <= ix < cols and 0 <= iy < rows):
+            fail(path, f"/map does not cover ({x}, {y})")
+        i = iy * row + ix * stride
+        return int.from_bytes(g.data[i:i + 1], "little", signed=True), g.data[i + 4]
+
+    def occupied(x, y, what):
+        value, alpha = cell(x, y)
+        if value != 100 or alpha == 0:
+            fail(path, f"/map: {what} at ({x:.3f}, {y:.3f}) is in a cell holding {value} (alpha {alpha}), not occupied")
+
+    for i, wall in enumerate(world.get("walls", [])):
+        pts = wall["points"] + (wall["points"][:1] if wall.get("closed", False) else [])
+        for (ax, ay), (bx, by) in zip(pts, pts[1:]):
+            n = max(1, math.ceil(math.hypot(bx - ax, by - ay) / 0.02))
+            for k in range(n + 1):
+                occupied(ax + (bx - ax) * k / n, ay + (by - ay) * k / n, f"walls[{i}]")
+    for i, b in enumerate(world.get("boxes", [])):
+        occupied((b["min"][0] + b["max"][0]) / 2, (b["min"][1] + b["max"][1]) / 2, f"the centre of boxes[{i}]")
+    for i, d in enumerate(world.get("discs", [])):
+        occupied(d["center"][0], d["center"][1], f"the centre of discs[{i}]")
+    r = world["robot"]
+    value, alpha = cell(r["x"], r["y"])
+    if value != 0 or alpha == 0:
+        fail(path, f"/map: the robot's start is in a cell holding {value} (alpha {alpha}), not free")
+    counts = {"unknown": 0, "free": 0, "occupied": 0}
+    for i in range(0, len(g.data), stride):
+        value, alpha = int.from_bytes(g.data[i:i + 1], "little", signed=True), g.data[i + 4]
+        kind = "unknown" if value == -1 else "occupied" if value == 100 else "free" if value == 0 else None
+        if kind is None or (alpha == 0) != (kind == "unknown"):
+            fail(path, f"/map byte {i}: occupancy {value} with alpha {alpha}")
+        counts[kind] += 1
+    return counts
+
+
 def robot_name(config):
     """The robot server's name: the first component of kind robot or nomad200 in [system]."""
     for c in config.get("system", {}).get("components", []):
@@ -119,6 +178,9 @@ def main(path):
     want = [[d["center"][0], d["center"][1], d["radius"]] for d in world.get("discs", [])]
     if discs != want:
         fail(path, f"/world discs {discs}, the world file's {want}")
+
+    # The map: the world file's walls, boxes and discs as an occupancy grid.
+    map_cells = check_map(path, world, only("/map", "foxglove.Grid"))
 
     # The scans, against the JSON scans.
     mount = config["sim"]["body"]["radius_m"]
@@ -220,6 +282,7 @@ def main(path):
         "odometry_error_m": [first, last],
         "trajectory_poses": [sizes[0], sizes[-1]],
         "driving": said,
+        "map_cells": map_cells,
     }))
 
 

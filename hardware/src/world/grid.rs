@@ -64,7 +64,9 @@ impl World {
             return Err(GridError::TooLarge { width: w, height: h, resolution_m });
         }
         let mut grid = OccupancyGrid::filled(resolution_m, w as u32, h as u32, (origin_x, origin_y), UNKNOWN);
-        let touch = resolution_m * std::f64::consts::FRAC_1_SQRT_2;
+        // A hair over half the diagonal: a cell that touches a shape at a corner only (a wall's
+        // end on a cell's corner) is occupied too, whatever the rounding.
+        let touch = resolution_m * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
         for s in &shapes {
             occupy(&mut grid, s, touch);
         }

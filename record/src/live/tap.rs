@@ -248,7 +248,9 @@ pub fn both(a: Option<Arc<dyn Tap>>, b: Option<Arc<dyn Tap>>) -> Option<Arc<dyn 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::views::{DRIVING_TOPIC, ROBOT_TOPIC, TRAJECTORY_TOPIC, ViewSink, WORLD_TOPIC};
+    use crate::record::views::{
+        DRIVING_TOPIC, MAP_TOPIC, ROBOT_TOPIC, TRAJECTORY_TOPIC, ViewSink, WORLD_TOPIC,
+    };
 
     /// Remembers the topics declared and written.
     #[derive(Default)]
@@ -286,7 +288,7 @@ mod tests {
     fn each_process_declares_the_channels_it_can_fill() {
         let mut run = Topics::default();
         Views::new(setup(true, true)).declare(&mut run).expect("declared");
-        assert_eq!(run.declared.len(), 11, "{:?}", run.declared);
+        assert_eq!(run.declared.len(), 12, "{:?}", run.declared);
         let mut executive = Topics::default();
         Views::new(setup(false, false)).declare(&mut executive).expect("declared");
         assert_eq!(executive.declared, ["/robot", "/driving", "/events"]);
@@ -312,7 +314,7 @@ mod tests {
         views.truth(&mut sink, &sample).expect("written");
         sink.written.clear();
         views.rewrite_latched(&mut sink, at).expect("written again");
-        assert_eq!(sink.written, [WORLD_TOPIC, ROBOT_TOPIC, DRIVING_TOPIC, TRAJECTORY_TOPIC]);
+        assert_eq!(sink.written, [WORLD_TOPIC, MAP_TOPIC, ROBOT_TOPIC, DRIVING_TOPIC, TRAJECTORY_TOPIC]);
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! | topic | schema | what |
 //! |---|---|---|
 //! | [`WORLD_TOPIC`] | `foxglove.SceneUpdate` | walls (`walls`: a line per wall of the world file), boxes, discs; once |
+//! | [`MAP_TOPIC`] | `foxglove.Grid` | the world's walls, boxes and discs as the map's occupancy grid ([`MAP_RESOLUTION_M`] cells: occupied dark, free light, unknown not drawn); once |
 //! | [`PEOPLE_TOPIC`] | `foxglove.SceneUpdate` | the people (`person/i`), at every truth sample |
 //! | [`ROBOT_TOPIC`] | `foxglove.SceneUpdate` | the robot's body at its truth and (faint) at its odometry, coloured by the behaviour driving |
 //! | [`TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `odom` -> `base_link`, at every `basestate` |
@@ -21,7 +22,10 @@
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |
 //! | [`HEALTH_TOPIC`] | `foxglove.Log` | the sensors' health at every change (the robot pushes it every second too; the view logs only changes): a warning naming each sensor not trusted and why, info when all are healthy again |
 
+mod grid;
 mod shapes;
+
+pub use grid::{CELL_STRIDE, grid_view};
 
 use super::{RecordError, Recorder};
 use foxglove::schemas::{FrameTransforms, Log, Pose, PosesInFrame, SceneUpdate, log};
@@ -42,6 +46,10 @@ pub const TRUTH_BASE_FRAME: &str = "base_link_truth";
 
 /// Walls, boxes and discs.
 pub const WORLD_TOPIC: &str = "/world";
+/// The world as the map's occupancy grid.
+pub const MAP_TOPIC: &str = "/map";
+/// The side of the map's cells, m.
+pub const MAP_RESOLUTION_M: f64 = 0.05;
 /// The people.
 pub const PEOPLE_TOPIC: &str = "/people";
 /// The robot's body.
@@ -198,14 +206,24 @@ pub(crate) struct Views {
     last_health: Option<String>,
     /// Inputs that did not decode, warned about once each.
     warned: [bool; 6],
+    /// The world's map, made once.
+    map: Option<foxglove::schemas::Grid>,
 }
 
 impl Views {
     pub(crate) fn new(setup: ViewSetup) -> Views {
         let start =
             setup.world.as_ref().map_or((0.0, 0.0, 0.0), |w| (w.robot.x, w.robot.y, w.robot.heading_rad()));
+        let map = setup.world.as_ref().and_then(|w| match w.occupancy_grid(MAP_RESOLUTION_M) {
+            Ok(g) => Some(grid_view(&g, WORLD_FRAME, Timestamp::ZERO)),
+            Err(e) => {
+                tracing::warn!("views: the world is not drawn as a map: {e}");
+                None
+            }
+        });
         Views {
             setup,
+            map,
             start,
             began: false,
             driving: None,
@@ -234,6 +252,7 @@ impl Views {
         sink.declare::<Log>(EVENTS_TOPIC)?;
         if self.setup.world.is_some() {
             sink.declare::<SceneUpdate>(WORLD_TOPIC)?;
+            sink.declare::<foxglove::schemas::Grid>(MAP_TOPIC)?;
             sink.declare::<LaserScan>(INFRARED_TOPIC)?;
             sink.declare::<LaserScan>(SONAR_TOPIC)?;
             sink.declare::<FrameTransforms>(TF_TOPIC)?;
@@ -257,6 +276,7 @@ impl Views {
             let scene = SceneUpdate { deletions: Vec::new(), entities: shapes::world_entities(world, at) };
             rec.view(WORLD_TOPIC, at, &scene)?;
         }
+        self.write_map(rec, at)?;
         self.write_robot(rec, at)
     }
 
@@ -275,6 +295,7 @@ impl Views {
             let scene = SceneUpdate { deletions: Vec::new(), entities: shapes::world_entities(world, at) };
             sink.view(WORLD_TOPIC, at, &scene)?;
         }
+        self.write_map(sink, at)?;
         self.write_robot(sink, at)?;
         if let Some((when, log)) = &self.last_driving {
             sink.view(DRIVING_TOPIC, *when, log)?;
@@ -288,6 +309,13 @@ impl Views {
             poses: self.trajectory.clone(),
         };
         sink.view(TRAJECTORY_TOPIC, at, &poses)
+    }
+
+    /// Writes the map, if the world gives one, stamped `at`.
+    fn write_map<S: ViewSink>(&mut self, sink: &mut S, at: Timestamp) -> Result<(), S::Error> {
+        let Some(map) = &mut self.map else { return Ok(()) };
+        map.timestamp = Some(shapes::stamp(at));
+        sink.view(MAP_TOPIC, at, map)
     }
 
     fn write_robot<S: ViewSink>(&mut self, rec: &mut S, at: Timestamp) -> Result<(), S::Error> {
