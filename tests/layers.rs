@@ -31,6 +31,12 @@ fn deciding_layers_depend_only_on_the_framework_and_the_interfaces() {
             "{package} may depend only on orsa-actors and orsa-interfaces"
         );
     }
+    // Navigation works on any robot's map and readings: it knows no robot crate either.
+    let navigation = orsa_dependencies("navigation");
+    assert!(
+        navigation.is_subset(&set(&["orsa-actors", "orsa-interfaces"])),
+        "navigation depends on {navigation:?}"
+    );
 }
 
 #[test]
@@ -63,6 +69,7 @@ fn the_product_crates_stack_assembly_record_library_binary() {
         "orsa-reactive",
         "orsa-executive",
         "orsa-planner",
+        "orsa-navigation",
         "orsa-net",
     ]);
     let assembly = orsa_dependencies("assembly");

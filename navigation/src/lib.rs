@@ -1,0 +1,18 @@
+//! # orsa-navigation: where the robot is on its map
+//!
+//! The navigation components of orsa's deliberative layer, and the algorithms they wrap, for any
+//! robot that describes its range sensors: the robot's pose in the map is estimated from its
+//! odometry and its range readings against the map's occupancy grid
+//! ([`orsa_interfaces::map::OccupancyGrid`]), so that a planner can send it to places although
+//! its odometry drifts. The algorithms are pure and synchronous, seeded where they draw at
+//! random, so that a seed reproduces a run.
+//!
+//! Modules:
+//! - [`field`]: the distance from every cell of a grid to the nearest occupied one (an exact
+//!   Euclidean distance transform), which scores range readings against the map.
+//! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
+//!   the odometry motion model and the likelihood-field sensor model, and recovery from being
+//!   lost or kidnapped by particles injected at random free places while readings fit badly.
+
+pub mod field;
+pub mod mcl;
