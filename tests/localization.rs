@@ -1,0 +1,94 @@
+//! Localization on orsa's own robot: the simulated Nomad 200's odometry, sonar and infrared
+//! rings fed to `orsa_navigation::mcl` against the map of the world it drives in, the estimate
+//! compared with the simulator's truth (which localization never sees).
+
+use orsa_hardware::board::AxisVelocities;
+use orsa_hardware::sim::{SimConfig, SimNomad200};
+use orsa_hardware::world::World;
+use orsa_interfaces::nomad200::{DistanceScan, PushPeriods, RingParams};
+use orsa_navigation::mcl::{Beam, Localizer, MclParams, Pose2};
+use std::time::Duration;
+
+/// A ring's readings as localization's beams (no echo: `None`).
+fn beams(scan: &DistanceScan, ring: &RingParams, out: &mut Vec<Beam>) {
+    for r in &scan.readings {
+        let Some(&a) = ring.angles_rad.get(usize::from(r.sensor_id)) else { continue };
+        let echo = r.valid && r.distance_m.is_finite() && r.distance_m < ring.max_range_m;
+        out.push(Beam {
+            origin: (ring.mount_radius_m * a.cos(), ring.mount_radius_m * a.sin()),
+            angle_rad: a,
+            half_width_rad: ring.beam_width_rad / 2.0,
+            range_m: echo.then_some(r.distance_m),
+            max_range_m: ring.max_range_m,
+        });
+    }
+}
+
+/// Wanders `world` for `secs` simulated seconds (ahead at 0.3 m/s, turning away from what the
+/// front sonars see within 0.9 m), localizing every 0.1 s from the start pose; returns the RMS
+/// and largest error of the estimate, and odometry's error at the end, m.
+fn wander(world: World, secs: u64, seed: u64) -> (f64, f64, f64) {
+    wander_with(world, secs, seed, MclParams::default())
+}
+
+fn wander_with(world: World, secs: u64, seed: u64, params: MclParams) -> (f64, f64, f64) {
+    let start = Pose2::new(world.robot.x, world.robot.y, world.robot.heading_rad());
+    let grid = world.occupancy_grid(0.05).expect("a map");
+    let mut sim = SimNomad200::new(world, SimConfig::default(), seed).expect("sim");
+    let robot = sim.robot_params(PushPeriods::default());
+    let mut loc = Localizer::new(&grid, params, seed).expect("localizer");
+    loc.reset_at(start, 0.1, 0.05);
+    let (mut sum2, mut worst, mut n) = (0.0, 0.0f64, 0);
+    let mut turning = 0;
+    let mut buf = Vec::new();
+    for _ in 0..secs * 10 {
+        let sonar = sim.sonar();
+        let ahead =
+            [15usize, 0, 1].iter().filter_map(|&i| sonar.valid_distance_m(i)).fold(f64::INFINITY, f64::min);
+        if ahead < 0.9 && turning == 0 {
+            turning = 15;
+        }
+        let (v, w) = if turning > 0 {
+            turning -= 1;
+            (0.0, 0.7)
+        } else {
+            (0.3, 0.0)
+        };
+        sim.move_velocity(AxisVelocities::synchro(v, w)).expect("command");
+        sim.run_for(Duration::from_millis(100));
+        let m = sim.motor_state();
+        buf.clear();
+        beams(&sim.sonar(), &robot.sonar, &mut buf);
+        beams(&sim.infrared(), &robot.infrared, &mut buf);
+        if loc.update(Pose2::new(m.x_m, m.y_m, m.heading_rad), &buf) {
+            let (e, t) = (loc.estimate().pose, sim.truth());
+            let err = (e.x - t.x_m).hypot(e.y - t.y_m);
+            sum2 += err * err;
+            worst = worst.max(err);
+            n += 1;
+        }
+    }
+    assert!(n > 100, "only {n} updates: the robot hardly moved");
+    let (m, t) = (sim.motor_state(), sim.truth());
+    let odom = start.apply(m.x_m, m.y_m);
+    ((sum2 / n as f64).sqrt(), worst, (odom.0 - t.x_m).hypot(odom.1 - t.y_m))
+}
+
+#[test]
+fn the_nomad_is_localized_on_the_corridor_and_the_office_floor() {
+    let office =
+        World::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml")).expect("office");
+    for (name, world) in [("corridor", World::palazzina().expect("corridor")), ("office", office)] {
+        for seed in 1..=2 {
+            let (rms, worst, odom) = wander(world.clone(), 300, seed);
+            println!(
+                "{name} seed {seed}: rms {rms:.3} m, max {worst:.3} m, odometry {odom:.3} m off at the end"
+            );
+            assert!(rms < 0.1 && worst < 0.3, "{name} seed {seed}: rms {rms} m, max {worst} m");
+            assert!(
+                rms < odom / 2.0,
+                "{name} seed {seed}: rms {rms} m, no better than odometry ({odom} m off)"
+            );
+        }
+    }
+}
