@@ -10,9 +10,12 @@
 //! Modules:
 //! - [`field`]: the distance from every cell of a grid to the nearest occupied one (an exact
 //!   Euclidean distance transform), which scores range readings against the map.
+//! - [`layer`]: the map's live obstacle layer: what the range sensors see that the known map
+//!   does not hold, marked where beams echo and cleared where they pass through.
 //! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
 //!   the odometry motion model and the likelihood-field sensor model, and recovery from being
 //!   lost or kidnapped by particles injected at random free places while readings fit badly.
 
 pub mod field;
+pub mod layer;
 pub mod mcl;

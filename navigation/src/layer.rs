@@ -1,0 +1,206 @@
+//! The map's live obstacle layer: what the range sensors see that the known map does not hold
+//! (a person standing, a box moved in), marked where a beam echoes and cleared again where a
+//! later beam passes through.
+//!
+//! Each beam is traced from its sensor along its axis over the grid's cells (Amanatides and
+//! Woo's traversal, "A Fast Voxel Traversal Algorithm", 1987): the cells it crosses before its
+//! echo are seen free, the cell of the echo is seen occupied. An echo marks its cell only within
+//! `mark_range_m` (a far echo of a wide sonar beam says little about where along its arc the
+//! thing is), and a beam clears only up to `clear_margin_m` short of its echo. What the known
+//! map holds is never marked nor cleared: the layer holds only what differs from it. The
+//! layered grid ([`ObstacleLayer::grid`]) is the known map with the marks on it.
+
+use crate::mcl::{Beam, Pose2};
+use orsa_interfaces::map::{OCCUPIED, OccupancyGrid};
+
+/// The live obstacle layer over a known map (see the module docs).
+#[derive(Debug, Clone)]
+pub struct ObstacleLayer {
+    known: OccupancyGrid,
+    /// Per cell: whether a sensor saw something there that the known map does not hold.
+    marked: Vec<bool>,
+    mark_range_m: f64,
+    clear_margin_m: f64,
+    /// Bumped at every change of a mark.
+    version: u64,
+}
+
+impl ObstacleLayer {
+    /// An empty layer over `known`, marking echoes within `mark_range_m` and clearing up to
+    /// `clear_margin_m` short of an echo.
+    pub fn new(known: OccupancyGrid, mark_range_m: f64, clear_margin_m: f64) -> Self {
+        let marked = vec![false; known.cells.len()];
+        ObstacleLayer { known, marked, mark_range_m, clear_margin_m, version: 0 }
+    }
+
+    /// Takes the readings `beams` taken from `pose` (map frame); returns whether a mark changed.
+    pub fn observe(&mut self, pose: Pose2, beams: &[Beam]) -> bool {
+        let before = self.version;
+        for b in beams {
+            let (ox, oy) = pose.apply(b.origin.0, b.origin.1);
+            let a = pose.theta + b.angle_rad;
+            let (dx, dy) = (a.cos(), a.sin());
+            let echo = b.range_m.filter(|r| r.is_finite() && *r >= 0.0 && *r < b.max_range_m);
+            let free_to = match echo {
+                Some(r) => (r - self.clear_margin_m).max(0.0),
+                None => b.max_range_m,
+            };
+            let mut cleared = Vec::new();
+            self.traverse((ox, oy), (dx, dy), free_to, |i| cleared.push(i));
+            for i in cleared {
+                self.set(i, false);
+            }
+            if let Some(r) = echo.filter(|r| *r <= self.mark_range_m)
+                && let Some((ix, iy)) = self.known.cell_of(ox + r * dx, oy + r * dy)
+            {
+                let i = self.known.index(ix, iy);
+                self.set(i, true);
+            }
+        }
+        self.version != before
+    }
+
+    /// Marks or clears cell `i`, unless the known map holds it.
+    fn set(&mut self, i: usize, mark: bool) {
+        if self.known.cells[i] == OCCUPIED || self.marked[i] == mark {
+            return;
+        }
+        self.marked[i] = mark;
+        self.version += 1;
+    }
+
+    /// Calls `visit` with every cell the ray from `from` along the unit `dir` crosses within
+    /// `length` m, in order, while it is on the grid.
+    fn traverse(&self, from: (f64, f64), dir: (f64, f64), length: f64, mut visit: impl FnMut(usize)) {
+        let g = &self.known;
+        let r = g.resolution_m;
+        let Some((mut ix, mut iy)) = g.cell_of(from.0, from.1) else { return };
+        let step = |d: f64| if d > 0.0 { 1i64 } else { -1 };
+        let (sx, sy) = (step(dir.0), step(dir.1));
+        // The distance along the ray to the next cell boundary in x and y, and between them.
+        let boundary =
+            |p: f64, o: f64, i: u32, s: i64| o + (f64::from(i) + if s > 0 { 1.0 } else { 0.0 }) * r - p;
+        let next = |b: f64, d: f64| if d == 0.0 { f64::INFINITY } else { b / d };
+        let mut tx = next(boundary(from.0, g.origin_x_m, ix, sx), dir.0);
+        let mut ty = next(boundary(from.1, g.origin_y_m, iy, sy), dir.1);
+        let (dtx, dty) = (next(r, dir.0.abs()), next(r, dir.1.abs()));
+        let mut t = 0.0;
+        while t <= length {
+            visit(g.index(ix, iy));
+            if tx < ty {
+                t = tx;
+                tx += dtx;
+                let n = i64::from(ix) + sx;
+                if n < 0 || n >= i64::from(g.width) {
+                    return;
+                }
+                ix = n as u32;
+            } else {
+                t = ty;
+                ty += dty;
+                let n = i64::from(iy) + sy;
+                if n < 0 || n >= i64::from(g.height) {
+                    return;
+                }
+                iy = n as u32;
+            }
+        }
+    }
+
+    /// Whether a sensor saw something at the point `(x, y)` that the known map does not hold.
+    pub fn is_marked(&self, x: f64, y: f64) -> bool {
+        self.known.cell_of(x, y).is_some_and(|(ix, iy)| self.marked[self.known.index(ix, iy)])
+    }
+
+    /// How many cells are marked.
+    pub fn marks(&self) -> usize {
+        self.marked.iter().filter(|m| **m).count()
+    }
+
+    /// Bumped at every change of a mark.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// The known map with the marks on it (marked cells occupied).
+    pub fn grid(&self) -> OccupancyGrid {
+        let mut g = self.known.clone();
+        for (c, m) in g.cells.iter_mut().zip(&self.marked) {
+            if *m {
+                *c = OCCUPIED;
+            }
+        }
+        g.version = self.version;
+        g
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use orsa_interfaces::map::FREE;
+
+    /// A 4 m x 2 m floor with a wall along its right end (x = 3.95).
+    fn known() -> OccupancyGrid {
+        let mut g = OccupancyGrid::filled(0.05, 80, 40, (0.0, 0.0), FREE);
+        for iy in 0..40 {
+            let i = g.index(79, iy);
+            g.cells[i] = OCCUPIED;
+        }
+        g
+    }
+
+    fn ahead(range_m: Option<f64>) -> Beam {
+        Beam { origin: (0.0, 0.0), angle_rad: 0.0, half_width_rad: 0.0, range_m, max_range_m: 3.0 }
+    }
+
+    #[test]
+    fn an_echo_the_map_does_not_explain_is_marked_and_cleared_when_a_beam_passes_through() {
+        let mut layer = ObstacleLayer::new(known(), 2.0, 0.1);
+        let robot = Pose2::new(0.5, 1.0, 0.0);
+        // A box 1.2 m ahead: marked where the echo ends.
+        assert!(layer.observe(robot, &[ahead(Some(1.2))]));
+        assert!(layer.is_marked(1.72, 1.0) && layer.marks() == 1);
+        assert_eq!(layer.grid().at(1.72, 1.0), OCCUPIED);
+        assert_eq!(known().at(1.72, 1.0), FREE, "the known map is not touched");
+        // The same again changes nothing.
+        assert!(!layer.observe(robot, &[ahead(Some(1.2))]));
+        // Moved away: the beam now reads past it (no echo within range), and clears it.
+        assert!(layer.observe(robot, &[ahead(None)]));
+        assert_eq!(layer.marks(), 0);
+        assert_eq!(layer.grid().at(1.72, 1.0), FREE);
+    }
+
+    #[test]
+    fn far_echoes_do_not_mark_and_known_walls_are_neither_marked_nor_cleared() {
+        let mut layer = ObstacleLayer::new(known(), 1.0, 0.1);
+        let robot = Pose2::new(0.5, 1.0, 0.0);
+        assert!(!layer.observe(robot, &[ahead(Some(1.5))]), "beyond mark_range_m");
+        // The wall at x = 3.95 echoes at 3.45 m: within range 3.5 m, it is known: nothing marked.
+        let far = Beam { max_range_m: 5.0, ..ahead(Some(3.46)) };
+        let mut near = ObstacleLayer::new(known(), 5.0, 0.1);
+        assert!(!near.observe(robot, &[far]));
+        assert_eq!(near.marks(), 0);
+        // A beam passing along the wall's cells does not clear them.
+        let along = Pose2::new(3.97, 0.1, std::f64::consts::FRAC_PI_2);
+        near.observe(along, &[Beam { max_range_m: 1.5, ..ahead(None) }]);
+        assert_eq!(near.grid().at(3.97, 1.0), OCCUPIED);
+    }
+
+    #[test]
+    fn a_diagonal_beam_clears_every_cell_it_crosses() {
+        let mut layer = ObstacleLayer::new(known(), 3.0, 0.0);
+        // Mark a row of cells across the floor (y 1.2-1.25), then cross it with a diagonal beam.
+        for k in 0..20 {
+            let x = 1.025 + 0.05 * f64::from(k);
+            layer.observe(Pose2::new(x, 0.2, std::f64::consts::FRAC_PI_2), &[ahead(Some(1.025))]);
+        }
+        assert_eq!(layer.marks(), 20);
+        let diagonal = Pose2::new(0.21, 0.2, 1.0f64.atan2(1.0));
+        layer.observe(diagonal, &[ahead(None)]);
+        // y = x - 0.01 crosses the row (y 1.2-1.25) at x 1.21-1.26: cells 24 and 25.
+        assert_eq!(layer.marks(), 18, "the diagonal clears the two cells of the row it crosses");
+        assert!(!layer.is_marked(1.22, 1.22) && !layer.is_marked(1.27, 1.24));
+        assert!(layer.is_marked(1.17, 1.22) && layer.is_marked(1.32, 1.22), "and no others");
+    }
+}
