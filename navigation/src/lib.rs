@@ -12,6 +12,8 @@
 //!   Euclidean distance transform), which scores range readings against the map.
 //! - [`layer`]: the map's live obstacle layer: what the range sensors see that the known map
 //!   does not hold, marked where beams echo and cleared where they pass through.
+//! - [`plan`]: the global planner: the shortest path for the body over the grid (A*), kept off
+//!   walls where there is room.
 //! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
 //!   the odometry motion model and the likelihood-field sensor model, and recovery from being
 //!   lost or kidnapped by particles injected at random free places while readings fit badly.
@@ -19,3 +21,4 @@
 pub mod field;
 pub mod layer;
 pub mod mcl;
+pub mod plan;

@@ -1,12 +1,15 @@
-//! Localization on orsa's own robot: the simulated Nomad 200's odometry, sonar and infrared
-//! rings fed to `orsa_navigation::mcl` against the map of the world it drives in, the estimate
-//! compared with the simulator's truth (which localization never sees).
+//! Navigation on orsa's own robot and worlds: the simulated Nomad 200's odometry, sonar and
+//! infrared rings fed to `orsa_navigation::mcl` against the map of the world it drives in (the
+//! estimate compared with the simulator's truth, which localization never sees), and paths
+//! planned on the office floor's map checked against the world file's own geometry.
 
 use orsa_hardware::board::AxisVelocities;
+use orsa_hardware::geometry::Point;
 use orsa_hardware::sim::{SimConfig, SimNomad200};
 use orsa_hardware::world::World;
 use orsa_interfaces::nomad200::{DistanceScan, PushPeriods, RingParams};
 use orsa_navigation::mcl::{Beam, Localizer, MclParams, Pose2};
+use orsa_navigation::plan::{PlanParams, plan};
 use std::time::Duration;
 
 /// A ring's readings as localization's beams (no echo: `None`).
@@ -90,5 +93,46 @@ fn the_nomad_is_localized_on_the_corridor_and_the_office_floor() {
                 "{name} seed {seed}: rms {rms} m, no better than odometry ({odom} m off)"
             );
         }
+    }
+}
+
+#[test]
+fn paths_from_the_dock_reach_every_room_of_the_office_clear_of_everything() {
+    let office =
+        World::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml")).expect("office");
+    let grid = office.occupancy_grid(0.05).expect("a map");
+    let shapes = office.static_shapes();
+    let dock = office.place("dock").expect("a dock");
+    let params = PlanParams::default();
+    for place in office.places.iter().filter(|p| p.name != "dock") {
+        let path = plan(&grid, (dock.x, dock.y), (place.x, place.y), &params)
+            .unwrap_or_else(|e| panic!("dock to {}: {e}", place.name));
+        let straight = (place.x - dock.x).hypot(place.y - dock.y);
+        assert!(
+            path.length_m >= straight,
+            "{}: {} m, shorter than the straight line",
+            place.name,
+            path.length_m
+        );
+        // Every step of the path, every 2 cm, keeps the body off every wall, box and disc.
+        for w in path.points.windows(2) {
+            let n = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 0.02).ceil().max(1.0) as usize;
+            for k in 0..=n {
+                let t = k as f64 / n as f64;
+                let at = Point::new(w[0].0 + t * (w[1].0 - w[0].0), w[0].1 + t * (w[1].1 - w[0].1));
+                let gap = shapes.iter().map(|s| s.distance(&at)).fold(f64::INFINITY, f64::min);
+                assert!(
+                    gap > params.robot_radius_m,
+                    "{}: the body touches something at {at:?} ({gap} m)",
+                    place.name
+                );
+            }
+        }
+        println!(
+            "dock to {}: {:.2} m (straight line {straight:.2} m), {} points",
+            place.name,
+            path.length_m,
+            path.points.len()
+        );
     }
 }
