@@ -97,42 +97,43 @@ fn the_nomad_is_localized_on_the_corridor_and_the_office_floor() {
 }
 
 #[test]
-fn paths_from_the_dock_reach_every_room_of_the_office_clear_of_everything() {
-    let office =
-        World::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml")).expect("office");
-    let grid = office.occupancy_grid(0.05).expect("a map");
-    let shapes = office.static_shapes();
-    let dock = office.place("dock").expect("a dock");
-    let params = PlanParams::default();
-    for place in office.places.iter().filter(|p| p.name != "dock") {
-        let path = plan(&grid, (dock.x, dock.y), (place.x, place.y), &params)
-            .unwrap_or_else(|e| panic!("dock to {}: {e}", place.name));
-        let straight = (place.x - dock.x).hypot(place.y - dock.y);
-        assert!(
-            path.length_m >= straight,
-            "{}: {} m, shorter than the straight line",
-            place.name,
-            path.length_m
-        );
-        // Every step of the path, every 2 cm, keeps the body off every wall, box and disc.
-        for w in path.points.windows(2) {
-            let n = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 0.02).ceil().max(1.0) as usize;
-            for k in 0..=n {
-                let t = k as f64 / n as f64;
-                let at = Point::new(w[0].0 + t * (w[1].0 - w[0].0), w[0].1 + t * (w[1].1 - w[0].1));
-                let gap = shapes.iter().map(|s| s.distance(&at)).fold(f64::INFINITY, f64::min);
-                assert!(
-                    gap > params.robot_radius_m,
-                    "{}: the body touches something at {at:?} ({gap} m)",
-                    place.name
-                );
+fn paths_from_the_start_reach_every_place_of_every_shipped_world_clear_of_everything() {
+    for file in ["office", "loop", "lshape", "narrow", "hall"] {
+        let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+        let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(world.places.len() >= 3, "{file}: {} places", world.places.len());
+        let grid = world.occupancy_grid(0.05).expect("a map");
+        let shapes = world.static_shapes();
+        let start = (world.robot.x, world.robot.y);
+        let params = PlanParams::default();
+        for place in &world.places {
+            let path = plan(&grid, start, (place.x, place.y), &params)
+                .unwrap_or_else(|e| panic!("{file}: to {}: {e}", place.name));
+            let straight = (place.x - start.0).hypot(place.y - start.1);
+            assert!(
+                path.length_m >= straight - 1e-9,
+                "{file}: {}: {} m, under the straight line",
+                place.name,
+                path.length_m
+            );
+            // Every step of the path, every 2 cm, keeps the body off every wall, box and disc.
+            for w in path.points.windows(2) {
+                let n = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 0.02).ceil().max(1.0) as usize;
+                for k in 0..=n {
+                    let t = k as f64 / n as f64;
+                    let at = Point::new(w[0].0 + t * (w[1].0 - w[0].0), w[0].1 + t * (w[1].1 - w[0].1));
+                    let gap = shapes.iter().map(|s| s.distance(&at)).fold(f64::INFINITY, f64::min);
+                    assert!(
+                        gap > params.robot_radius_m,
+                        "{file}: {}: the body touches something at {at:?}",
+                        place.name
+                    );
+                }
             }
+            println!(
+                "{file}: start to {}: {:.2} m (straight line {straight:.2} m)",
+                place.name, path.length_m
+            );
         }
-        println!(
-            "dock to {}: {:.2} m (straight line {straight:.2} m), {} points",
-            place.name,
-            path.length_m,
-            path.points.len()
-        );
     }
 }
