@@ -40,7 +40,7 @@ fn wander_with(world: World, secs: u64, seed: u64, params: MclParams) -> (f64, f
     let mut sim = SimNomad200::new(world, SimConfig::default(), seed).expect("sim");
     let robot = sim.robot_params(PushPeriods::default());
     let mut loc = Localizer::new(&grid, params, seed).expect("localizer");
-    loc.reset_at(start, 0.1, 0.05);
+    loc.reset_at(start, 0.1, 0.05).expect("a pose");
     let (mut sum2, mut worst, mut n) = (0.0, 0.0f64, 0);
     let mut turning = 0;
     let mut buf = Vec::new();

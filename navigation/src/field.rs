@@ -30,7 +30,10 @@ impl DistanceField {
         // Squared distances in cells; "infinite" where nothing is occupied (far beyond any cap,
         // and finite, so that the envelope's arithmetic stays finite).
         let inf = 1e30;
-        let mut d2: Vec<f64> = grid.cells.iter().map(|&c| if c >= OCCUPIED_AT { 0.0 } else { inf }).collect();
+        // (A grid short of cells, one never validated, counts the missing ones as unknown.)
+        let mut d2: Vec<f64> = (0..w * h)
+            .map(|i| if grid.cells.get(i).is_some_and(|&c| c >= OCCUPIED_AT) { 0.0 } else { inf })
+            .collect();
         let mut f = Vec::new();
         let mut out = Vec::new();
         // Columns, then rows.
@@ -59,8 +62,8 @@ impl DistanceField {
         }
     }
 
-    /// The distance from the point `(x, y)` (map frame) to the nearest occupied cell's centre,
-    /// m: the cap where the grid does not reach.
+    /// The distance from the centre of the cell holding the point `(x, y)` (map frame) to the
+    /// nearest occupied cell's centre, m: the cap where the grid does not reach.
     pub fn at(&self, x: f64, y: f64) -> f64 {
         let (fx, fy) = ((x - self.origin.0) / self.resolution_m, (y - self.origin.1) / self.resolution_m);
         if !(fx >= 0.0 && fy >= 0.0 && fx < f64::from(self.width) && fy < f64::from(self.height)) {

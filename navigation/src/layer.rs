@@ -11,7 +11,7 @@
 //! layered grid ([`ObstacleLayer::grid`]) is the known map with the marks on it.
 
 use crate::mcl::{Beam, Pose2};
-use orsa_interfaces::map::{OCCUPIED, OccupancyGrid};
+use orsa_interfaces::map::{GridError, OCCUPIED, OccupancyGrid};
 
 /// The live obstacle layer over a known map (see the module docs).
 #[derive(Debug, Clone)]
@@ -28,9 +28,10 @@ pub struct ObstacleLayer {
 impl ObstacleLayer {
     /// An empty layer over `known`, marking echoes within `mark_range_m` and clearing up to
     /// `clear_margin_m` short of an echo.
-    pub fn new(known: OccupancyGrid, mark_range_m: f64, clear_margin_m: f64) -> Self {
+    pub fn new(known: OccupancyGrid, mark_range_m: f64, clear_margin_m: f64) -> Result<Self, GridError> {
+        known.validate()?;
         let marked = vec![false; known.cells.len()];
-        ObstacleLayer { known, marked, mark_range_m, clear_margin_m, version: 0 }
+        Ok(ObstacleLayer { known, marked, mark_range_m, clear_margin_m, version: 0 })
     }
 
     /// Takes the readings `beams` taken from `pose` (map frame); returns whether a mark changed.
@@ -45,15 +46,17 @@ impl ObstacleLayer {
                 Some(r) => (r - self.clear_margin_m).max(0.0),
                 None => b.max_range_m,
             };
+            let mark = echo
+                .filter(|r| *r <= self.mark_range_m)
+                .and_then(|r| self.known.cell_of(ox + r * dx, oy + r * dy))
+                .map(|(ix, iy)| self.known.index(ix, iy));
             let mut cleared = Vec::new();
             self.traverse((ox, oy), (dx, dy), free_to, |i| cleared.push(i));
-            for i in cleared {
+            // The echo's own cell is not cleared on the way to marking it again.
+            for i in cleared.into_iter().filter(|i| Some(*i) != mark) {
                 self.set(i, false);
             }
-            if let Some(r) = echo.filter(|r| *r <= self.mark_range_m)
-                && let Some((ix, iy)) = self.known.cell_of(ox + r * dx, oy + r * dy)
-            {
-                let i = self.known.index(ix, iy);
+            if let Some(i) = mark {
                 self.set(i, true);
             }
         }
@@ -156,7 +159,7 @@ mod tests {
 
     #[test]
     fn an_echo_the_map_does_not_explain_is_marked_and_cleared_when_a_beam_passes_through() {
-        let mut layer = ObstacleLayer::new(known(), 2.0, 0.1);
+        let mut layer = ObstacleLayer::new(known(), 2.0, 0.1).expect("valid");
         let robot = Pose2::new(0.5, 1.0, 0.0);
         // A box 1.2 m ahead: marked where the echo ends.
         assert!(layer.observe(robot, &[ahead(Some(1.2))]));
@@ -173,12 +176,12 @@ mod tests {
 
     #[test]
     fn far_echoes_do_not_mark_and_known_walls_are_neither_marked_nor_cleared() {
-        let mut layer = ObstacleLayer::new(known(), 1.0, 0.1);
+        let mut layer = ObstacleLayer::new(known(), 1.0, 0.1).expect("valid");
         let robot = Pose2::new(0.5, 1.0, 0.0);
         assert!(!layer.observe(robot, &[ahead(Some(1.5))]), "beyond mark_range_m");
         // The wall at x = 3.95 echoes at 3.45 m: within range 3.5 m, it is known: nothing marked.
         let far = Beam { max_range_m: 5.0, ..ahead(Some(3.46)) };
-        let mut near = ObstacleLayer::new(known(), 5.0, 0.1);
+        let mut near = ObstacleLayer::new(known(), 5.0, 0.1).expect("valid");
         assert!(!near.observe(robot, &[far]));
         assert_eq!(near.marks(), 0);
         // A beam passing along the wall's cells does not clear them.
@@ -188,8 +191,23 @@ mod tests {
     }
 
     #[test]
+    fn the_same_reading_again_changes_nothing_and_a_bad_grid_is_refused() {
+        let mut layer = ObstacleLayer::new(known(), 2.0, 0.0).expect("valid");
+        let robot = Pose2::new(1.01, 1.02, 0.4);
+        assert!(layer.observe(robot, &[ahead(Some(0.5))]));
+        assert!(
+            !layer.observe(robot, &[ahead(Some(0.5))]),
+            "the echo's own cell was cleared and marked again"
+        );
+        assert_eq!(layer.marks(), 1);
+        let mut short = known();
+        short.cells.pop();
+        assert!(ObstacleLayer::new(short, 2.0, 0.1).is_err());
+    }
+
+    #[test]
     fn a_diagonal_beam_clears_every_cell_it_crosses() {
-        let mut layer = ObstacleLayer::new(known(), 3.0, 0.0);
+        let mut layer = ObstacleLayer::new(known(), 3.0, 0.0).expect("valid");
         // Mark a row of cells across the floor (y 1.2-1.25), then cross it with a diagonal beam.
         for k in 0..20 {
             let x = 1.025 + 0.05 * f64::from(k);

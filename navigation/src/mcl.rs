@@ -146,6 +146,12 @@ pub enum MclError {
     /// The map has no free cell to place the robot in.
     #[error("the map has no free cell: there is nowhere to look for the robot")]
     NoFreeCell,
+    /// The map is not a valid grid.
+    #[error("the map: {0}")]
+    Grid(#[from] orsa_interfaces::map::GridError),
+    /// A pose given by hand is not finite, or its spreads not finite and >= 0.
+    #[error("a pose must be finite and its spreads finite and >= 0, got {0:?} +- {1} m, {2} rad")]
+    Pose(Pose2, f64, f64),
 }
 
 impl MclParams {
@@ -251,6 +257,7 @@ impl Localizer {
     /// free cells until [`Self::reset_at`] says where the robot starts.
     pub fn new(grid: &OccupancyGrid, params: MclParams, seed: u64) -> Result<Self, MclError> {
         params.validate()?;
+        grid.validate()?;
         let free: Vec<(f64, f64)> = (0..grid.height)
             .flat_map(|iy| (0..grid.width).map(move |ix| (ix, iy)))
             .filter(|&(ix, iy)| grid.get(ix, iy) == Some(FREE))
@@ -278,7 +285,11 @@ impl Localizer {
 
     /// Spreads the particles about `pose`: normal with `sigma_m` in x and y and `sigma_rad`
     /// in heading (a pose given by hand, as RViz's "2D Pose Estimate").
-    pub fn reset_at(&mut self, pose: Pose2, sigma_m: f64, sigma_rad: f64) {
+    pub fn reset_at(&mut self, pose: Pose2, sigma_m: f64, sigma_rad: f64) -> Result<(), MclError> {
+        let finite = [pose.x, pose.y, pose.theta, sigma_m, sigma_rad].iter().all(|v| v.is_finite());
+        if !finite || sigma_m < 0.0 || sigma_rad < 0.0 {
+            return Err(MclError::Pose(pose, sigma_m, sigma_rad));
+        }
         let n = self.params.particles;
         let w = 1.0 / n as f64;
         self.particles = (0..n)
@@ -289,6 +300,7 @@ impl Localizer {
             .collect();
         self.w_slow = 0.0;
         self.w_fast = 0.0;
+        Ok(())
     }
 
     /// Spreads the particles uniformly over the free cells, every heading alike: the robot
@@ -302,8 +314,12 @@ impl Localizer {
     }
 
     /// Takes the odometry pose `odom` and the readings `beams` taken there; updates the
-    /// particles if the robot moved enough since the last update (returns whether it did).
+    /// particles if the robot moved enough since the last update (returns whether it did). An
+    /// odometry pose that is not finite is ignored.
     pub fn update(&mut self, odom: Pose2, beams: &[Beam]) -> bool {
+        if !(odom.x.is_finite() && odom.y.is_finite() && odom.theta.is_finite()) {
+            return false;
+        }
         let Some(last) = self.last_odom else {
             self.last_odom = Some(odom);
             return false;
@@ -356,7 +372,12 @@ impl Localizer {
     fn correct(&mut self, beams: &[Beam]) {
         let hits: Vec<&Beam> = beams
             .iter()
-            .filter(|b| b.range_m.is_some_and(|r| r.is_finite() && r >= 0.0 && r < b.max_range_m))
+            .filter(|b| {
+                let placed = [b.origin.0, b.origin.1, b.angle_rad, b.half_width_rad, b.max_range_m]
+                    .iter()
+                    .all(|v| v.is_finite());
+                placed && b.range_m.is_some_and(|r| r.is_finite() && r >= 0.0 && r < b.max_range_m)
+            })
             .collect();
         if hits.is_empty() {
             return;
@@ -373,13 +394,23 @@ impl Localizer {
                         let r = b.range_m.unwrap_or(b.max_range_m);
                         let d = self.beam_fit(part.pose, b, r);
                         let z = d / sigma;
-                        (p.z_hit * norm * (-0.5 * z * z).exp() + p.z_rand / b.max_range_m).ln()
+                        // Floored: one reading no model explains must not rule a particle out
+                        // for good (a log of 0 would make every weight NaN).
+                        (p.z_hit * norm * (-0.5 * z * z).exp() + p.z_rand / b.max_range_m)
+                            .max(f64::MIN_POSITIVE)
+                            .ln()
                     })
                     .sum::<f64>()
                     + part.weight.ln()
             })
             .collect();
         let top = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if !top.is_finite() {
+            // Nothing to weigh by (cannot happen with the floor, but weights must never turn NaN).
+            let w = 1.0 / self.particles.len() as f64;
+            self.particles.iter_mut().for_each(|q| q.weight = w);
+            return;
+        }
         let mut total = 0.0;
         for (part, l) in self.particles.iter_mut().zip(&logs) {
             part.weight = (l - top).exp();
@@ -394,11 +425,14 @@ impl Localizer {
         let n = self.particles.len() as f64;
         let mean_log = top + total.ln();
         let fit = (mean_log / hits.len() as f64).exp();
-        if self.w_slow == 0.0 {
-            (self.w_slow, self.w_fast) = (fit, fit);
-        } else {
-            self.w_slow += p.alpha_slow * (fit - self.w_slow);
-            self.w_fast += p.alpha_fast * (fit - self.w_fast);
+        // (A fit that is not a positive number would stop recovery for good: it is skipped.)
+        if fit.is_finite() && fit > 0.0 {
+            if self.w_slow == 0.0 {
+                (self.w_slow, self.w_fast) = (fit, fit);
+            } else {
+                self.w_slow += p.alpha_slow * (fit - self.w_slow);
+                self.w_fast += p.alpha_fast * (fit - self.w_fast);
+            }
         }
         let inject = (1.0 - self.w_fast / (p.recovery_ratio * self.w_slow)).max(0.0);
         let neff = 1.0 / self.particles.iter().map(|q| q.weight * q.weight).sum::<f64>();

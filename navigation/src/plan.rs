@@ -48,6 +48,9 @@ pub enum PlanError {
     /// The goal is off the map or where the body does not fit.
     #[error("the goal ({0:.2}, {1:.2}) is off the map, unknown, or where the robot's body does not fit")]
     Goal(f64, f64),
+    /// The map is not a valid grid.
+    #[error("the map: {0}")]
+    Grid(#[from] orsa_interfaces::map::GridError),
     /// No path for the body joins them.
     #[error("no path wide enough for the robot joins ({0:.2}, {1:.2}) to ({2:.2}, {3:.2})")]
     NoPath(f64, f64, f64, f64),
@@ -64,6 +67,12 @@ pub struct Path {
 
 /// Cost units per metre: A* works on integers.
 const UNITS_PER_M: f64 = 10_000.0;
+
+/// What a step costs with nothing near, in cost units.
+fn step_cost_free(resolution_m: f64, diagonal: bool) -> u64 {
+    let len = resolution_m * if diagonal { std::f64::consts::SQRT_2 } else { 1.0 };
+    (len * UNITS_PER_M).round() as u64
+}
 
 /// The shortest path for the body on `grid` from `from` to `to` (map frame), as the module
 /// docs describe it.
@@ -83,6 +92,7 @@ pub fn plan(
             return Err(PlanError::Param { key, value });
         }
     }
+    grid.validate()?;
     let reach = p.robot_radius_m + p.clearance_m + p.inflation_m + grid.resolution_m;
     let field = DistanceField::of(grid, reach);
     let body = p.robot_radius_m + p.clearance_m;
@@ -106,13 +116,17 @@ pub fn plan(
         } else {
             0.0
         };
-        let len = grid.resolution_m * if diagonal { std::f64::consts::SQRT_2 } else { 1.0 };
-        (len * (1.0 + p.inflation_weight * near) * UNITS_PER_M).round() as u64
+        let free = step_cost_free(grid.resolution_m, diagonal);
+        free.max((free as f64 * (1.0 + p.inflation_weight * near)).round() as u64)
     };
+    // The octile distance in the steps' own rounded units: the cost of the cheapest path with
+    // no obstacle and no inflation, so never more than the true cost, and consistent.
+    let (straight_u, diagonal_u) =
+        (step_cost_free(grid.resolution_m, false), step_cost_free(grid.resolution_m, true));
     let heuristic = |&(ix, iy): &(u32, u32)| {
-        let (dx, dy) = (f64::from(ix.abs_diff(goal.0)), f64::from(iy.abs_diff(goal.1)));
-        // Rounded down: never more than the true cost.
-        (dx.hypot(dy) * grid.resolution_m * UNITS_PER_M).floor() as u64
+        let (dx, dy) = (u64::from(ix.abs_diff(goal.0)), u64::from(iy.abs_diff(goal.1)));
+        let (lo, hi) = (dx.min(dy), dx.max(dy));
+        lo * diagonal_u + (hi - lo) * straight_u
     };
     let successors = |&(ix, iy): &(u32, u32)| {
         let mut next = Vec::with_capacity(8);
@@ -202,6 +216,9 @@ mod tests {
             Err(PlanError::Start(0.1, 0.1)),
             "body in the corner"
         );
+        let mut short = rooms(1.0);
+        short.cells.truncate(100);
+        assert!(matches!(plan(&short, (1.0, 0.6), (7.0, 2.6), &p), Err(PlanError::Grid(_))));
         let bad = PlanParams { robot_radius_m: 0.0, ..p };
         assert!(matches!(
             plan(&g, (1.0, 0.6), (7.0, 2.6), &bad),

@@ -121,7 +121,7 @@ fn it_tracks_the_robot_where_odometry_drifts_away() {
     for seed in 1..=3 {
         let start = Pose2::new(2.0, 1.5, 0.3);
         let mut loc = Localizer::new(&room(), MclParams::default(), seed).expect("localizer");
-        loc.reset_at(start, 0.1, 0.05);
+        loc.reset_at(start, 0.1, 0.05).expect("a pose");
         let mut robot = Robot::at(start, seed);
         let worst = drive(&mut loc, &mut robot, 900, 0);
         assert!(
@@ -151,7 +151,7 @@ fn a_kidnapped_robot_is_found_again_within_30_s_of_driving() {
     for seed in 1..=3 {
         let start = Pose2::new(2.0, 1.5, 0.3);
         let mut loc = Localizer::new(&room(), MclParams::searching(), seed).expect("localizer");
-        loc.reset_at(start, 0.1, 0.05);
+        loc.reset_at(start, 0.1, 0.05).expect("a pose");
         let mut robot = Robot::at(start, seed);
         assert!(drive(&mut loc, &mut robot, 200, 0) < 0.2, "seed {seed}: tracking before");
         // Carried to the other side of the partition without a word to odometry.
@@ -180,11 +180,48 @@ fn bad_parameters_are_refused_by_key_and_a_map_with_no_floor_too() {
 }
 
 #[test]
+fn bad_input_from_outside_neither_panics_nor_poisons_the_estimate() {
+    let start = Pose2::new(2.0, 1.5, 0.3);
+    // A reading no model explains (z_rand 0, a beam ending far from anything) and a beam of
+    // infinite range: the weights stay numbers.
+    let params = MclParams { z_rand: 0.0, field_max_m: 5.0, ..MclParams::default() };
+    let mut loc = Localizer::new(&room(), params, 1).expect("localizer");
+    loc.reset_at(start, 0.1, 0.05).expect("a pose");
+    let far = Beam {
+        origin: (0.0, 0.0),
+        angle_rad: 0.0,
+        half_width_rad: 0.0,
+        range_m: Some(3.0),
+        max_range_m: 3.5,
+    };
+    let endless = Beam { max_range_m: f64::INFINITY, ..far };
+    assert!(!loc.update(Pose2::new(0.0, 0.0, 0.0), &[far]));
+    assert!(loc.update(Pose2::new(0.2, 0.0, 0.0), &[far, endless]));
+    // An odometry pose that is not finite is ignored.
+    assert!(!loc.update(Pose2::new(f64::NAN, 0.0, 0.0), &[far]));
+    assert!(loc.update(Pose2::new(0.4, 0.0, 0.0), &[far]));
+    let e = loc.estimate();
+    assert!(e.pose.x.is_finite() && e.pose.y.is_finite() && e.covariance[0][0].is_finite(), "{e:?}");
+    assert!((e.pose.x - 2.4).hypot(e.pose.y - 1.6) < 1.0, "{e:?}");
+    // A pose given by hand that is not finite is refused, and the particles kept.
+    assert!(matches!(loc.reset_at(Pose2::new(f64::NAN, 1.0, 0.0), 0.1, 0.1), Err(MclError::Pose(..))));
+    assert!(matches!(loc.reset_at(start, -0.1, 0.1), Err(MclError::Pose(..))));
+    assert!(loc.estimate().pose.x.is_finite());
+    // A grid short of cells, or with no size to its cells, is refused, not a panic.
+    let mut short = room();
+    short.cells.pop();
+    assert!(matches!(Localizer::new(&short, MclParams::default(), 1), Err(MclError::Grid(_))));
+    let mut flat = room();
+    flat.resolution_m = 0.0;
+    assert!(matches!(Localizer::new(&flat, MclParams::default(), 1), Err(MclError::Grid(_))));
+}
+
+#[test]
 fn a_seed_gives_the_same_estimates() {
     let run = |seed| {
         let start = Pose2::new(2.0, 1.5, 0.3);
         let mut loc = Localizer::new(&room(), MclParams::default(), seed).expect("localizer");
-        loc.reset_at(start, 0.1, 0.05);
+        loc.reset_at(start, 0.1, 0.05).expect("a pose");
         drive(&mut loc, &mut Robot::at(start, 5), 100, 0);
         loc.estimate()
     };
@@ -208,7 +245,7 @@ fn on_seeds_not_tuned_on_it_tracks_finds_and_refinds_the_robot() {
         found += usize::from(drive(&mut loc, &mut robot, 100, 0) < 0.3);
         let start = Pose2::new(2.0, 1.5, 0.3);
         let mut loc = Localizer::new(&room(), params.clone(), seed).expect("localizer");
-        loc.reset_at(start, 0.1, 0.05);
+        loc.reset_at(start, 0.1, 0.05).expect("a pose");
         let mut robot = Robot::at(start, seed);
         tracked += usize::from(drive(&mut loc, &mut robot, 900, 0) < 0.2);
         robot.truth = Pose2::new(7.5, 4.5, -2.0);
