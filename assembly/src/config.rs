@@ -11,6 +11,8 @@ use orsa_hardware::server::ServerParams;
 use orsa_hardware::sim::SimConfig;
 use orsa_planner::PlannerParams;
 use orsa_reactive::centerfollow::CenterFollowParams;
+use orsa_navigation::localizer::LocalizerParams;
+use orsa_reactive::pathfollow::PathFollowParams;
 use orsa_reactive::wallfollow::WallFollowParams;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -121,6 +123,8 @@ fn builtin(kind: &str) -> Option<(&'static str, Complete)> {
         "centerfollow" => ("centerfollow", |t| typed::<CenterFollowParams>(t, CenterFollowParams::validate)),
         "master" => ("executive", |t| typed::<ExecutiveParams>(t, ExecutiveParams::validate)),
         "planner" => ("planner", |t| typed::<PlannerParams>(t, |_| Ok(()))),
+        "localizer" => ("localizer", |t| typed::<LocalizerParams>(t, LocalizerParams::validate)),
+        "pathfollow" => ("pathfollow", |t| typed::<PathFollowParams>(t, PathFollowParams::validate)),
         _ => return None,
     })
 }
@@ -553,6 +557,72 @@ impl Config {
                 }
             }
         }
+    }
+
+    /// This configuration with the navigation components (what `orsa run --goto` adds, and
+    /// what `config/navigation.toml` spells out): a `localizer` after the robot server, a
+    /// `pathfollow` behaviour with the other behaviours (in their supervision subtree), and the
+    /// master's mode `navigate`, which wires the path follower to the motors. What the system
+    /// already has is kept.
+    pub fn with_navigation(&self) -> Result<Config, ConfigError> {
+        let mut c = self.clone();
+        let invalid = |error: Invalid| ConfigError::Invalid { origin: "navigation".into(), error };
+        let after = |c: &Config, kinds: &[&str]| {
+            c.system.components.iter().rposition(|s| kinds.contains(&s.kind())).map_or(0, |i| i + 1)
+        };
+        if c.of_kind(&["localizer"]).is_none() {
+            let at = after(&c, &ROBOT_KINDS);
+            c.system.components.insert(at, crate::system::ComponentSpec::named("localizer"));
+        }
+        if c.of_kind(&["pathfollow"]).is_none() {
+            let at = after(&c, &["localizer", "wallfollow", "centerfollow"]);
+            c.system.components.insert(at, crate::system::ComponentSpec::named("pathfollow"));
+            if let Some(t) = c.supervision.subtrees.get_mut("behaviours") {
+                t.members.push("pathfollow".into());
+            }
+        }
+        let follower = c.of_kind(&["pathfollow"]).map(|s| s.name.clone()).unwrap_or_default();
+        if let Some(master) = c.of_kind(&["master"]).map(|s| s.name.clone()) {
+            let params = c.params.entry(master.clone()).or_default();
+            let modes = params
+                .entry("modes")
+                .or_insert_with(|| toml::Value::Table(Default::default()))
+                .as_table_mut()
+                .ok_or_else(|| invalid(Invalid::new(format!("params.{master}.modes"), "is not a table")))?;
+            if !modes.contains_key(orsa_planner::NAVIGATE_MODE) {
+                let mode: toml::Table = toml::from_str(&format!(
+                    "behaviours = [\"{follower}\"]\nrules = [{{ drive = \"{follower}\" }}]\n"
+                ))
+                .map_err(|e| invalid(Invalid::new("navigate", e.to_string())))?;
+                modes.insert(orsa_planner::NAVIGATE_MODE.into(), toml::Value::Table(mode));
+            }
+        }
+        c.complete_params().map_err(|(_, m)| invalid(Invalid::new("", m)))?;
+        c.validate().map_err(invalid)?;
+        Ok(c)
+    }
+
+    /// This configuration with the navigation components and a mission of `targets` (each a
+    /// place's name or `X,Y[,HEADING_DEG]`), as `orsa run --goto` makes it.
+    pub fn with_goto(&self, targets: &[String]) -> Result<Config, ConfigError> {
+        let mut c = self.with_navigation()?;
+        let planner = c.of_kind(&["planner"]).map(|s| s.name.clone()).ok_or_else(|| ConfigError::Invalid {
+            origin: "--goto".into(),
+            error: Invalid::new("system.components", "the system has no planner to give the places to"),
+        })?;
+        let mission: Vec<toml::Value> = targets
+            .iter()
+            .map(|t| {
+                let mut step = toml::Table::new();
+                step.insert("goto".into(), toml::Value::String(t.clone()));
+                toml::Value::Table(step)
+            })
+            .collect();
+        c.params.entry(planner).or_default().insert("mission".into(), toml::Value::Array(mission));
+        let invalid = |error: Invalid| ConfigError::Invalid { origin: "--goto".into(), error };
+        c.complete_params().map_err(|(_, m)| invalid(Invalid::new("", m)))?;
+        c.validate().map_err(invalid)?;
+        Ok(c)
     }
 
     /// The first component of the system of one of `kinds`.

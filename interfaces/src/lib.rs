@@ -16,6 +16,7 @@
 //! | [`executive`] | the master | goals and goal events, which behaviour drives |
 //! | [`planner`] | the planner | where the mission stands |
 //! | [`map`] | the map | the occupancy grid of the robot's world |
+//! | [`navigation`] | localizer, path follower, planner | the pose in the map, the path to follow, goals to places |
 //! | [`range`] | any robot | its drive and range sensors described (ring or laser), and their projection onto sectors |
 //!
 //! Every communication object is a plain serde struct in SI units with unit-suffixed field names
@@ -35,6 +36,7 @@ pub mod behaviour;
 pub mod executive;
 pub mod health;
 pub mod map;
+pub mod navigation;
 pub mod nomad200;
 pub mod planner;
 pub mod range;

@@ -115,6 +115,57 @@ impl ObstacleLayer {
         self.known.cell_of(x, y).is_some_and(|(ix, iy)| self.marked[self.known.index(ix, iy)])
     }
 
+    /// Clears every mark within `radius_m` of `(x, y)` (the robot's own footprint, which cannot
+    /// hold an obstacle: what a sensor saw there has moved); returns whether a mark changed.
+    pub fn clear_near(&mut self, x: f64, y: f64, radius_m: f64) -> bool {
+        let before = self.version;
+        self.for_cells_near(x, y, radius_m, |layer, i| layer.set(i, false));
+        self.version != before
+    }
+
+    /// Clears every mark (a recovery: what was seen may have gone); returns whether one was.
+    pub fn clear_all(&mut self) -> bool {
+        let any = self.marked.iter().any(|m| *m);
+        if any {
+            self.marked.iter_mut().for_each(|m| *m = false);
+            self.version += 1;
+        }
+        any
+    }
+
+    /// Whether any cell within `radius_m` of `(x, y)` is marked.
+    pub fn marked_near(&mut self, x: f64, y: f64, radius_m: f64) -> bool {
+        let mut any = false;
+        self.for_cells_near(x, y, radius_m, |layer, i| any |= layer.marked[i]);
+        any
+    }
+
+    /// Calls `visit` with the index of every cell whose centre is within `radius_m` of `(x, y)`.
+    fn for_cells_near(&mut self, x: f64, y: f64, radius_m: f64, mut visit: impl FnMut(&mut Self, usize)) {
+        let g = &self.known;
+        let r = g.resolution_m;
+        if !(x.is_finite() && y.is_finite() && radius_m.is_finite() && radius_m >= 0.0) {
+            return;
+        }
+        let span = (radius_m / r).ceil() as i64 + 1;
+        let cx = ((x - g.origin_x_m) / r).floor() as i64;
+        let cy = ((y - g.origin_y_m) / r).floor() as i64;
+        let (w, h) = (i64::from(g.width), i64::from(g.height));
+        let mut cells = Vec::new();
+        for iy in (cy - span).max(0)..=(cy + span).min(h - 1) {
+            for ix in (cx - span).max(0)..=(cx + span).min(w - 1) {
+                let px = g.origin_x_m + (ix as f64 + 0.5) * r;
+                let py = g.origin_y_m + (iy as f64 + 0.5) * r;
+                if (px - x).hypot(py - y) <= radius_m {
+                    cells.push(g.index(ix as u32, iy as u32));
+                }
+            }
+        }
+        for i in cells {
+            visit(self, i);
+        }
+    }
+
     /// How many cells are marked.
     pub fn marks(&self) -> usize {
         self.marked.iter().filter(|m| **m).count()

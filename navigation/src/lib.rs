@@ -14,11 +14,14 @@
 //!   does not hold, marked where beams echo and cleared where they pass through.
 //! - [`plan`]: the global planner: the shortest path for the body over the grid (A*), kept off
 //!   walls where there is room.
+//! - [`localizer`]: the localizer component: [`mcl`] on a robot's odometry and range views,
+//!   publishing the pose in the map (`orsa_interfaces::navigation::POSE`).
 //! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
 //!   the odometry motion model and the likelihood-field sensor model, and recovery from being
 //!   lost or kidnapped by particles injected at random free places while readings fit badly.
 
 pub mod field;
 pub mod layer;
+pub mod localizer;
 pub mod mcl;
 pub mod plan;

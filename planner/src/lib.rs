@@ -1,4 +1,4 @@
-//! orsa-planner: the deliberative layer (a stub that runs a fixed mission).
+//! orsa-planner: the deliberative layer: missions of modes and of places to go to.
 //!
 //! Its one job is to say *what* the robot should do next, never *how*: it reads a mission (a
 //! sequence of goals) from the config file, gives each goal to the executive by Query, and
@@ -16,6 +16,17 @@
 //! ```
 //! With no mission, the planner patrols for the whole run.
 //!
+//! A step may also send the robot to a place (`{ goto = "room-3" }`, or `"X,Y[,HEADING_DEG]"`)
+//! or patrol for a time (`{ patrol = 600 }`). Going to a place is a navigation goal
+//! ([`navigate`]): the planner plans the body's path on the known map from the localizer's
+//! pose, gives it to the path follower, asks the executive for the mode `navigate` (which wires
+//! the path follower to the motors), follows the goal's progress, and when the robot has made
+//! none for `stuck_s` climbs a ladder of recoveries (plan again from where it is, up to
+//! `recoveries` times) before it aborts naming why. A step that aborts is skipped, tried again
+//! once, or ends the mission (`on_abort`). The same goals come from outside on the planner's
+//! `navigate` query (`orsa goto`), with feedback and results on `navigation`
+//! (`orsa_interfaces::navigation`); a newer goal preempts the one running.
+//!
 //! A goal the executive refuses because its mode switch failed comes with the typed failure
 //! (`GoalReply::Rejected { switch }`), and the planner tells three cases apart:
 //! - the switch failed while being made and everything was undone (a behaviour busy in its
@@ -28,28 +39,98 @@
 //!   stopped the motors), the mission is aborted naming what was left.
 //!
 //! It knows the executive by its interface (`orsa_interfaces::executive`: the `goal` query and
-//! the `goals` event) and offers its own (`orsa_interfaces::planner`), so it depends on no other
-//! orsa crate than `orsa-actors` and `orsa-interfaces`.
+//! the `goals` event) and offers its own (`orsa_interfaces::planner`,
+//! `orsa_interfaces::navigation`); below it, it uses only the navigation layer's planner
+//! (`orsa-navigation`).
 
+pub mod navigate;
+
+use navigate::{GoalPose, Judge, NavMap, Progress, Verdict, blocked, distance_left, route};
+use orsa_navigation::layer::ObstacleLayer;
+use orsa_navigation::localizer::ring_beams;
+use orsa_navigation::mcl::Pose2;
 use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::param::Invalid;
 use orsa_actors::push_newest::PushNewestServer;
-use orsa_actors::query::QueryClient;
+use orsa_actors::query::{QueryClient, QueryRequest};
+use orsa_actors::send::SendClient;
 use orsa_actors::switch::Phase;
-use orsa_actors::{Component, ComponentError, Ctx};
+use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Update};
 use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S};
+use orsa_interfaces::navigation::{
+    self, CANCEL, FollowPath, NAVIGATE, NAVIGATION, NavCancel, NavFeedback, NavGoal, NavReply, NavState, NavTarget,
+    PoseEstimate,
+};
+use orsa_interfaces::nomad200::{self, BaseState, DistanceScan, RingParams, RobotParams};
 use orsa_interfaces::planner::{MISSION, MissionStatus, NEXT};
+use orsa_navigation::plan::PlanParams;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
-/// One goal of a mission, as written in the config file.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The executive mode that drives to places: the path follower wired to the motors.
+pub const NAVIGATE_MODE: &str = "navigate";
+
+/// One step of a mission, as written in the config file: exactly one of `mode` (with
+/// `for_s`), `goto` or `patrol`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MissionStep {
     /// The executive mode to run.
-    pub mode: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<String>,
     /// For how long, s (absent: until the run ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub for_s: Option<f64>,
+    /// A place to go to: its name, or `X,Y[,HEADING_DEG]` in the map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goto: Option<String>,
+    /// Patrol for this many seconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub patrol: Option<f64>,
+}
+
+/// What a step asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepKind {
+    /// Run a mode, for a time or until preempted.
+    Mode(String, Option<f64>),
+    /// Go to a place.
+    Goto(NavTarget),
+}
+
+impl MissionStep {
+    /// A step that runs `mode` for `for_s`.
+    pub fn mode(mode: &str, for_s: Option<f64>) -> Self {
+        MissionStep { mode: Some(mode.into()), for_s, ..MissionStep::default() }
+    }
+
+    /// A step that goes to `target` (a place's name or `X,Y[,HEADING_DEG]`).
+    pub fn goto(target: &str) -> Self {
+        MissionStep { goto: Some(target.into()), ..MissionStep::default() }
+    }
+
+    /// What it asks for, or why it is not a step.
+    pub fn kind(&self) -> Result<StepKind, String> {
+        match (&self.mode, &self.goto, self.patrol) {
+            (Some(m), None, None) => Ok(StepKind::Mode(m.clone(), self.for_s)),
+            (None, Some(g), None) if self.for_s.is_none() => NavTarget::parse(g).map(StepKind::Goto),
+            (None, None, Some(s)) if self.for_s.is_none() => Ok(StepKind::Mode("patrol".into(), Some(s))),
+            _ => Err("give exactly one of `mode` (with `for_s`), `goto` or `patrol`".into()),
+        }
+    }
+}
+
+/// What the planner does when a step aborts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OnAbort {
+    /// Go on with the next step.
+    #[default]
+    Skip,
+    /// Try the step once more, then go on.
+    Retry,
+    /// End the mission.
+    Abort,
 }
 
 /// Configuration of the planner (the planner's `[params.planner]` table).
@@ -63,11 +144,36 @@ pub struct PlannerParams {
     pub retries: u32,
     /// How long to wait before giving it again, s.
     pub retry_after_s: f64,
+    /// What to do when a step aborts.
+    pub on_abort: OnAbort,
+    /// A place is reached when the estimate is this close to it and the robot has stopped, m.
+    pub arrive_m: f64,
+    /// ... and within this angle of its heading, degrees.
+    pub arrive_deg: f64,
+    /// Without coming 0.2 m closer for this long, the robot is stuck: next recovery, s.
+    pub stuck_s: f64,
+    /// How many recoveries (plan again from where it is) before a goal aborts.
+    pub recoveries: u32,
+    /// The speed the ETA assumes, m/s.
+    pub cruise_m_s: f64,
+    /// The least gap a path leaves between the body and what the map holds, m.
+    pub clearance_m: f64,
 }
 
 impl Default for PlannerParams {
     fn default() -> Self {
-        PlannerParams { mission: Vec::new(), retries: 3, retry_after_s: 1.0 }
+        PlannerParams {
+            mission: Vec::new(),
+            retries: 3,
+            retry_after_s: 1.0,
+            on_abort: OnAbort::Skip,
+            arrive_m: 0.15,
+            arrive_deg: 10.0,
+            stuck_s: 20.0,
+            recoveries: 3,
+            cruise_m_s: 0.4,
+            clearance_m: 0.05,
+        }
     }
 }
 
@@ -94,18 +200,43 @@ impl PlannerParams {
                 ),
             ));
         }
+        for (key, v, lo, hi) in [
+            ("arrive_m", self.arrive_m, 0.01, 5.0),
+            ("arrive_deg", self.arrive_deg, 0.1, 180.0),
+            ("stuck_s", self.stuck_s, 1.0, 3600.0),
+            ("cruise_m_s", self.cruise_m_s, 0.01, 10.0),
+            ("clearance_m", self.clearance_m, 0.0, 2.0),
+        ] {
+            if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                return Err(Invalid::new(format!("planner.{key}"), format!("must be from {lo} to {hi}, not {v}")));
+            }
+        }
+        if self.recoveries > 100 {
+            return Err(Invalid::new("planner.recoveries", "must be at most 100"));
+        }
         for (i, step) in self.mission.iter().enumerate() {
-            if !modes.contains(&step.mode.as_str()) {
+            let kind = step.kind().map_err(|e| Invalid::new(format!("planner.mission[{i}]"), e))?;
+            let (mode, for_s, key) = match &kind {
+                StepKind::Mode(m, s) if step.patrol.is_some() => (m.as_str(), *s, "patrol"),
+                StepKind::Mode(m, s) => (m.as_str(), *s, "for_s"),
+                StepKind::Goto(_) => (NAVIGATE_MODE, None, "goto"),
+            };
+            if !modes.contains(&mode) {
+                let at = if key == "for_s" { "mode" } else { key };
+                let hint = match key {
+                    "goto" => " (a mission with places needs the navigation components: `orsa run --goto`, or config/navigation.toml)",
+                    _ => "",
+                };
                 return Err(Invalid::new(
-                    format!("planner.mission[{i}].mode"),
-                    format!("'{}' is not an executive mode {modes:?}", step.mode),
+                    format!("planner.mission[{i}].{at}"),
+                    format!("'{mode}' is not an executive mode {modes:?}{hint}"),
                 ));
             }
-            if let Some(s) = step.for_s
+            if let Some(s) = for_s
                 && !(s.is_finite() && (0.0..=MAX_GOAL_S).contains(&s))
             {
                 return Err(Invalid::new(
-                    format!("planner.mission[{i}].for_s"),
+                    format!("planner.mission[{i}].{key}"),
                     format!("must be a number of seconds from 0 to {MAX_GOAL_S}"),
                 ));
             }
@@ -116,11 +247,43 @@ impl PlannerParams {
     /// The mission to run in a run of `duration_s`: the configured one, or patrol throughout.
     pub fn mission_for(&self, duration_s: f64) -> Vec<MissionStep> {
         if self.mission.is_empty() {
-            vec![MissionStep { mode: "patrol".into(), for_s: Some(duration_s) }]
+            vec![MissionStep::mode("patrol", Some(duration_s))]
         } else {
             self.mission.clone()
         }
     }
+
+    /// Whether a step goes to a place.
+    pub fn navigates(&self) -> bool {
+        self.mission.iter().any(|s| s.goto.is_some())
+    }
+
+    /// How goals are judged.
+    pub fn judge(&self) -> Judge {
+        Judge {
+            arrive_m: self.arrive_m,
+            arrive_rad: self.arrive_deg.to_radians(),
+            progress_m: 0.2,
+            stuck_s: self.stuck_s,
+        }
+    }
+}
+
+/// What the planner needs to send the robot to places.
+#[derive(Debug, Clone)]
+pub struct NavSetup {
+    /// The known map and its places.
+    pub map: NavMap,
+    /// The robot server (its odometry says when it has stopped; its geometry sizes paths).
+    pub robot: String,
+    /// How goals are judged.
+    pub judge: Judge,
+    /// Recoveries before a goal aborts.
+    pub recoveries: u32,
+    /// The speed the ETA assumes, m/s.
+    pub cruise_m_s: f64,
+    /// The least gap a path leaves, m.
+    pub clearance_m: f64,
 }
 
 /// The planner component.
@@ -134,6 +297,10 @@ pub struct Planner {
     pub retries: u32,
     /// How long to wait before giving it again.
     pub retry_after: Duration,
+    /// What to do when a step aborts.
+    pub on_abort: OnAbort,
+    /// The map, if the planner sends the robot to places.
+    pub nav: Option<NavSetup>,
 }
 
 /// Messages of the [`Planner`].
@@ -143,6 +310,55 @@ pub enum PlannerMsg {
     Next,
     /// A goal event from the executive.
     Event(Fired<GoalEvent>),
+    /// The localizer's estimate.
+    Pose(Update<PoseEstimate>),
+    /// The robot's odometry.
+    Base(Update<BaseState>),
+    /// The robot's near range view (what the obstacle layer is made of).
+    Ir(Update<DistanceScan>),
+    /// A navigation goal from outside.
+    Navigate(QueryRequest<NavGoal, NavReply>),
+    /// A cancel from outside.
+    Cancel(Stamped<NavCancel>),
+}
+
+/// A navigation goal being driven to.
+struct Active {
+    id: u64,
+    target: NavTarget,
+    goal: GoalPose,
+    path: Vec<[f64; 2]>,
+    progress: Progress,
+    recoveries: u32,
+    from_mission: bool,
+    /// Since when no path gets past what the layer holds, s.
+    blocked_since: Option<f64>,
+    /// When a blocked goal last tried to plan again, s.
+    tried_s: f64,
+    /// Whether the layer was cleared for it already (a recovery).
+    cleared: bool,
+    /// When feedback was last published, s.
+    told_s: f64,
+}
+
+/// What the planner keeps for navigation.
+struct NavState_ {
+    path: SendClient<FollowPath>,
+    feedback: PushNewestServer<NavFeedback>,
+    plan: PlanParams,
+    pose: Option<(f64, f64, f64)>,
+    stopped: bool,
+    next_id: u64,
+    active: Option<Active>,
+    /// A mission step waits for the first estimate.
+    waiting: bool,
+    /// What the near range view saw that the map does not hold.
+    layer: ObstacleLayer,
+    /// The newest near range view.
+    ir: Option<DistanceScan>,
+    /// Where its sensors are.
+    ring: RingParams,
+    beams: Vec<orsa_navigation::mcl::Beam>,
 }
 
 /// The planner's running state.
@@ -150,20 +366,266 @@ pub struct PlannerState {
     step: usize,
     /// How many times the current step's goal was given again.
     retried: u32,
+    /// How many times the current step was tried after aborting.
+    attempts: u32,
     goal_id: Option<u64>,
     goals: QueryClient<Goal, GoalReply>,
     status: PushNewestServer<MissionStatus>,
+    nav: Option<NavState_>,
+}
+
+fn secs(ctx: &Ctx<PlannerMsg>) -> f64 {
+    ctx.now().0 as f64 * 1e-9
 }
 
 impl Planner {
     fn publish(&self, st: &PlannerState, finished: Option<String>) {
-        st.status.put(MissionStatus {
-            step: st.step,
-            steps: self.mission.len(),
-            mode: self.mission.get(st.step).map(|s| s.mode.clone()),
-            goal_id: st.goal_id,
-            finished,
+        let mode = self.mission.get(st.step).and_then(|s| match s.kind() {
+            Ok(StepKind::Mode(m, _)) => Some(m),
+            Ok(StepKind::Goto(t)) => Some(format!("goto {t}")),
+            Err(_) => None,
         });
+        st.status.put(MissionStatus { step: st.step, steps: self.mission.len(), mode, goal_id: st.goal_id, finished });
+    }
+
+    fn next(ctx: &Ctx<PlannerMsg>) -> Result<(), ComponentError> {
+        ctx.mailbox().cast(PlannerMsg::Next).map_err(|_| "planner: cannot reach its own mailbox".into())
+    }
+
+    /// Asks the executive for `mode`; the reply.
+    async fn ask(&self, st: &mut PlannerState, mode: &str, for_s: Option<f64>) -> Result<GoalReply, ComponentError> {
+        Ok(st.goals.query(Goal { mode: mode.into(), for_s }, Some(Duration::from_secs(5))).await?)
+    }
+
+    fn feedback(&self, ctx: &Ctx<PlannerMsg>, nav: &NavState_, a: &Active, state: NavState, reason: &str) {
+        let Some(setup) = &self.nav else { return };
+        let left = nav.pose.map_or(f64::NAN, |p| distance_left(&a.path, p.0, p.1));
+        nav.feedback.put(NavFeedback {
+            stamp: ctx.now(),
+            id: a.id,
+            target: a.target.clone(),
+            goal: [a.goal.x_m, a.goal.y_m],
+            state,
+            reason: reason.into(),
+            distance_left_m: left,
+            eta_s: left / setup.cruise_m_s,
+            path: a.path.clone(),
+        });
+    }
+
+    /// Starts driving to `target`; its id, or why it is rejected.
+    async fn start_goal(
+        &self,
+        ctx: &Ctx<PlannerMsg>,
+        st: &mut PlannerState,
+        target: NavTarget,
+        from_mission: bool,
+    ) -> Result<u64, String> {
+        let (Some(setup), Some(nav)) = (&self.nav, st.nav.as_mut()) else {
+            return Err("this planner has no map: it cannot send the robot to places".into());
+        };
+        let goal = setup.map.resolve(&target)?;
+        let pose = nav.pose.ok_or("no estimate of the robot's pose yet")?;
+        // Rejected at once if the known map has no way there; around what the sensors see if
+        // there is one.
+        let known = setup.map.route((pose.0, pose.1), goal, &nav.plan)?;
+        let path = if nav.layer.marks() > 0 {
+            nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m + 0.05);
+            route(&nav.layer.grid(), (pose.0, pose.1), goal, &nav.plan).unwrap_or(known)
+        } else {
+            known
+        };
+        nav.next_id += 1;
+        let id = nav.next_id;
+        if let Some(old) = nav.active.take() {
+            self.feedback(ctx, nav, &old, NavState::Canceled, &format!("preempted by goal {id}"));
+        }
+        nav.path
+            .send(FollowPath { goal_id: id, points: path.clone(), heading_rad: goal.heading_rad })
+            .map_err(|e| format!("the path follower cannot be reached: {e}"))?;
+        let left = distance_left(&path, pose.0, pose.1);
+        let a = Active {
+            id,
+            target,
+            goal,
+            path,
+            progress: Progress::new(left, secs(ctx)),
+            recoveries: 0,
+            from_mission,
+            told_s: secs(ctx),
+            blocked_since: None,
+            tried_s: secs(ctx),
+            cleared: false,
+        };
+        self.feedback(ctx, nav, &a, NavState::Active, "");
+        nav.active = Some(a);
+        match self.ask(st, NAVIGATE_MODE, None).await {
+            Ok(GoalReply::Accepted { id: exec }) => {
+                st.goal_id = Some(exec);
+                Ok(id)
+            }
+            Ok(GoalReply::Rejected { reason, .. }) => {
+                self.end_goal(ctx, st, NavState::Aborted, &format!("the executive refused to navigate: {reason}"))
+                    .map_err(|e| e.to_string())?;
+                Err(format!("the executive refused to navigate: {reason}"))
+            }
+            Err(e) => Err(format!("the executive cannot be reached: {e}")),
+        }
+    }
+
+    /// Ends the running goal as `state`, stops the path follower, and moves the mission on.
+    fn end_goal(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, state: NavState, reason: &str) -> Result<(), ComponentError> {
+        let Some(nav) = st.nav.as_mut() else { return Ok(()) };
+        let Some(a) = nav.active.take() else { return Ok(()) };
+        let _ = nav.path.send(FollowPath { goal_id: a.id, points: Vec::new(), heading_rad: None });
+        self.feedback(ctx, nav, &a, state, reason);
+        match state {
+            NavState::Succeeded => tracing::info!("planner: goal {} ({}) reached", a.id, a.target),
+            _ => tracing::warn!("planner: goal {} ({}) {}: {reason}", a.id, a.target, state.name()),
+        }
+        if a.from_mission {
+            self.step_ended(ctx, st, state == NavState::Succeeded, reason)?;
+        }
+        Ok(())
+    }
+
+    /// A mission step ended, well or not: the next one, as `on_abort` says.
+    fn step_ended(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, ok: bool, reason: &str) -> Result<(), ComponentError> {
+        st.goal_id = None;
+        if !ok {
+            match self.on_abort {
+                OnAbort::Retry if st.attempts == 0 => {
+                    st.attempts += 1;
+                    return Self::next(ctx);
+                }
+                OnAbort::Abort => {
+                    self.publish(st, Some(format!("aborted: step {} {reason}", st.step)));
+                    return Ok(());
+                }
+                _ => {}
+            }
+        }
+        st.step += 1;
+        st.attempts = 0;
+        Self::next(ctx)
+    }
+
+    /// Follows the running goal on a new pose: the obstacle layer, a path blocked, progress,
+    /// arrival, and the ladder of recoveries.
+    fn on_pose(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState) -> Result<(), ComponentError> {
+        let (Some(setup), Some(nav)) = (&self.nav, st.nav.as_mut()) else { return Ok(()) };
+        let Some(pose) = nav.pose else { return Ok(()) };
+        if nav.active.is_none() {
+            return Ok(());
+        }
+        let now = secs(ctx);
+        let radius = nav.plan.robot_radius_m + nav.plan.clearance_m;
+        // What the near view sees that the map does not hold.
+        let mut changed = false;
+        if let Some(ir) = &nav.ir {
+            nav.beams.clear();
+            ring_beams(ir, &nav.ring, &mut nav.beams);
+            changed = nav.layer.observe(Pose2::new(pose.0, pose.1, pose.2), &nav.beams);
+        }
+        changed |= nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m);
+        let stopped = nav.stopped;
+        let Some(a) = nav.active.as_mut() else { return Ok(()) };
+        // A path blocked by what the sensors see: plan around it, or wait for a way.
+        let retry = a.blocked_since.is_some() && now - a.tried_s >= 2.0;
+        if (changed && blocked(&mut nav.layer, &a.path, pose.0, pose.1, radius, 3.0)) || retry {
+            a.tried_s = now;
+            match route(&nav.layer.grid(), (pose.0, pose.1), a.goal, &nav.plan) {
+                Ok(path) => {
+                    a.path = path;
+                    a.blocked_since = None;
+                    a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
+                    let cmd = FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                    let _ = nav.path.send(cmd);
+                    let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                    self.feedback(ctx, nav, a, NavState::Active, "planned around an obstacle");
+                    return Ok(());
+                }
+                Err(why) => {
+                    if a.blocked_since.is_none() {
+                        a.blocked_since = Some(now);
+                        let _ = nav.path.send(FollowPath { goal_id: a.id, points: Vec::new(), heading_rad: None });
+                        let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                        self.feedback(ctx, nav, a, NavState::Active, &format!("recovery: waiting for a way ({why})"));
+                        return Ok(());
+                    }
+                }
+            }
+        }
+        if let Some(since) = a.blocked_since {
+            if now - since < setup.judge.stuck_s / 2.0 {
+                return Ok(());
+            }
+            if a.cleared {
+                let why = format!(
+                    "no path: the way to ({:.2}, {:.2}) is blocked (seen from ({:.2}, {:.2}) for {:.0} s)",
+                    a.goal.x_m,
+                    a.goal.y_m,
+                    pose.0,
+                    pose.1,
+                    now - since
+                );
+                return self.end_goal(ctx, st, NavState::Aborted, &why);
+            }
+            // Recovery: forget what was seen (it may have gone), and go on the known map.
+            a.cleared = true;
+            a.blocked_since = None;
+            nav.layer.clear_all();
+            return self.replan(ctx, st, pose, "recovery: cleared the obstacle layer and planned again");
+        }
+        let left = distance_left(&a.path, pose.0, pose.1);
+        match a.progress.check(&setup.judge, a.goal, pose, left, stopped, now) {
+            Verdict::Arrived => return self.end_goal(ctx, st, NavState::Succeeded, "reached"),
+            Verdict::Stuck if a.recoveries >= setup.recoveries => {
+                let why = format!(
+                    "no progress for {:.0} s at ({:.2}, {:.2}), {:.1} m short, after {} recoveries",
+                    setup.judge.stuck_s, pose.0, pose.1, left, a.recoveries
+                );
+                return self.end_goal(ctx, st, NavState::Aborted, &why);
+            }
+            Verdict::Stuck => {
+                a.recoveries += 1;
+                if a.recoveries == 2 {
+                    nav.layer.clear_all();
+                }
+                let what = format!("recovery {}: no progress, planned again", a.recoveries);
+                return self.replan(ctx, st, pose, &what);
+            }
+            Verdict::Going => {
+                if now - a.told_s >= 1.0 {
+                    a.told_s = now;
+                    let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                    self.feedback(ctx, nav, a, NavState::Active, "");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Plans the running goal again from `pose` on the layered map; aborts it if there is no
+    /// way.
+    fn replan(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, pose: (f64, f64, f64), what: &str) -> Result<(), ComponentError> {
+        let Some(nav) = st.nav.as_mut() else { return Ok(()) };
+        let Some(a) = nav.active.as_mut() else { return Ok(()) };
+        let now = secs(ctx);
+        nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m + 0.05);
+        match route(&nav.layer.grid(), (pose.0, pose.1), a.goal, &nav.plan) {
+            Ok(path) => {
+                tracing::info!("planner: goal {}: {what}", a.id);
+                a.path = path;
+                a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
+                let cmd = FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                let _ = nav.path.send(cmd);
+                let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                self.feedback(ctx, nav, a, NavState::Active, what);
+                Ok(())
+            }
+            Err(why) => self.end_goal(ctx, st, NavState::Aborted, &why),
+        }
     }
 }
 
@@ -182,8 +644,46 @@ impl Component for Planner {
         )?;
         ctx.send_server(NEXT, |_| PlannerMsg::Next)?;
         let status = ctx.push_newest_server(MISSION)?;
-        ctx.mailbox().cast(PlannerMsg::Next).map_err(|_| "planner: cannot reach its own mailbox")?;
-        Ok(PlannerState { step: 0, retried: 0, goal_id: None, goals, status })
+        let nav = match &self.nav {
+            None => None,
+            Some(setup) => {
+                let robot: RobotParams = ctx
+                    .query_client(nomad200::ROBOTPARAMS.on(&setup.robot))?
+                    .query(Empty {}, Some(Duration::from_secs(2)))
+                    .await
+                    .map_err(|e| format!("planner: cannot get {}/robotparams: {e}", setup.robot))?;
+                let plan = PlanParams {
+                    robot_radius_m: robot.body_radius_m,
+                    clearance_m: setup.clearance_m,
+                    ..PlanParams::default()
+                };
+                let feedback = ctx.push_newest_server(NAVIGATION)?;
+                ctx.query_server(NAVIGATE, PlannerMsg::Navigate)?;
+                ctx.send_server(CANCEL, PlannerMsg::Cancel)?;
+                let path = ctx.send_client(navigation::PATH.on(navigation::PATHFOLLOW))?;
+                ctx.subscribe_newest(navigation::POSE.on(navigation::LOCALIZER), PlannerMsg::Pose)?;
+                ctx.subscribe_timed(nomad200::BASESTATE.on(&setup.robot), 1, PlannerMsg::Base)?;
+                ctx.subscribe_timed(nomad200::DISTANCEIR.on(&setup.robot), 1, PlannerMsg::Ir)?;
+                let layer = ObstacleLayer::new((*setup.map.grid).clone(), robot.infrared.max_range_m, 0.05)
+                    .map_err(|e| format!("planner: the map: {e}"))?;
+                Some(NavState_ {
+                    path,
+                    feedback,
+                    plan,
+                    pose: None,
+                    stopped: false,
+                    next_id: 0,
+                    active: None,
+                    waiting: false,
+                    layer,
+                    ir: None,
+                    ring: robot.infrared.clone(),
+                    beams: Vec::new(),
+                })
+            }
+        };
+        Self::next(ctx)?;
+        Ok(PlannerState { step: 0, retried: 0, attempts: 0, goal_id: None, goals, status, nav })
     }
 
     async fn handle(
@@ -198,8 +698,31 @@ impl Component for Planner {
                     self.publish(st, Some("completed".into()));
                     return Ok(());
                 };
-                let goal = Goal { mode: step.mode.clone(), for_s: step.for_s };
-                match st.goals.query(goal, Some(Duration::from_secs(5))).await? {
+                let (mode, for_s) = match step.kind() {
+                    Ok(StepKind::Mode(m, s)) => (m, s),
+                    Ok(StepKind::Goto(target)) => {
+                        if st.nav.as_ref().is_some_and(|n| n.pose.is_none()) {
+                            // The first estimate starts it.
+                            if let Some(n) = st.nav.as_mut() {
+                                n.waiting = true;
+                            }
+                            return Ok(());
+                        }
+                        self.publish(st, None);
+                        if let Err(why) = self.start_goal(ctx, st, target.clone(), true).await {
+                            tracing::warn!("planner: step {} (goto {target}) rejected: {why}", st.step);
+                            if st.nav.as_ref().is_some_and(|n| n.active.is_none()) {
+                                self.step_ended(ctx, st, false, &format!("rejected: {why}"))?;
+                            }
+                        }
+                        return Ok(());
+                    }
+                    Err(why) => {
+                        self.publish(st, Some(format!("aborted: step {}: {why}", st.step)));
+                        return Ok(());
+                    }
+                };
+                match self.ask(st, &mode, for_s).await? {
                     GoalReply::Accepted { id } => {
                         st.goal_id = Some(id);
                         st.retried = 0;
@@ -210,10 +733,9 @@ impl Component for Planner {
                     {
                         st.retried += 1;
                         tracing::warn!(
-                            "planner: goal {} ({}) could not be switched to now ({reason}); the previous goal \
+                            "planner: goal {} ({mode}) could not be switched to now ({reason}); the previous goal \
                              goes on; giving it again in {:?} ({} of {})",
                             st.step,
-                            step.mode,
                             self.retry_after,
                             st.retried,
                             self.retries
@@ -232,11 +754,7 @@ impl Component for Planner {
                             Some(_) => "its mode switch failed every time",
                             None => "the goal is invalid",
                         };
-                        tracing::error!(
-                            "planner: goal {} ({}) rejected, {why}: {reason}",
-                            st.step,
-                            step.mode
-                        );
+                        tracing::error!("planner: goal {} ({mode}) rejected, {why}: {reason}", st.step);
                         self.publish(
                             st,
                             Some(format!("aborted: step {} rejected, {why}: {reason}", st.step)),
@@ -249,14 +767,18 @@ impl Component for Planner {
                 if Some(ev.id) != st.goal_id {
                     return Ok(());
                 }
+                let navigating = st.nav.as_ref().is_some_and(|n| n.active.is_some());
                 match ev.status {
                     GoalStatus::Started => {}
-                    GoalStatus::Reached => {
+                    GoalStatus::Reached if !navigating => {
                         st.step += 1;
                         st.goal_id = None;
-                        ctx.mailbox()
-                            .cast(PlannerMsg::Next)
-                            .map_err(|_| "planner: own mailbox unreachable")?;
+                        Self::next(ctx)?;
+                    }
+                    GoalStatus::Reached => {}
+                    GoalStatus::Failed | GoalStatus::Preempted if navigating => {
+                        let why = format!("the executive's goal {} {:?}: {}", ev.id, ev.status, ev.detail);
+                        self.end_goal(ctx, st, NavState::Aborted, &why)?;
                     }
                     GoalStatus::Failed | GoalStatus::Preempted => {
                         tracing::warn!("planner: goal {} {:?}: {}", ev.id, ev.status, ev.detail);
@@ -266,6 +788,42 @@ impl Component for Planner {
                             Some(format!("aborted: goal {} {:?} {}", ev.id, ev.status, ev.detail)),
                         );
                     }
+                }
+            }
+            PlannerMsg::Pose(p) => {
+                let p = p.value;
+                let Some(nav) = st.nav.as_mut() else { return Ok(()) };
+                nav.pose = Some((p.x_m, p.y_m, p.heading_rad));
+                if std::mem::take(&mut nav.waiting) {
+                    Self::next(ctx)?;
+                }
+                self.on_pose(ctx, st)?;
+            }
+            PlannerMsg::Ir(s) => {
+                if let Some(nav) = st.nav.as_mut() {
+                    nav.ir = Some(s.value.clone());
+                }
+            }
+            PlannerMsg::Base(b) => {
+                if let Some(nav) = st.nav.as_mut() {
+                    nav.stopped = b.value.v_m_s.abs() < 0.01 && b.value.omega_rad_s.abs() < 0.02;
+                }
+            }
+            PlannerMsg::Navigate(q) => {
+                let target = q.request.value.target.clone();
+                let reply = match self.start_goal(ctx, st, target.clone(), false).await {
+                    Ok(id) => NavReply::Accepted { id },
+                    Err(reason) => {
+                        tracing::warn!("planner: goal to {target} rejected: {reason}");
+                        NavReply::Rejected { reason }
+                    }
+                };
+                let _ = q.answer(reply);
+            }
+            PlannerMsg::Cancel(c) => {
+                let active = st.nav.as_ref().and_then(|n| n.active.as_ref()).map(|a| a.id);
+                if active.is_some() && c.value.id.is_none_or(|id| Some(id) == active) {
+                    self.end_goal(ctx, st, NavState::Canceled, "canceled")?;
                 }
             }
         }
@@ -280,12 +838,9 @@ mod tests {
     #[test]
     fn default_mission_patrols_for_the_run_and_bad_steps_are_named() {
         let p = PlannerParams::default();
-        assert_eq!(p.mission_for(60.0), vec![MissionStep { mode: "patrol".into(), for_s: Some(60.0) }]);
+        assert_eq!(p.mission_for(60.0), vec![MissionStep::mode("patrol", Some(60.0))]);
         let bad = PlannerParams {
-            mission: vec![
-                MissionStep { mode: "patrol".into(), for_s: None },
-                MissionStep { mode: "dance".into(), for_s: None },
-            ],
+            mission: vec![MissionStep::mode("patrol", None), MissionStep::mode("dance", None)],
             ..PlannerParams::default()
         };
         let e = bad.validate(&["patrol", "stop"]).expect_err("invalid").to_string();

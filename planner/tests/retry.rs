@@ -37,10 +37,12 @@ async fn run(answers: Vec<GoalReply>) -> (Vec<f64>, MissionStatus) {
     )
     .expect("goals");
     let planner = Planner {
-        mission: vec![MissionStep { mode: "patrol".into(), for_s: None }],
+        mission: vec![MissionStep::mode("patrol", None)],
         executive: "master".into(),
         retries: 3,
         retry_after: Duration::from_secs(1),
+        on_abort: orsa_planner::OnAbort::Skip,
+        nav: None,
     };
     let _planner = orsa_actors::component::spawn(&registry, "planner", planner).await.expect("planner");
     let status =

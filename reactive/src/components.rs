@@ -5,6 +5,8 @@
 
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
 use crate::harness::{Behaviour, BehaviourMsg, Controller, Scan, Seen, Step};
+use crate::pathfollow::{PathFollowParams, PathFollower};
+use orsa_interfaces::navigation::{FollowPath, PoseEstimate};
 use crate::ring::RingGeometry;
 use crate::wallfollow::{WallFollowParams, WallFollower};
 use orsa_actors::Timestamp;
@@ -18,6 +20,8 @@ pub type WallFollowMsg = BehaviourMsg;
 pub type CenterFollow = Behaviour<CenterFollower>;
 /// Messages of [`CenterFollow`].
 pub type CenterFollowMsg = BehaviourMsg;
+/// Path following as a component (`pathfollow` in the default configuration).
+pub type PathFollow = Behaviour<PathFollower>;
 
 /// The sectors none of `views` covers, given the robot's range sensors.
 pub fn blind_sectors(robot: &RobotParams, views: &[&RingParams]) -> [bool; RING_SIZE] {
@@ -86,6 +90,37 @@ impl Controller for CenterFollower {
 
     fn step(&mut self, seen: &Seen<'_>) -> Step {
         let s = CenterFollower::step(self, seen.infrared, seen.sonar, seen.stamp);
+        Step { cmd: s.cmd, wall_m: None, offset_m: s.offset_m, alpha_rad: s.alpha_rad }
+    }
+}
+
+impl Controller for PathFollower {
+    type Params = PathFollowParams;
+    const READS: &'static [Scan] = &[Scan::Infrared, Scan::Sonar];
+    const NAVIGATES: bool = true;
+
+    fn new(params: PathFollowParams, _robot: &RobotParams) -> Self {
+        PathFollower::new(params)
+    }
+
+    fn set_params(&mut self, params: PathFollowParams) {
+        PathFollower::set_params(self, params);
+    }
+
+    fn note_odometry(&mut self, b: &BaseState) {
+        PathFollower::note_odometry(self, b.x_m, b.y_m, b.heading_rad);
+    }
+
+    fn note_pose(&mut self, pose: &PoseEstimate) {
+        PathFollower::note_pose(self, pose);
+    }
+
+    fn note_path(&mut self, path: &FollowPath) {
+        self.set_path(path);
+    }
+
+    fn step(&mut self, seen: &Seen<'_>) -> Step {
+        let s = PathFollower::step(self, seen.infrared, seen.sonar, seen.stamp);
         Step { cmd: s.cmd, wall_m: None, offset_m: s.offset_m, alpha_rad: s.alpha_rad }
     }
 }

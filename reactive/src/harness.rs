@@ -24,6 +24,9 @@
 //!   what is left at [`WITHOUT_ONE_INPUT`] of its speed. Its status says why (`holding`), and it
 //!   resumes when fresh, healthy data comes.
 //!
+//! - **navigation**, for a controller that drives to places ([`Controller::NAVIGATES`]): the
+//!   paths it is given on `path` and the localizer's estimate of the pose in the map.
+//!
 //! A new behaviour is one file: a controller and its `impl Controller`, registered in the
 //! catalog as `Behaviour::<MyController> { params, robot }` (`examples/new_behaviour.rs`).
 
@@ -35,9 +38,10 @@ use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
 use orsa_actors::state::StateSpec;
 use orsa_actors::wiring::SendPort;
-use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Timestamp, Update};
+use orsa_actors::{Component, ComponentError, Ctx, Empty, PatternError, Stamped, Timestamp, Update};
 use orsa_interfaces::behaviour::{ACTIVE, BehaviourStatus, COMPUTE, STATUS, VEL};
 use orsa_interfaces::health::{self, Health};
+use orsa_interfaces::navigation::{self, FollowPath, PoseEstimate};
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RING_SIZE, RobotParams,
 };
@@ -93,6 +97,13 @@ pub trait Controller: Send + Sync + 'static {
     fn note_contact(&mut self, _direction_rad: f64, _stamp: Timestamp) {}
     /// One step.
     fn step(&mut self, seen: &Seen<'_>) -> Step;
+    /// Whether it drives to places: the harness then serves its `path` service
+    /// (`orsa_interfaces::navigation::PATH`) and subscribes to the localizer's `pose`.
+    const NAVIGATES: bool = false;
+    /// A new estimate of the robot's pose in the map (only if it [navigates](Self::NAVIGATES)).
+    fn note_pose(&mut self, _pose: &PoseEstimate) {}
+    /// A new path to follow (only if it [navigates](Self::NAVIGATES)).
+    fn note_path(&mut self, _path: &FollowPath) {}
 }
 
 /// The component every behaviour is: a controller `C` inside the harness (see the module).
@@ -119,6 +130,10 @@ pub enum BehaviourMsg {
     Param(QueryRequest<ParamRequest, ParamReply>),
     /// The robot's judgement of its sensors.
     Health(Update<Health>),
+    /// The robot's pose in the map (a controller that navigates).
+    Pose(Update<PoseEstimate>),
+    /// A path to follow (a controller that navigates).
+    Path(Stamped<FollowPath>),
 }
 
 /// A scan older than this many of its push periods slows the behaviour; twice as old, it stops.
@@ -195,6 +210,10 @@ impl<C: Controller> Component for Behaviour<C> {
         }
         ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, BehaviourMsg::Base)?;
         ctx.subscribe_newest(health::HEALTH.on(&self.robot), BehaviourMsg::Health)?;
+        if C::NAVIGATES {
+            ctx.send_server(navigation::PATH, BehaviourMsg::Path)?;
+            ctx.subscribe_newest(navigation::POSE.on(navigation::LOCALIZER), BehaviourMsg::Pose)?;
+        }
         ctx.activate_event(
             nomad200::CONTACT.on(&self.robot),
             EventMode::Continuous,
@@ -245,6 +264,14 @@ impl<C: Controller> Component for Behaviour<C> {
             }
             BehaviourMsg::Health(h) => {
                 st.health = Some(h.value.clone());
+                return Ok(());
+            }
+            BehaviourMsg::Pose(p) => {
+                st.ctl.note_pose(&p.value);
+                return Ok(());
+            }
+            BehaviourMsg::Path(p) => {
+                st.ctl.note_path(&p.value);
                 return Ok(());
             }
         }

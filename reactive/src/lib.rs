@@ -11,6 +11,7 @@
 //! - [`cascade`]: the two cascaded proportional loops both behaviours use.
 //! - [`wallfollow`]: hold a distance from the left wall (infrared).
 //! - [`centerfollow`]: stay mid-corridor (sonar fused with infrared).
+//! - [`pathfollow`]: drive along a path in the map (pure pursuit), slowed by what is ahead.
 //! - [`manoeuvres`]: backing out of a contact and getting unstuck, shared by both.
 //! - [`harness`]: the one behaviour component every controller runs in ([`harness::Controller`]
 //!   is what a controller implements; [`harness::Behaviour`] gives it states, live parameters,
@@ -26,9 +27,10 @@ pub mod centerfollow;
 pub mod components;
 pub mod harness;
 pub mod manoeuvres;
+pub mod pathfollow;
 pub mod ring;
 pub mod walldir;
 pub mod wallfollow;
 
-pub use components::{CenterFollow, WallFollow};
+pub use components::{CenterFollow, PathFollow, WallFollow};
 pub use harness::{Behaviour, Controller};

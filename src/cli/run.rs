@@ -45,6 +45,12 @@ pub(crate) struct RunArgs {
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = orsa::live::DEFAULT_ADDR,
           value_parser = orsa::live::parse_addr)]
     pub(crate) foxglove: Option<std::net::SocketAddr>,
+    /// Go to this place (a name from the world's [[places]], or X,Y[,HEADING_DEG] in metres
+    /// and degrees); repeat for a mission of places, in order. Adds the navigation components
+    /// (localizer, path follower, the master's mode `navigate`) and a `navigation` section to
+    /// the report.
+    #[arg(long, value_name = "PLACE")]
+    pub(crate) goto: Vec<String>,
     /// The config file and the report (default out/report.json).
     #[command(flatten)]
     pub(crate) shared: Shared,
@@ -71,6 +77,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         Some(p) => Config::load(p)?,
         None => Config::default(),
     };
+    let config = if args.goto.is_empty() { config } else { config.with_goto(&args.goto)? };
     for p in [Some(&report_path), Some(&args.plot), args.record.as_ref()].into_iter().flatten() {
         ensure_parent(p)?;
     }

@@ -19,10 +19,18 @@ use orsa_hardware::safety::Guarded;
 use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_planner::Planner;
-use orsa_reactive::{CenterFollow, WallFollow};
+use orsa_navigation::localizer::Localization;
+use orsa_navigation::mcl::Pose2;
+use orsa_reactive::{CenterFollow, PathFollow, WallFollow};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
+
+/// The navigation components' grid, m per cell.
+pub const MAP_RESOLUTION_M: f64 = 0.05;
+
+const NO_MAP: &str = "no map: the navigation components need the world (this process was given none, \
+                      or the system lacks its localizer and pathfollow components)";
 
 /// The simulator's robot kind, the one `orsa run` and the whole-stack tests drive.
 pub const SIM: &str = "sim";
@@ -49,6 +57,8 @@ pub struct Parts<'a> {
     pub duration_s: f64,
     /// The robot's boards, if this process hosts the robot.
     pub robot: Option<&'a RobotBoards>,
+    /// The world, if this process knows it: the navigation components' known map.
+    pub world: Option<&'a orsa_hardware::world::World>,
 }
 
 impl Parts<'_> {
@@ -170,14 +180,57 @@ impl Catalog {
                 Arc::new(move |p| crate::config::switch_step_fits(p, cmd_timeout_s));
             Ok(Master { params, check: Some(check) })
         });
+        c.register("pathfollow", Place::Robot, |parts, spec| {
+            Ok(PathFollow { params: parts.params(spec)?, robot: parts.robot_name().into() })
+        });
+        c.register("localizer", Place::Robot, |parts, spec| {
+            let world = parts.world.ok_or(NO_MAP)?;
+            let r = &world.robot;
+            Ok(Localization {
+                params: parts.params(spec)?,
+                robot: parts.robot_name().into(),
+                map: Arc::new(world.occupancy_grid(MAP_RESOLUTION_M)?),
+                start: Pose2::new(r.x, r.y, r.heading_rad()),
+            })
+        });
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
         c.register_untimed("planner", Place::Executive, |parts, spec| {
             let p: orsa_planner::PlannerParams = parts.params(spec)?;
+            // It sends the robot to places where the system has the navigation components.
+            let navigates = ["localizer", "pathfollow"]
+                .iter()
+                .all(|k| parts.config.system.components.iter().any(|c| c.kind() == *k));
+            let nav = match parts.world {
+                Some(world) if navigates => Some(orsa_planner::NavSetup {
+                    map: orsa_planner::navigate::NavMap {
+                        grid: Arc::new(world.occupancy_grid(MAP_RESOLUTION_M)?),
+                        places: world
+                            .places
+                            .iter()
+                            .map(|p| orsa_planner::navigate::NamedPlace {
+                                name: p.name.clone(),
+                                x_m: p.x,
+                                y_m: p.y,
+                                heading_deg: p.heading_deg,
+                            })
+                            .collect(),
+                    },
+                    robot: parts.robot_name().into(),
+                    judge: p.judge(),
+                    recoveries: p.recoveries,
+                    cruise_m_s: p.cruise_m_s,
+                    clearance_m: p.clearance_m,
+                }),
+                _ if p.navigates() => return Err(NO_MAP.into()),
+                _ => None,
+            };
             Ok(Planner {
                 mission: p.mission_for(parts.duration_s),
                 executive: orsa_interfaces::executive::NAME.into(),
                 retries: p.retries,
                 retry_after: Duration::from_secs_f64(p.retry_after_s),
+                on_abort: p.on_abort,
+                nav,
             })
         });
         c

@@ -102,6 +102,7 @@ impl System {
             place: None,
             names: None,
             robot: None,
+            world: None,
             duration_s: 3600.0,
             name: TOP_SUPERVISOR.into(),
             on_event: None,
@@ -127,6 +128,7 @@ pub struct SystemBuilder<'a> {
     place: Option<Place>,
     names: Option<Vec<String>>,
     robot: Option<RobotBoards>,
+    world: Option<orsa_hardware::world::World>,
     duration_s: f64,
     name: String,
     on_event: Option<EventSink>,
@@ -165,6 +167,13 @@ impl<'a> SystemBuilder<'a> {
     /// The robot's boards, for the robot server.
     pub fn robot(mut self, boards: RobotBoards) -> Self {
         self.robot = Some(boards);
+        self
+    }
+
+    /// The world the robot is in, as far as this process knows it: the known map of the
+    /// navigation components (the localizer's and the planner's).
+    pub fn world(mut self, world: orsa_hardware::world::World) -> Self {
+        self.world = Some(world);
         self
     }
 
@@ -237,7 +246,12 @@ impl<'a> SystemBuilder<'a> {
             )));
         }
         let timeout = Duration::from_secs_f64(s.handler_timeout_s);
-        let parts = Parts { config: self.config, duration_s: self.duration_s, robot: self.robot.as_ref() };
+        let parts = Parts {
+            config: self.config,
+            duration_s: self.duration_s,
+            robot: self.robot.as_ref(),
+            world: self.world.as_ref(),
+        };
         let retry = Duration::from_secs_f64(s.retry_start_s);
         let mut spec = SupervisorSpec::new(self.name.clone(), Strategy::OneForOne)
             .with_intensity(s.max_restarts, Duration::from_secs_f64(s.period_s))

@@ -164,6 +164,7 @@ impl<'a> StackBuilder<'a> {
         };
         let mut builder =
             System::builder(self.config).catalog(self.catalog).robot(boards).duration(self.duration_s);
+        builder = builder.world(self.world.clone());
         if let Some(sink) = self.on_event {
             builder = builder.on_event(sink);
         }

@@ -1,0 +1,277 @@
+//! Navigation: where the robot is on the map, the path it follows, and goals to places.
+//!
+//! | service | on | pattern | object |
+//! |---|---|---|---|
+//! | [`POSE`] | the localizer | Push newest | [`PoseEstimate`]: the pose in the map, its covariance, `map -> odom` |
+//! | [`PATH`] | the path follower | Send | [`FollowPath`]: the path to follow (none: stop) |
+//! | [`NAVIGATE`] | the planner | Query | [`NavGoal`] -> [`NavReply`]: go there (accepted or rejected, why) |
+//! | [`CANCEL`] | the planner | Send | [`NavCancel`]: stop going there |
+//! | [`NAVIGATION`] | the planner | Push newest | [`NavFeedback`]: distance left, ETA, the path, the result |
+//!
+//! A navigation goal has the lifecycle of a ROS 2 action: accepted or rejected with a reason,
+//! feedback while it runs, a result (succeeded, aborted with a reason, canceled), and a newer
+//! goal preempts the one running (which ends `canceled`, "preempted").
+//!
+//! The components are called [`LOCALIZER`] and [`PATHFOLLOW`] in the default configuration;
+//! the goals go to the planner (`orsa_interfaces::planner::NAME`).
+
+use orsa_actors::service::{PushNewestService, QueryService, SendService};
+use orsa_actors::{Timestamp, comm_object};
+use serde::{Deserialize, Serialize};
+
+/// The localizer's name in the default configuration.
+pub const LOCALIZER: &str = "localizer";
+/// The path follower's name in the default configuration.
+pub const PATHFOLLOW: &str = "pathfollow";
+
+/// The robot's pose in the map, at every odometry update.
+pub const POSE: PushNewestService<PoseEstimate> = PushNewestService::new("pose");
+/// The path the path follower follows.
+pub const PATH: SendService<FollowPath> = SendService::new("path");
+/// Goals to places.
+pub const NAVIGATE: QueryService<NavGoal, NavReply> = QueryService::new("navigate");
+/// Cancels a goal.
+pub const CANCEL: SendService<NavCancel> = SendService::new("cancel");
+/// The running goal's feedback and every goal's result.
+pub const NAVIGATION: PushNewestService<NavFeedback> = PushNewestService::new("navigation");
+
+/// The robot's pose in the map (service [`POSE`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseEstimate {
+    /// The odometry it was made from.
+    pub stamp: Timestamp,
+    /// x in the map, m.
+    pub x_m: f64,
+    /// y in the map, m.
+    pub y_m: f64,
+    /// Heading in the map, rad counter-clockwise from +x, in (-pi, pi].
+    pub heading_rad: f64,
+    /// Covariance of (x, y, heading), row-major: m^2, m rad, rad^2.
+    pub covariance: [f64; 9],
+    /// The odometry frame's pose in the map (`map -> odom`): x, m.
+    pub odom_x_m: f64,
+    /// `map -> odom`: y, m.
+    pub odom_y_m: f64,
+    /// `map -> odom`: heading, rad.
+    pub odom_heading_rad: f64,
+}
+comm_object!(PoseEstimate, "orsa.navigation.PoseEstimate/1");
+
+impl PoseEstimate {
+    /// The odometry pose `(x, y, heading)` in the map, through this estimate's `map -> odom`.
+    pub fn in_map(&self, x_m: f64, y_m: f64, heading_rad: f64) -> (f64, f64, f64) {
+        let (s, c) = self.odom_heading_rad.sin_cos();
+        let h = (self.odom_heading_rad + heading_rad).sin().atan2((self.odom_heading_rad + heading_rad).cos());
+        (self.odom_x_m + c * x_m - s * y_m, self.odom_y_m + s * x_m + c * y_m, h)
+    }
+}
+
+/// What the path follower is to follow (service [`PATH`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FollowPath {
+    /// The goal it belongs to (its status names it).
+    pub goal_id: u64,
+    /// The points, in the map, from the robot to the goal; empty: stop.
+    pub points: Vec<[f64; 2]>,
+    /// The heading to turn to at the end, rad, if any.
+    pub heading_rad: Option<f64>,
+}
+comm_object!(FollowPath, "orsa.navigation.FollowPath/1");
+
+/// Where a goal goes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum NavTarget {
+    /// A place named in the world.
+    Place {
+        /// Its name.
+        name: String,
+    },
+    /// A pose in the map.
+    Pose {
+        /// x, m.
+        x_m: f64,
+        /// y, m.
+        y_m: f64,
+        /// The heading to end with, degrees counter-clockwise from +x, if any.
+        heading_deg: Option<f64>,
+    },
+}
+
+impl NavTarget {
+    /// Reads `PLACE` or `X,Y[,HEADING_DEG]` (as `orsa goto` and `--goto` take them).
+    pub fn parse(text: &str) -> Result<NavTarget, String> {
+        let text = text.trim();
+        let first = text.chars().next().ok_or("an empty goal: give a place's name or X,Y[,HEADING_DEG]")?;
+        if !(first.is_ascii_digit() || first == '-' || first == '+' || first == '.') {
+            return Ok(NavTarget::Place { name: text.to_string() });
+        }
+        let numbers: Result<Vec<f64>, _> = text.split(',').map(|s| s.trim().parse::<f64>()).collect();
+        match numbers.as_deref() {
+            Ok(n) if n.iter().all(|v| v.is_finite()) && (n.len() == 2 || n.len() == 3) => {
+                Ok(NavTarget::Pose { x_m: n[0], y_m: n[1], heading_deg: n.get(2).copied() })
+            }
+            _ => Err(format!("'{text}' is neither a place's name nor X,Y[,HEADING_DEG] in metres and degrees")),
+        }
+    }
+}
+
+impl std::fmt::Display for NavTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NavTarget::Place { name } => f.write_str(name),
+            NavTarget::Pose { x_m, y_m, heading_deg: None } => write!(f, "{x_m:.2},{y_m:.2}"),
+            NavTarget::Pose { x_m, y_m, heading_deg: Some(h) } => write!(f, "{x_m:.2},{y_m:.2},{h:.0}"),
+        }
+    }
+}
+
+/// A goal (service [`NAVIGATE`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NavGoal {
+    /// Where to go.
+    pub target: NavTarget,
+}
+comm_object!(NavGoal, "orsa.navigation.NavGoal/1");
+
+/// The planner's answer to a goal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NavReply {
+    /// Accepted under this id: feedback and the result come on [`NAVIGATION`].
+    Accepted {
+        /// The goal's id.
+        id: u64,
+    },
+    /// Refused at once, and why (a goal inside a wall, off the map, an unknown place).
+    Rejected {
+        /// Why.
+        reason: String,
+    },
+}
+comm_object!(NavReply, "orsa.navigation.NavReply/1");
+
+/// Cancels a goal (service [`CANCEL`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NavCancel {
+    /// The goal to cancel; `None`: whichever runs.
+    pub id: Option<u64>,
+}
+comm_object!(NavCancel, "orsa.navigation.NavCancel/1");
+
+/// How a goal stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NavState {
+    /// Being driven to.
+    Active,
+    /// Reached: within tolerance, stopped.
+    Succeeded,
+    /// Given up, for the reason given.
+    Aborted,
+    /// Canceled, or preempted by a newer goal.
+    Canceled,
+    /// Refused at once.
+    Rejected,
+}
+
+impl NavState {
+    /// Its name, as the report writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            NavState::Active => "active",
+            NavState::Succeeded => "succeeded",
+            NavState::Aborted => "aborted",
+            NavState::Canceled => "canceled",
+            NavState::Rejected => "rejected",
+        }
+    }
+
+    /// Whether the goal is over.
+    pub fn is_final(self) -> bool {
+        self != NavState::Active
+    }
+}
+
+/// A goal's feedback or result (service [`NAVIGATION`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NavFeedback {
+    /// When.
+    pub stamp: Timestamp,
+    /// The goal's id.
+    pub id: u64,
+    /// Where it goes.
+    pub target: NavTarget,
+    /// Its position in the map, m.
+    pub goal: [f64; 2],
+    /// How it stands.
+    pub state: NavState,
+    /// Why it ended so, or what it does now (a recovery).
+    pub reason: String,
+    /// The distance left along the path, m.
+    pub distance_left_m: f64,
+    /// The time left at the path follower's cruise speed, s.
+    pub eta_s: f64,
+    /// The path being followed, in the map.
+    pub path: Vec<[f64; 2]>,
+}
+comm_object!(NavFeedback, "orsa.navigation.NavFeedback/1");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn targets_parse_places_and_poses_and_refuse_the_rest() {
+        assert_eq!(NavTarget::parse("room-3"), Ok(NavTarget::Place { name: "room-3".into() }));
+        assert_eq!(
+            NavTarget::parse("1.5,-2"),
+            Ok(NavTarget::Pose { x_m: 1.5, y_m: -2.0, heading_deg: None })
+        );
+        assert_eq!(
+            NavTarget::parse(" 3, 4 ,90"),
+            Ok(NavTarget::Pose { x_m: 3.0, y_m: 4.0, heading_deg: Some(90.0) })
+        );
+        for bad in ["", "1", "1,2,3,4", "1,x", "1,NaN", "1,inf"] {
+            assert!(NavTarget::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_odometry_pose_is_carried_into_the_map() {
+        let e = PoseEstimate {
+            stamp: Timestamp(0),
+            x_m: 0.0,
+            y_m: 0.0,
+            heading_rad: 0.0,
+            covariance: [0.0; 9],
+            odom_x_m: 1.0,
+            odom_y_m: 2.0,
+            odom_heading_rad: std::f64::consts::FRAC_PI_2,
+        };
+        let (x, y, h) = e.in_map(1.0, 0.0, 0.0);
+        assert!((x - 1.0).abs() < 1e-12 && (y - 3.0).abs() < 1e-12, "{x} {y}");
+        assert!((h - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn objects_round_trip() {
+        let f = NavFeedback {
+            stamp: Timestamp(5),
+            id: 3,
+            target: NavTarget::Pose { x_m: 1.0, y_m: 2.0, heading_deg: Some(90.0) },
+            goal: [1.0, 2.0],
+            state: NavState::Aborted,
+            reason: "no path".into(),
+            distance_left_m: 2.5,
+            eta_s: 10.0,
+            path: vec![[0.0, 0.0], [1.0, 2.0]],
+        };
+        let json = serde_json::to_string(&f).expect("serialise");
+        assert_eq!(serde_json::from_str::<NavFeedback>(&json).expect("deserialise"), f);
+        let g = NavGoal { target: NavTarget::Place { name: "dock".into() } };
+        let json = serde_json::to_string(&g).expect("serialise");
+        assert_eq!(serde_json::from_str::<NavGoal>(&json).expect("deserialise"), g);
+    }
+}

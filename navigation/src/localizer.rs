@@ -1,0 +1,251 @@
+//! The localizer component: Monte Carlo localization ([`crate::mcl`]) on the robot's odometry
+//! and range sensors against the known map, publishing the pose in the map on `pose`.
+//!
+//! It reads the robot by its interface alone: its geometry from `robotparams` (where each range
+//! sensor sits, which way it looks, how wide and how far), odometry from `basestate`, the near
+//! and far range views from `distanceir` and `distanceson`, so the same component localizes
+//! any robot that describes its sensors (a Nomad 200's two rings, a laser's two views). Every
+//! odometry update is published as a [`PoseEstimate`]: the newest filter estimate carried
+//! forward by odometry through `map -> odom`, with the filter's covariance. What it last knew
+//! (`map -> odom`) outlives a restart of the component, so a restarted localizer starts where
+//! the robot is.
+
+use crate::mcl::{Beam, Localizer, MclParams, Pose2, wrap};
+use orsa_actors::param::Invalid;
+use orsa_actors::push_newest::PushNewestServer;
+use orsa_actors::{Component, ComponentError, Ctx, Empty, Update};
+use orsa_interfaces::map::OccupancyGrid;
+use orsa_interfaces::navigation::{POSE, PoseEstimate};
+use orsa_interfaces::nomad200::{self, BaseState, DistanceScan, RingParams, RobotParams};
+use serde::{Deserialize, Serialize};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// The localizer's parameters (`[params.localizer]`), read when it starts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LocalizerParams {
+    /// How many particles.
+    pub particles: usize,
+    /// The spread of the first particles about the start pose, m.
+    pub initial_sigma_m: f64,
+    /// Their spread in heading, degrees.
+    pub initial_sigma_deg: f64,
+    /// The seed of its random draws (a run with the same seed localizes the same way).
+    pub seed: u64,
+}
+
+impl Default for LocalizerParams {
+    fn default() -> Self {
+        LocalizerParams { particles: 1000, initial_sigma_m: 0.1, initial_sigma_deg: 3.0, seed: 1 }
+    }
+}
+
+impl LocalizerParams {
+    /// Checks every value; messages name the key.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        if !(10..=100_000).contains(&self.particles) {
+            return Err(Invalid::new(
+                "localizer.particles",
+                format!("must be from 10 to 100000, not {}", self.particles),
+            ));
+        }
+        if !(self.initial_sigma_m.is_finite() && (0.0..=10.0).contains(&self.initial_sigma_m)) {
+            return Err(Invalid::new("localizer.initial_sigma_m", "must be from 0 to 10 m"));
+        }
+        if !(self.initial_sigma_deg.is_finite() && (0.0..=180.0).contains(&self.initial_sigma_deg)) {
+            return Err(Invalid::new("localizer.initial_sigma_deg", "must be from 0 to 180 degrees"));
+        }
+        Ok(())
+    }
+}
+
+/// The localizer component.
+#[derive(Debug, Clone)]
+pub struct Localization {
+    /// Its parameters.
+    pub params: LocalizerParams,
+    /// The robot server's name.
+    pub robot: String,
+    /// The known map.
+    pub map: Arc<OccupancyGrid>,
+    /// Where the robot starts, in the map (its odometry starts at zero there).
+    pub start: Pose2,
+}
+
+/// Messages of [`Localization`].
+#[derive(Debug)]
+pub enum LocalizationMsg {
+    /// Odometry.
+    Base(Update<BaseState>),
+    /// The near range view.
+    Ir(Update<DistanceScan>),
+    /// The far range view.
+    Sonar(Update<DistanceScan>),
+}
+
+/// The running state of [`Localization`].
+pub struct LocalizationState {
+    filter: Localizer,
+    robot: RobotParams,
+    pose: PushNewestServer<PoseEstimate>,
+    ir: Option<DistanceScan>,
+    sonar: Option<DistanceScan>,
+    /// `map -> odom`, kept across restarts.
+    map_odom: Arc<Mutex<Option<Pose2>>>,
+    /// Whether the filter has been placed (at the first odometry).
+    placed: bool,
+    beams: Vec<Beam>,
+    covariance: [f64; 9],
+}
+
+/// A ring's readings as beams (no echo within its range: `None`).
+pub fn ring_beams(scan: &DistanceScan, ring: &RingParams, out: &mut Vec<Beam>) {
+    for r in &scan.readings {
+        let Some(&a) = ring.angles_rad.get(usize::from(r.sensor_id)) else { continue };
+        let echo = r.valid && r.distance_m.is_finite() && r.distance_m < ring.max_range_m;
+        out.push(Beam {
+            origin: (ring.mount_radius_m * a.cos(), ring.mount_radius_m * a.sin()),
+            angle_rad: a,
+            half_width_rad: ring.beam_width_rad / 2.0,
+            range_m: echo.then_some(r.distance_m),
+            max_range_m: ring.max_range_m,
+        });
+    }
+}
+
+/// `map -> odom` from the pose in the map and the odometry pose it was made from.
+pub fn map_to_odom(map: Pose2, odom: Pose2) -> Pose2 {
+    let theta = wrap(map.theta - odom.theta);
+    let (s, c) = theta.sin_cos();
+    Pose2::new(map.x - (c * odom.x - s * odom.y), map.y - (s * odom.x + c * odom.y), theta)
+}
+
+impl Component for Localization {
+    type Msg = LocalizationMsg;
+    type State = LocalizationState;
+
+    async fn setup(&self, ctx: &Ctx<LocalizationMsg>) -> Result<LocalizationState, ComponentError> {
+        self.params.validate().map_err(|e| e.to_string())?;
+        let robot: RobotParams = ctx
+            .query_client(nomad200::ROBOTPARAMS.on(&self.robot))?
+            .query(Empty {}, Some(Duration::from_secs(2)))
+            .await
+            .map_err(|e| format!("{}: cannot get {}/robotparams: {e}", ctx.name(), self.robot))?;
+        let mcl = MclParams { particles: self.params.particles, ..MclParams::default() };
+        let filter =
+            Localizer::new(&self.map, mcl, self.params.seed).map_err(|e| format!("{}: {e}", ctx.name()))?;
+        let pose = ctx.push_newest_server(POSE)?;
+        let map_odom = ctx.keep("map_odom", || Arc::new(Mutex::new(None::<Pose2>)))?;
+        ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, LocalizationMsg::Base)?;
+        ctx.subscribe_timed(nomad200::DISTANCEIR.on(&self.robot), 1, LocalizationMsg::Ir)?;
+        ctx.subscribe_timed(nomad200::DISTANCESON.on(&self.robot), 1, LocalizationMsg::Sonar)?;
+        Ok(LocalizationState {
+            filter,
+            robot,
+            pose,
+            ir: None,
+            sonar: None,
+            map_odom,
+            placed: false,
+            beams: Vec::new(),
+            covariance: [0.0; 9],
+        })
+    }
+
+    async fn handle(
+        &self,
+        ctx: &Ctx<LocalizationMsg>,
+        st: &mut LocalizationState,
+        msg: LocalizationMsg,
+    ) -> Result<(), ComponentError> {
+        let b = match msg {
+            LocalizationMsg::Ir(s) => {
+                st.ir = Some(s.value.clone());
+                return Ok(());
+            }
+            LocalizationMsg::Sonar(s) => {
+                st.sonar = Some(s.value.clone());
+                return Ok(());
+            }
+            LocalizationMsg::Base(b) => b.value.clone(),
+        };
+        let odom = Pose2::new(b.x_m, b.y_m, b.heading_rad);
+        if !(odom.x.is_finite() && odom.y.is_finite() && odom.theta.is_finite()) {
+            return Ok(());
+        }
+        let kept = *st.map_odom.lock().map_err(|_| "localizer: its kept pose is poisoned")?;
+        if !st.placed {
+            // The start pose, or where a restarted instance last knew the robot to be.
+            let at = match kept {
+                Some(t) => {
+                    let (x, y) = t.apply(odom.x, odom.y);
+                    Pose2::new(x, y, wrap(t.theta + odom.theta))
+                }
+                None => {
+                    let (x, y) = self.start.apply(odom.x, odom.y);
+                    Pose2::new(x, y, wrap(self.start.theta + odom.theta))
+                }
+            };
+            let sigma_rad = self.params.initial_sigma_deg.to_radians();
+            st.filter.reset_at(at, self.params.initial_sigma_m, sigma_rad).map_err(|e| e.to_string())?;
+            st.placed = true;
+        }
+        st.beams.clear();
+        if let Some(s) = &st.sonar {
+            ring_beams(s, &st.robot.sonar, &mut st.beams);
+        }
+        if let Some(s) = &st.ir {
+            ring_beams(s, &st.robot.infrared, &mut st.beams);
+        }
+        let t = if st.filter.update(odom, &st.beams) || kept.is_none() {
+            let e = st.filter.estimate();
+            st.covariance = [
+                e.covariance[0][0],
+                e.covariance[0][1],
+                e.covariance[0][2],
+                e.covariance[1][0],
+                e.covariance[1][1],
+                e.covariance[1][2],
+                e.covariance[2][0],
+                e.covariance[2][1],
+                e.covariance[2][2],
+            ];
+            let t = map_to_odom(e.pose, odom);
+            *st.map_odom.lock().map_err(|_| "localizer: its kept pose is poisoned")? = Some(t);
+            t
+        } else {
+            kept.unwrap_or(self.start)
+        };
+        let (x, y) = t.apply(odom.x, odom.y);
+        st.pose.put(PoseEstimate {
+            stamp: b.stamp,
+            x_m: x,
+            y_m: y,
+            heading_rad: wrap(t.theta + odom.theta),
+            covariance: st.covariance,
+            odom_x_m: t.x,
+            odom_y_m: t.y,
+            odom_heading_rad: t.theta,
+        });
+        let _ = ctx;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_to_odom_carries_the_odometry_pose_onto_the_estimate() {
+        let map = Pose2::new(3.0, -1.0, 0.7);
+        let odom = Pose2::new(1.2, 0.4, -0.3);
+        let t = map_to_odom(map, odom);
+        let (x, y) = t.apply(odom.x, odom.y);
+        assert!((x - map.x).abs() < 1e-12 && (y - map.y).abs() < 1e-12, "{x} {y}");
+        assert!((wrap(t.theta + odom.theta) - map.theta).abs() < 1e-12);
+        let bad = LocalizerParams { particles: 5, ..LocalizerParams::default() };
+        assert_eq!(bad.validate().expect_err("too few").key, "localizer.particles");
+    }
+}
