@@ -203,8 +203,8 @@ pub struct NavFeedback {
     pub id: u64,
     /// Where it goes.
     pub target: NavTarget,
-    /// Its position in the map, m.
-    pub goal: [f64; 2],
+    /// Its position in the map, m (`None`: it names none, e.g. an unknown place).
+    pub goal: Option<[f64; 2]>,
     /// How it stands.
     pub state: NavState,
     /// Why it ended so, or what it does now (a recovery).
@@ -261,7 +261,7 @@ mod tests {
             stamp: Timestamp(5),
             id: 3,
             target: NavTarget::Pose { x_m: 1.0, y_m: 2.0, heading_deg: Some(90.0) },
-            goal: [1.0, 2.0],
+            goal: Some([1.0, 2.0]),
             state: NavState::Aborted,
             reason: "no path".into(),
             distance_left_m: 2.5,

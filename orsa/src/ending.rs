@@ -147,7 +147,7 @@ impl Outcome {
     /// command's error (exit code 1).
     pub fn of(ended: &Ended) -> anyhow::Result<Outcome> {
         match ended {
-            Ended::Completed => Ok(Outcome::Completed),
+            Ended::Completed | Ended::MissionEnded { .. } => Ok(Outcome::Completed),
             Ended::GaveUp { .. } => Ok(Outcome::GaveUp),
             Ended::Interrupted { .. } => Ok(Outcome::Interrupted),
             Ended::Failed { at_s, error } => Err(anyhow::anyhow!("failed at {at_s:.1} s: {error}")),

@@ -404,7 +404,7 @@ impl Planner {
             stamp: ctx.now(),
             id: a.id,
             target: a.target.clone(),
-            goal: [a.goal.x_m, a.goal.y_m],
+            goal: Some([a.goal.x_m, a.goal.y_m]),
             state,
             reason: reason.into(),
             distance_left_m: left,
@@ -424,19 +424,33 @@ impl Planner {
         let (Some(setup), Some(nav)) = (&self.nav, st.nav.as_mut()) else {
             return Err("this planner has no map: it cannot send the robot to places".into());
         };
-        let goal = setup.map.resolve(&target)?;
-        let pose = nav.pose.ok_or("no estimate of the robot's pose yet")?;
+        nav.next_id += 1;
+        let id = nav.next_id;
+        let refuse = |nav: &NavState_, why: String, goal: Option<GoalPose>| {
+            nav.feedback.put(NavFeedback {
+                stamp: ctx.now(),
+                id,
+                target: target.clone(),
+                goal: goal.map(|g| [g.x_m, g.y_m]),
+                state: NavState::Rejected,
+                reason: why.clone(),
+                distance_left_m: 0.0,
+                eta_s: 0.0,
+                path: Vec::new(),
+            });
+            why
+        };
+        let goal = setup.map.resolve(&target).map_err(|why| refuse(nav, why, None))?;
+        let pose = nav.pose.ok_or_else(|| refuse(nav, "no estimate of the robot's pose yet".into(), Some(goal)))?;
         // Rejected at once if the known map has no way there; around what the sensors see if
         // there is one.
-        let known = setup.map.route((pose.0, pose.1), goal, &nav.plan)?;
+        let known = setup.map.route((pose.0, pose.1), goal, &nav.plan).map_err(|why| refuse(nav, why, Some(goal)))?;
         let path = if nav.layer.marks() > 0 {
             nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m + 0.05);
             route(&nav.layer.grid(), (pose.0, pose.1), goal, &nav.plan).unwrap_or(known)
         } else {
             known
         };
-        nav.next_id += 1;
-        let id = nav.next_id;
         if let Some(old) = nav.active.take() {
             self.feedback(ctx, nav, &old, NavState::Canceled, &format!("preempted by goal {id}"));
         }

@@ -114,6 +114,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let kinds = config.system.kinds();
     let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
     opts.faults = plan;
+    opts.until_mission_ends = !args.goto.is_empty();
     let b = bar.clone();
     opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
@@ -148,6 +149,9 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     }
 
     say(&report.table());
+    if let Some(nav) = &report.navigation {
+        say(&nav.table());
+    }
     let json = serde_json::to_string_pretty(&report)?;
     std::fs::write(&report_path, json)
         .with_context(|| format!("{}: cannot write the report", report_path.display()))?;

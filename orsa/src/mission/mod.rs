@@ -12,6 +12,7 @@
 pub mod integrity;
 mod measures;
 pub mod metrics;
+pub mod navigation;
 pub mod observe;
 pub mod report;
 pub mod stack;
@@ -85,6 +86,9 @@ pub struct RunOptions {
     /// A program's own observers of the run, told of it after the built-in ones (see
     /// [`observe`] and [`RunOptions::observe`]).
     pub observers: Vec<Box<dyn RunObserver>>,
+    /// End the run when the planner's mission ends (completed or aborted), if it ends before
+    /// the duration: `orsa run --goto`.
+    pub until_mission_ends: bool,
 }
 
 /// See [`RunOptions::on_start`].
@@ -119,6 +123,7 @@ impl RunOptions {
             on_start: None,
             live: None,
             observers: Vec::new(),
+            until_mission_ends: false,
         }
     }
 
@@ -224,7 +229,8 @@ pub async fn run(mut opts: RunOptions) -> Result<RunOutcome, MissionError> {
     let period = Duration::from_secs_f64(opts.sample_period_s);
     let samples = (opts.duration_s / opts.sample_period_s).round() as u64;
     let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
-    let early = early(opts.interrupt.take(), gave_up_rx);
+    let mission = if opts.until_mission_ends { Some(mission_end(&stack)?) } else { None };
+    let early = early(opts.interrupt.take(), gave_up_rx, mission);
     tokio::pin!(early);
     let (mut ended, mut simulated_s) = (Ended::Completed, opts.duration_s);
     for k in 1..=samples {
@@ -309,6 +315,12 @@ fn observers(opts: &mut RunOptions) -> Result<Vec<Box<dyn RunObserver>>, Mission
     if let Some(live) = opts.live.take() {
         all.push(Box::new(observe::LiveView(live)));
     }
+    // A system with the navigation components is measured as navigation too.
+    let kinds = opts.config.system.kinds();
+    if ["localizer", "pathfollow"].iter().all(|k| kinds.values().any(|have| have == k)) {
+        let radius_m = opts.config.sim.robot_params(opts.config.robot().push_periods()).body_radius_m;
+        all.push(Box::new(navigation::NavigationRun::new(opts.world.clone(), radius_m)));
+    }
     if let Some(report) = opts.progress.clone() {
         let every = ((opts.progress_every_s / opts.sample_period_s).round() as u64).max(1);
         all.push(Box::new(observe::Progress { report, every }));
@@ -373,10 +385,32 @@ impl Driving {
     }
 }
 
-/// What may end the run before its time: `interrupt`, or the top supervisor giving up.
+/// When the planner's mission ends: how it ended.
+fn mission_end(stack: &Stack) -> Result<futures::future::BoxFuture<'static, String>, MissionError> {
+    let (tx, mut rx) = mpsc::unbounded_channel::<Update<orsa_interfaces::planner::MissionStatus>>();
+    let client = PushNewestClient::connect_to(
+        &stack.registry,
+        orsa_interfaces::planner::MISSION.on(orsa_interfaces::planner::NAME),
+        Sink::channel(tx),
+    )?;
+    client.subscribe()?;
+    Ok(Box::pin(async move {
+        let _client = client;
+        while let Some(status) = rx.recv().await {
+            if let Some(how) = &status.finished {
+                return how.clone();
+            }
+        }
+        std::future::pending().await
+    }))
+}
+
+/// What may end the run before its time: `interrupt`, the top supervisor giving up, or the
+/// end of the planner's `mission` if the run ends with it.
 async fn early(
     interrupt: Option<futures::future::BoxFuture<'static, String>>,
     mut gave_up: tokio::sync::watch::Receiver<Option<SupervisorEvent>>,
+    mission: Option<futures::future::BoxFuture<'static, String>>,
 ) -> Early {
     let signal = async move {
         match interrupt {
@@ -384,8 +418,15 @@ async fn early(
             None => std::future::pending().await,
         }
     };
+    let mission = async move {
+        match mission {
+            Some(m) => m.await,
+            None => std::future::pending().await,
+        }
+    };
     tokio::select! {
         signal = signal => Early::Interrupted(signal),
+        result = mission => Early::MissionEnded(result),
         e = gave_up.wait_for(Option::is_some) => match e.ok().and_then(|e| e.clone()) {
             Some(e) => Early::GaveUp(e),
             None => std::future::pending().await,
@@ -415,6 +456,8 @@ async fn safety_counters(stack: &Stack, robot: &str, ended: &Ended) -> Result<Sa
 enum Early {
     /// A signal, by name.
     Interrupted(String),
+    /// The planner's mission ended, so.
+    MissionEnded(String),
     /// The top supervisor gave up.
     GaveUp(SupervisorEvent),
 }
@@ -428,6 +471,10 @@ async fn stop_early(stack: &Stack, why: Early, at_s: f64) -> Ended {
         Early::Interrupted(signal) => {
             tracing::warn!("interrupted by {signal} at {at_s:.1} s: writing the report");
             Ended::Interrupted { at_s, signal }
+        }
+        Early::MissionEnded(result) => {
+            tracing::info!("the mission ended at {at_s:.1} s ({result})");
+            Ended::MissionEnded { at_s, result }
         }
         Early::GaveUp(e) => {
             // Once every component has stopped (the top stops its children after it reports

@@ -187,6 +187,13 @@ pub enum Ended {
         /// Which signal.
         signal: String,
     },
+    /// Its planner's mission ended (a run asked to end with it: `orsa run --goto`).
+    MissionEnded {
+        /// Simulated time it ended at, s.
+        at_s: f64,
+        /// How: `completed`, or `aborted: ...`.
+        result: String,
+    },
     /// A fatal error ended it (the command's exit code is 1).
     Failed {
         /// Time it ended at, s.
@@ -209,6 +216,7 @@ impl Ended {
                 ))
             ),
             Ended::Interrupted { at_s, signal } => format!("was interrupted by {signal} at {at_s:.1} s"),
+            Ended::MissionEnded { at_s, result } => format!("ended with its mission at {at_s:.1} s: {result}"),
             Ended::Failed { at_s, error } => format!("failed at {at_s:.1} s: {error}"),
         }
     }
@@ -262,6 +270,9 @@ pub struct Report {
     /// and wiring.
     #[serde(default)]
     pub integrity: super::integrity::IntegrityReport,
+    /// Where the robot was sent and how it went (runs with the navigation components).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub navigation: Option<super::navigation::NavigationReport>,
     /// The figures sampled every hour (`RunOptions::figures_every_s`), and at the end: memory,
     /// restarts, each hour's measures and the sizes of what could pile up.
     #[serde(default)]
@@ -302,6 +313,7 @@ impl Report {
             safety,
             delivery: Default::default(),
             integrity: Default::default(),
+            navigation: None,
             hours: Vec::new(),
         }
     }
