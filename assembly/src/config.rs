@@ -9,9 +9,9 @@ use orsa_actors::param::Invalid;
 use orsa_executive::ExecutiveParams;
 use orsa_hardware::server::ServerParams;
 use orsa_hardware::sim::SimConfig;
+use orsa_navigation::localizer::LocalizerParams;
 use orsa_planner::PlannerParams;
 use orsa_reactive::centerfollow::CenterFollowParams;
-use orsa_navigation::localizer::LocalizerParams;
 use orsa_reactive::pathfollow::PathFollowParams;
 use orsa_reactive::wallfollow::WallFollowParams;
 use serde::{Deserialize, Serialize};
@@ -606,10 +606,11 @@ impl Config {
     /// place's name or `X,Y[,HEADING_DEG]`), as `orsa run --goto` makes it.
     pub fn with_goto(&self, targets: &[String]) -> Result<Config, ConfigError> {
         let mut c = self.with_navigation()?;
-        let planner = c.of_kind(&["planner"]).map(|s| s.name.clone()).ok_or_else(|| ConfigError::Invalid {
-            origin: "--goto".into(),
-            error: Invalid::new("system.components", "the system has no planner to give the places to"),
-        })?;
+        let planner =
+            c.of_kind(&["planner"]).map(|s| s.name.clone()).ok_or_else(|| ConfigError::Invalid {
+                origin: "--goto".into(),
+                error: Invalid::new("system.components", "the system has no planner to give the places to"),
+            })?;
         let mission: Vec<toml::Value> = targets
             .iter()
             .map(|t| {

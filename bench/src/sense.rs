@@ -181,7 +181,7 @@ pub(crate) trait Triggered: Component {
 impl Triggered for WallFollow {
     const NAME: &'static str = "wallfollow";
     fn trigger(msg: &WallFollowMsg) -> (Timestamp, Timestamp) {
-        // Odometry, contact, parameters and health never make a step (no status follows them), so their stamps are
+        // Odometry, contact, parameters, health, poses and paths never make a step (no status follows them), so their stamps are
         // never used.
         match msg {
             WallFollowMsg::Ir(u) | WallFollowMsg::Sonar(u) => (u.sent_at, u.value.stamp),
@@ -189,6 +189,8 @@ impl Triggered for WallFollow {
             WallFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
             WallFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
             WallFollowMsg::Health(u) => (u.sent_at, u.value.stamp),
+            WallFollowMsg::Pose(u) => (u.sent_at, u.value.stamp),
+            WallFollowMsg::Path(p) => (p.sent_at, p.sent_at),
         }
     }
 }
@@ -202,6 +204,8 @@ impl Triggered for CenterFollow {
             CenterFollowMsg::Contact(c) => (c.event.sent_at, c.event.value.stamp),
             CenterFollowMsg::Param(q) => (q.request.sent_at, q.request.sent_at),
             CenterFollowMsg::Health(u) => (u.sent_at, u.value.stamp),
+            CenterFollowMsg::Pose(u) => (u.sent_at, u.value.stamp),
+            CenterFollowMsg::Path(p) => (p.sent_at, p.sent_at),
         }
     }
 }

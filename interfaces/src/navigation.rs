@@ -61,7 +61,8 @@ impl PoseEstimate {
     /// The odometry pose `(x, y, heading)` in the map, through this estimate's `map -> odom`.
     pub fn in_map(&self, x_m: f64, y_m: f64, heading_rad: f64) -> (f64, f64, f64) {
         let (s, c) = self.odom_heading_rad.sin_cos();
-        let h = (self.odom_heading_rad + heading_rad).sin().atan2((self.odom_heading_rad + heading_rad).cos());
+        let h =
+            (self.odom_heading_rad + heading_rad).sin().atan2((self.odom_heading_rad + heading_rad).cos());
         (self.odom_x_m + c * x_m - s * y_m, self.odom_y_m + s * x_m + c * y_m, h)
     }
 }
@@ -111,7 +112,9 @@ impl NavTarget {
             Ok(n) if n.iter().all(|v| v.is_finite()) && (n.len() == 2 || n.len() == 3) => {
                 Ok(NavTarget::Pose { x_m: n[0], y_m: n[1], heading_deg: n.get(2).copied() })
             }
-            _ => Err(format!("'{text}' is neither a place's name nor X,Y[,HEADING_DEG] in metres and degrees")),
+            _ => {
+                Err(format!("'{text}' is neither a place's name nor X,Y[,HEADING_DEG] in metres and degrees"))
+            }
         }
     }
 }

@@ -23,6 +23,10 @@ pub struct ObstacleLayer {
     clear_margin_m: f64,
     /// Bumped at every change of a mark.
     version: u64,
+    /// Echoes within this distance of what the known map holds are the map's, m.
+    explain_m: f64,
+    /// The distance to the known map's nearest obstacle (when `explain_m` > 0).
+    field: Option<crate::field::DistanceField>,
 }
 
 impl ObstacleLayer {
@@ -31,7 +35,28 @@ impl ObstacleLayer {
     pub fn new(known: OccupancyGrid, mark_range_m: f64, clear_margin_m: f64) -> Result<Self, GridError> {
         known.validate()?;
         let marked = vec![false; known.cells.len()];
-        Ok(ObstacleLayer { known, marked, mark_range_m, clear_margin_m, version: 0 })
+        Ok(ObstacleLayer {
+            known,
+            marked,
+            mark_range_m,
+            clear_margin_m,
+            version: 0,
+            explain_m: 0.0,
+            field: None,
+        })
+    }
+
+    /// Leaves unmarked the echoes within `explain_m` of what the known map holds: they are the
+    /// known walls seen with a sensor's noise, or a cell's width off (an echo a centimetre in
+    /// front of a wall falls in the free cell beside it). Without it, every such echo is a mark
+    /// along the walls.
+    pub fn explaining(mut self, explain_m: f64) -> Self {
+        if explain_m.is_finite() && explain_m > 0.0 {
+            self.field =
+                Some(crate::field::DistanceField::of(&self.known, 2.0 * explain_m + self.known.resolution_m));
+            self.explain_m = explain_m;
+        }
+        self
     }
 
     /// Takes the readings `beams` taken from `pose` (map frame); returns whether a mark changed.
@@ -46,8 +71,11 @@ impl ObstacleLayer {
                 Some(r) => (r - self.clear_margin_m).max(0.0),
                 None => b.max_range_m,
             };
+            let explained = |r: &f64| {
+                self.field.as_ref().is_some_and(|f| f.at(ox + r * dx, oy + r * dy) <= self.explain_m)
+            };
             let mark = echo
-                .filter(|r| *r <= self.mark_range_m)
+                .filter(|r| *r <= self.mark_range_m && !explained(r))
                 .and_then(|r| self.known.cell_of(ox + r * dx, oy + r * dy))
                 .map(|(ix, iy)| self.known.index(ix, iy));
             let mut cleared = Vec::new();

@@ -33,11 +33,22 @@ pub struct LocalizerParams {
     pub initial_sigma_deg: f64,
     /// The seed of its random draws (a run with the same seed localizes the same way).
     pub seed: u64,
+    /// The travel between two corrections by the range readings, m (AMCL's `update_min_d`).
+    pub update_min_m: f64,
+    /// The turn between two corrections, degrees (AMCL's `update_min_a`).
+    pub update_min_deg: f64,
 }
 
 impl Default for LocalizerParams {
     fn default() -> Self {
-        LocalizerParams { particles: 1000, initial_sigma_m: 0.1, initial_sigma_deg: 3.0, seed: 1 }
+        LocalizerParams {
+            particles: 500,
+            initial_sigma_m: 0.1,
+            initial_sigma_deg: 3.0,
+            seed: 1,
+            update_min_m: 0.05,
+            update_min_deg: 10.0,
+        }
     }
 }
 
@@ -55,6 +66,12 @@ impl LocalizerParams {
         }
         if !(self.initial_sigma_deg.is_finite() && (0.0..=180.0).contains(&self.initial_sigma_deg)) {
             return Err(Invalid::new("localizer.initial_sigma_deg", "must be from 0 to 180 degrees"));
+        }
+        if !(self.update_min_m.is_finite() && (0.0..=5.0).contains(&self.update_min_m)) {
+            return Err(Invalid::new("localizer.update_min_m", "must be from 0 to 5 m"));
+        }
+        if !(self.update_min_deg.is_finite() && (0.0..=180.0).contains(&self.update_min_deg)) {
+            return Err(Invalid::new("localizer.update_min_deg", "must be from 0 to 180 degrees"));
         }
         Ok(())
     }
@@ -132,7 +149,12 @@ impl Component for Localization {
             .query(Empty {}, Some(Duration::from_secs(2)))
             .await
             .map_err(|e| format!("{}: cannot get {}/robotparams: {e}", ctx.name(), self.robot))?;
-        let mcl = MclParams { particles: self.params.particles, ..MclParams::default() };
+        let mcl = MclParams {
+            particles: self.params.particles,
+            update_min_m: self.params.update_min_m,
+            update_min_rad: self.params.update_min_deg.to_radians(),
+            ..MclParams::default()
+        };
         let filter =
             Localizer::new(&self.map, mcl, self.params.seed).map_err(|e| format!("{}: {e}", ctx.name()))?;
         let pose = ctx.push_newest_server(POSE)?;
@@ -168,7 +190,7 @@ impl Component for Localization {
                 st.sonar = Some(s.value.clone());
                 return Ok(());
             }
-            LocalizationMsg::Base(b) => b.value.clone(),
+            LocalizationMsg::Base(b) => b.value,
         };
         let odom = Pose2::new(b.x_m, b.y_m, b.heading_rad);
         if !(odom.x.is_finite() && odom.y.is_finite() && odom.theta.is_finite()) {

@@ -385,18 +385,34 @@ impl Localizer {
         let p = &self.params;
         let sigma = p.sigma_hit_m;
         let norm = 1.0 / (sigma * (2.0 * PI).sqrt());
+        // Where each echo falls in the body's frame, along each direction across its beam:
+        // the same for every particle, so the trigonometry is done once per update.
+        let ends: Vec<(f64, Vec<(f64, f64)>)> = hits
+            .iter()
+            .map(|b| {
+                let r = b.range_m.unwrap_or(b.max_range_m);
+                let end = |a: f64| (b.origin.0 + r * a.cos(), b.origin.1 + r * a.sin());
+                let points = if b.half_width_rad < 0.02 {
+                    vec![end(b.angle_rad)]
+                } else {
+                    (-2..=2).map(|k| end(b.angle_rad + b.half_width_rad * f64::from(k) / 2.0)).collect()
+                };
+                (b.max_range_m, points)
+            })
+            .collect();
         let logs: Vec<f64> = self
             .particles
             .iter()
             .map(|part| {
-                hits.iter()
-                    .map(|b| {
-                        let r = b.range_m.unwrap_or(b.max_range_m);
-                        let d = self.beam_fit(part.pose, b, r);
+                let pose = part.pose;
+                let (sin, cos) = pose.theta.sin_cos();
+                ends.iter()
+                    .map(|(max_range_m, points)| {
+                        let d = self.beam_fit(pose, sin, cos, points);
                         let z = d / sigma;
                         // Floored: one reading no model explains must not rule a particle out
                         // for good (a log of 0 would make every weight NaN).
-                        (p.z_hit * norm * (-0.5 * z * z).exp() + p.z_rand / b.max_range_m)
+                        (p.z_hit * norm * (-0.5 * z * z).exp() + p.z_rand / max_range_m)
                             .max(f64::MIN_POSITIVE)
                             .ln()
                     })
@@ -466,18 +482,13 @@ impl Localizer {
         self.particles = next;
     }
 
-    /// How far from the map's nearest obstacle the echo of `b` at `r` falls, seen from `pose`,
-    /// m: along the direction across the beam where it falls nearest.
-    fn beam_fit(&self, pose: Pose2, b: &Beam, r: f64) -> f64 {
-        let at = |a: f64| {
-            let (mx, my) = pose.apply(b.origin.0 + r * a.cos(), b.origin.1 + r * a.sin());
-            self.field.at(mx, my)
-        };
-        if b.half_width_rad < 0.02 {
-            return at(b.angle_rad);
-        }
-        (-2..=2)
-            .map(|k| at(b.angle_rad + b.half_width_rad * f64::from(k) / 2.0))
+    /// How far from the map's nearest obstacle an echo falls, seen from `pose` (whose heading's
+    /// sine and cosine are given), m: at the one of its possible `points` (body frame) nearest
+    /// one. (The rotation is [`Pose2::apply`]'s, with the trigonometry done once per pose.)
+    fn beam_fit(&self, pose: Pose2, sin: f64, cos: f64, points: &[(f64, f64)]) -> f64 {
+        points
+            .iter()
+            .map(|&(px, py)| self.field.at(pose.x + cos * px - sin * py, pose.y + sin * px + cos * py))
             .fold(f64::INFINITY, f64::min)
     }
 

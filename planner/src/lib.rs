@@ -46,9 +46,6 @@
 pub mod navigate;
 
 use navigate::{GoalPose, Judge, NavMap, Progress, Verdict, blocked, distance_left, route};
-use orsa_navigation::layer::ObstacleLayer;
-use orsa_navigation::localizer::ring_beams;
-use orsa_navigation::mcl::Pose2;
 use orsa_actors::event::{EventMode, Fired};
 use orsa_actors::param::Invalid;
 use orsa_actors::push_newest::PushNewestServer;
@@ -58,14 +55,21 @@ use orsa_actors::switch::Phase;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Update};
 use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S};
 use orsa_interfaces::navigation::{
-    self, CANCEL, FollowPath, NAVIGATE, NAVIGATION, NavCancel, NavFeedback, NavGoal, NavReply, NavState, NavTarget,
-    PoseEstimate,
+    self, CANCEL, FollowPath, NAVIGATE, NAVIGATION, NavCancel, NavFeedback, NavGoal, NavReply, NavState,
+    NavTarget, PoseEstimate,
 };
 use orsa_interfaces::nomad200::{self, BaseState, DistanceScan, RingParams, RobotParams};
 use orsa_interfaces::planner::{MISSION, MissionStatus, NEXT};
+use orsa_navigation::layer::ObstacleLayer;
+use orsa_navigation::localizer::ring_beams;
+use orsa_navigation::mcl::Pose2;
 use orsa_navigation::plan::PlanParams;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
+
+/// Echoes this close to what the known map holds are the map's own walls, m (the obstacle
+/// layer leaves them out).
+pub const EXPLAINED_M: f64 = 0.1;
 
 /// The executive mode that drives to places: the path follower wired to the motors.
 pub const NAVIGATE_MODE: &str = "navigate";
@@ -208,7 +212,10 @@ impl PlannerParams {
             ("clearance_m", self.clearance_m, 0.0, 2.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(Invalid::new(format!("planner.{key}"), format!("must be from {lo} to {hi}, not {v}")));
+                return Err(Invalid::new(
+                    format!("planner.{key}"),
+                    format!("must be from {lo} to {hi}, not {v}"),
+                ));
             }
         }
         if self.recoveries > 100 {
@@ -224,7 +231,9 @@ impl PlannerParams {
             if !modes.contains(&mode) {
                 let at = if key == "for_s" { "mode" } else { key };
                 let hint = match key {
-                    "goto" => " (a mission with places needs the navigation components: `orsa run --goto`, or config/navigation.toml)",
+                    "goto" => {
+                        " (a mission with places needs the navigation components: `orsa run --goto`, or config/navigation.toml)"
+                    }
                     _ => "",
                 };
                 return Err(Invalid::new(
@@ -385,7 +394,13 @@ impl Planner {
             Ok(StepKind::Goto(t)) => Some(format!("goto {t}")),
             Err(_) => None,
         });
-        st.status.put(MissionStatus { step: st.step, steps: self.mission.len(), mode, goal_id: st.goal_id, finished });
+        st.status.put(MissionStatus {
+            step: st.step,
+            steps: self.mission.len(),
+            mode,
+            goal_id: st.goal_id,
+            finished,
+        });
     }
 
     fn next(ctx: &Ctx<PlannerMsg>) -> Result<(), ComponentError> {
@@ -393,7 +408,12 @@ impl Planner {
     }
 
     /// Asks the executive for `mode`; the reply.
-    async fn ask(&self, st: &mut PlannerState, mode: &str, for_s: Option<f64>) -> Result<GoalReply, ComponentError> {
+    async fn ask(
+        &self,
+        st: &mut PlannerState,
+        mode: &str,
+        for_s: Option<f64>,
+    ) -> Result<GoalReply, ComponentError> {
         Ok(st.goals.query(Goal { mode: mode.into(), for_s }, Some(Duration::from_secs(5))).await?)
     }
 
@@ -441,10 +461,12 @@ impl Planner {
             why
         };
         let goal = setup.map.resolve(&target).map_err(|why| refuse(nav, why, None))?;
-        let pose = nav.pose.ok_or_else(|| refuse(nav, "no estimate of the robot's pose yet".into(), Some(goal)))?;
+        let pose =
+            nav.pose.ok_or_else(|| refuse(nav, "no estimate of the robot's pose yet".into(), Some(goal)))?;
         // Rejected at once if the known map has no way there; around what the sensors see if
         // there is one.
-        let known = setup.map.route((pose.0, pose.1), goal, &nav.plan).map_err(|why| refuse(nav, why, Some(goal)))?;
+        let known =
+            setup.map.route((pose.0, pose.1), goal, &nav.plan).map_err(|why| refuse(nav, why, Some(goal)))?;
         let path = if nav.layer.marks() > 0 {
             nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m + 0.05);
             route(&nav.layer.grid(), (pose.0, pose.1), goal, &nav.plan).unwrap_or(known)
@@ -479,8 +501,13 @@ impl Planner {
                 Ok(id)
             }
             Ok(GoalReply::Rejected { reason, .. }) => {
-                self.end_goal(ctx, st, NavState::Aborted, &format!("the executive refused to navigate: {reason}"))
-                    .map_err(|e| e.to_string())?;
+                self.end_goal(
+                    ctx,
+                    st,
+                    NavState::Aborted,
+                    &format!("the executive refused to navigate: {reason}"),
+                )
+                .map_err(|e| e.to_string())?;
                 Err(format!("the executive refused to navigate: {reason}"))
             }
             Err(e) => Err(format!("the executive cannot be reached: {e}")),
@@ -488,7 +515,13 @@ impl Planner {
     }
 
     /// Ends the running goal as `state`, stops the path follower, and moves the mission on.
-    fn end_goal(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, state: NavState, reason: &str) -> Result<(), ComponentError> {
+    fn end_goal(
+        &self,
+        ctx: &Ctx<PlannerMsg>,
+        st: &mut PlannerState,
+        state: NavState,
+        reason: &str,
+    ) -> Result<(), ComponentError> {
         let Some(nav) = st.nav.as_mut() else { return Ok(()) };
         let Some(a) = nav.active.take() else { return Ok(()) };
         let _ = nav.path.send(FollowPath { goal_id: a.id, points: Vec::new(), heading_rad: None });
@@ -504,7 +537,13 @@ impl Planner {
     }
 
     /// A mission step ended, well or not: the next one, as `on_abort` says.
-    fn step_ended(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, ok: bool, reason: &str) -> Result<(), ComponentError> {
+    fn step_ended(
+        &self,
+        ctx: &Ctx<PlannerMsg>,
+        st: &mut PlannerState,
+        ok: bool,
+        reason: &str,
+    ) -> Result<(), ComponentError> {
         st.goal_id = None;
         if !ok {
             match self.on_abort {
@@ -553,7 +592,8 @@ impl Planner {
                     a.path = path;
                     a.blocked_since = None;
                     a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
-                    let cmd = FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                    let cmd =
+                        FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
                     let _ = nav.path.send(cmd);
                     let a = nav.active.as_ref().ok_or("planner: no goal")?;
                     self.feedback(ctx, nav, a, NavState::Active, "planned around an obstacle");
@@ -562,9 +602,19 @@ impl Planner {
                 Err(why) => {
                     if a.blocked_since.is_none() {
                         a.blocked_since = Some(now);
-                        let _ = nav.path.send(FollowPath { goal_id: a.id, points: Vec::new(), heading_rad: None });
+                        let _ = nav.path.send(FollowPath {
+                            goal_id: a.id,
+                            points: Vec::new(),
+                            heading_rad: None,
+                        });
                         let a = nav.active.as_ref().ok_or("planner: no goal")?;
-                        self.feedback(ctx, nav, a, NavState::Active, &format!("recovery: waiting for a way ({why})"));
+                        self.feedback(
+                            ctx,
+                            nav,
+                            a,
+                            NavState::Active,
+                            &format!("recovery: waiting for a way ({why})"),
+                        );
                         return Ok(());
                     }
                 }
@@ -622,7 +672,13 @@ impl Planner {
 
     /// Plans the running goal again from `pose` on the layered map; aborts it if there is no
     /// way.
-    fn replan(&self, ctx: &Ctx<PlannerMsg>, st: &mut PlannerState, pose: (f64, f64, f64), what: &str) -> Result<(), ComponentError> {
+    fn replan(
+        &self,
+        ctx: &Ctx<PlannerMsg>,
+        st: &mut PlannerState,
+        pose: (f64, f64, f64),
+        what: &str,
+    ) -> Result<(), ComponentError> {
         let Some(nav) = st.nav.as_mut() else { return Ok(()) };
         let Some(a) = nav.active.as_mut() else { return Ok(()) };
         let now = secs(ctx);
@@ -632,7 +688,8 @@ impl Planner {
                 tracing::info!("planner: goal {}: {what}", a.id);
                 a.path = path;
                 a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
-                let cmd = FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                let cmd =
+                    FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
                 let _ = nav.path.send(cmd);
                 let a = nav.active.as_ref().ok_or("planner: no goal")?;
                 self.feedback(ctx, nav, a, NavState::Active, what);
@@ -679,7 +736,8 @@ impl Component for Planner {
                 ctx.subscribe_timed(nomad200::BASESTATE.on(&setup.robot), 1, PlannerMsg::Base)?;
                 ctx.subscribe_timed(nomad200::DISTANCEIR.on(&setup.robot), 1, PlannerMsg::Ir)?;
                 let layer = ObstacleLayer::new((*setup.map.grid).clone(), robot.infrared.max_range_m, 0.05)
-                    .map_err(|e| format!("planner: the map: {e}"))?;
+                    .map_err(|e| format!("planner: the map: {e}"))?
+                    .explaining(EXPLAINED_M);
                 Some(NavState_ {
                     path,
                     feedback,

@@ -80,14 +80,26 @@ impl NavMap {
     }
 
     /// The body's path from `from` to `goal` on the known map (see [`route`]).
-    pub fn route(&self, from: (f64, f64), goal: GoalPose, params: &PlanParams) -> Result<Vec<[f64; 2]>, String> {
+    pub fn route(
+        &self,
+        from: (f64, f64),
+        goal: GoalPose,
+        params: &PlanParams,
+    ) -> Result<Vec<[f64; 2]>, String> {
         route(&self.grid, from, goal, params)
     }
 }
 
 /// Whether anything `layer` marks lies within `radius_m` of `path` over its next `ahead_m`
 /// from the point nearest `(x, y)`.
-pub fn blocked(layer: &mut ObstacleLayer, path: &[[f64; 2]], x: f64, y: f64, radius_m: f64, ahead_m: f64) -> bool {
+pub fn blocked(
+    layer: &mut ObstacleLayer,
+    path: &[[f64; 2]],
+    x: f64,
+    y: f64,
+    radius_m: f64,
+    ahead_m: f64,
+) -> bool {
     if path.is_empty() {
         return false;
     }
@@ -117,14 +129,21 @@ pub fn blocked(layer: &mut ObstacleLayer, path: &[[f64; 2]], x: f64, y: f64, rad
 
 /// The body's path from `from` to `goal` on `grid`, or why there is none (a goal inside a
 /// wall or where the body does not fit reads so).
-pub fn route(grid: &OccupancyGrid, from: (f64, f64), goal: GoalPose, params: &PlanParams) -> Result<Vec<[f64; 2]>, String> {
+pub fn route(
+    grid: &OccupancyGrid,
+    from: (f64, f64),
+    goal: GoalPose,
+    params: &PlanParams,
+) -> Result<Vec<[f64; 2]>, String> {
     {
         match plan(grid, from, (goal.x_m, goal.y_m), params) {
             Ok(p) => Ok(p.points.iter().map(|&(x, y)| [x, y]).collect()),
             Err(PlanError::Goal(x, y)) => Err(format!(
                 "the goal ({x:.2}, {y:.2}) is inside a wall, unknown, or too close to something for the robot's body"
             )),
-            Err(PlanError::NoPath(..)) => Err("no path: nothing joins the robot to the goal wide enough for its body".into()),
+            Err(PlanError::NoPath(..)) => {
+                Err("no path: nothing joins the robot to the goal wide enough for its body".into())
+            }
             Err(e) => Err(e.to_string()),
         }
     }
@@ -140,7 +159,8 @@ pub fn distance_left(path: &[[f64; 2]], x: f64, y: f64) -> f64 {
     for (i, w) in path.windows(2).enumerate() {
         let (dx, dy) = (w[1][0] - w[0][0], w[1][1] - w[0][1]);
         let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 { (((x - w[0][0]) * dx + (y - w[0][1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let t =
+            if len2 > 0.0 { (((x - w[0][0]) * dx + (y - w[0][1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
         let d = (w[0][0] + t * dx - x).hypot(w[0][1] + t * dy - y);
         if d < best_d {
             (best, best_d, best_t) = (i, d, t);
@@ -195,7 +215,15 @@ impl Progress {
     }
 
     /// Judges the pose `(x, y, heading)` at `now_s` with `left_m` to go, `stopped` or not.
-    pub fn check(&mut self, judge: &Judge, goal: GoalPose, pose: (f64, f64, f64), left_m: f64, stopped: bool, now_s: f64) -> Verdict {
+    pub fn check(
+        &mut self,
+        judge: &Judge,
+        goal: GoalPose,
+        pose: (f64, f64, f64),
+        left_m: f64,
+        stopped: bool,
+        now_s: f64,
+    ) -> Verdict {
         let near = (goal.x_m - pose.0).hypot(goal.y_m - pose.1) < judge.arrive_m;
         let turned = goal.heading_rad.is_none_or(|h| {
             let e = h - pose.2;

@@ -6,10 +6,10 @@
 use crate::centerfollow::{CenterFollowParams, CenterFollower};
 use crate::harness::{Behaviour, BehaviourMsg, Controller, Scan, Seen, Step};
 use crate::pathfollow::{PathFollowParams, PathFollower};
-use orsa_interfaces::navigation::{FollowPath, PoseEstimate};
 use crate::ring::RingGeometry;
 use crate::wallfollow::{WallFollowParams, WallFollower};
 use orsa_actors::Timestamp;
+use orsa_interfaces::navigation::{FollowPath, PoseEstimate};
 use orsa_interfaces::nomad200::{BaseState, RING_SIZE, RingParams, RobotParams};
 
 /// Wall following as a component (`wallfollow` in the default configuration).

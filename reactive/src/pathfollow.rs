@@ -85,12 +85,18 @@ impl PathFollowParams {
         ];
         for (key, v, max) in positive {
             if !(v.is_finite() && v > 0.0 && v <= max) {
-                return Err(Invalid::new(format!("pathfollow.{key}"), format!("must be above 0 and at most {max}, not {v}")));
+                return Err(Invalid::new(
+                    format!("pathfollow.{key}"),
+                    format!("must be above 0 and at most {max}, not {v}"),
+                ));
             }
         }
         for (key, v) in [("stop_m", self.stop_m), ("side_m", self.side_m)] {
             if !(v.is_finite() && (0.0..=self.slow_m).contains(&v)) {
-                return Err(Invalid::new(format!("pathfollow.{key}"), format!("must be from 0 to slow_m, not {v}")));
+                return Err(Invalid::new(
+                    format!("pathfollow.{key}"),
+                    format!("must be from 0 to slow_m, not {v}"),
+                ));
             }
         }
         Ok(())
@@ -178,14 +184,18 @@ impl PathFollower {
 
     /// One step on the newest range views (`near` and `far`, per sector), stamped `stamp`.
     pub fn step(&mut self, near: &Ranges, far: &Ranges, stamp: Timestamp) -> PathStep {
-        let stop = PathStep { cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: 0.0 }, offset_m: None, alpha_rad: 0.0 };
+        let stop = PathStep {
+            cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: 0.0 },
+            offset_m: None,
+            alpha_rad: 0.0,
+        };
         let (Some((x, y, th)), Some(&end)) = (self.pose(), self.path.last()) else { return stop };
         let p = &self.p;
         let d_end = (end[0] - x).hypot(end[1] - y);
         // Arrived: within the tolerance (and, once there, within twice it, so that the
         // estimate's jitter does not start it again).
         let tol = if self.arrived { 2.0 * p.goal_tolerance_m } else { p.goal_tolerance_m };
-        if d_end < tol || self.path.len() == 1 && d_end < tol {
+        if d_end < tol {
             self.arrived = true;
             let Some(h) = self.heading_rad else { return stop };
             let err = wrap(h - th);
@@ -194,7 +204,11 @@ impl PathFollower {
             }
             let w = (p.k_heading * err).clamp(-p.omega_max_rad_s, p.omega_max_rad_s);
             let w = w.signum() * w.abs().max(0.15);
-            return PathStep { cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: w }, offset_m: Some(0.0), alpha_rad: err };
+            return PathStep {
+                cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: w },
+                offset_m: Some(0.0),
+                alpha_rad: err,
+            };
         }
         self.arrived = false;
         // The robot's projection onto the path, searching forward from the last one.
@@ -204,7 +218,8 @@ impl PathFollower {
             let (a, b) = (self.path[i], self.path[i + 1]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let len2 = dx * dx + dy * dy;
-            let t = if len2 > 0.0 { (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let t =
+                if len2 > 0.0 { (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
             let d = (a[0] + t * dx - x).hypot(a[1] + t * dy - y);
             if d < best_d {
                 (best, best_d, best_t) = (i, d, t);
@@ -247,7 +262,11 @@ impl PathFollower {
         let turn_in_place = p.turn_in_place_deg.to_radians();
         if alpha.abs() > turn_in_place {
             let w = (p.k_heading * alpha).clamp(-p.omega_max_rad_s, p.omega_max_rad_s);
-            return PathStep { cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: w }, offset_m: Some(offset), alpha_rad: alpha };
+            return PathStep {
+                cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: w },
+                offset_m: Some(offset),
+                alpha_rad: alpha,
+            };
         }
         let mut v = p.v_max_m_s * (1.0 - 0.7 * alpha.abs() / turn_in_place);
         v = v.min(p.k_approach * d_end + 0.03);
@@ -273,7 +292,11 @@ impl PathFollower {
         let push = |d: f64| if d < p.side_m { (p.side_m - d) / p.side_m } else { 0.0 };
         w += p.omega_max_rad_s * 0.5 * (push(right) - push(left));
         let w = w.clamp(-p.omega_max_rad_s, p.omega_max_rad_s);
-        PathStep { cmd: NavigationVelocity { stamp, v_m_s: v.max(0.0), omega_rad_s: w }, offset_m: Some(offset), alpha_rad: alpha }
+        PathStep {
+            cmd: NavigationVelocity { stamp, v_m_s: v.max(0.0), omega_rad_s: w },
+            offset_m: Some(offset),
+            alpha_rad: alpha,
+        }
     }
 }
 
@@ -348,7 +371,10 @@ mod tests {
         none.set_path(&path(&[[0.0, 0.0], [1.0, 0.0]], None));
         assert_eq!(none.step(&CLEAR, &CLEAR, Timestamp(0)).cmd.v_m_s, 0.0);
         f.set_path(&path(&[], None));
-        assert_eq!(f.step(&CLEAR, &CLEAR, Timestamp(0)).cmd, NavigationVelocity { stamp: Timestamp(0), v_m_s: 0.0, omega_rad_s: 0.0 });
+        assert_eq!(
+            f.step(&CLEAR, &CLEAR, Timestamp(0)).cmd,
+            NavigationVelocity { stamp: Timestamp(0), v_m_s: 0.0, omega_rad_s: 0.0 }
+        );
     }
 
     #[test]

@@ -180,7 +180,9 @@ impl NavigationRun {
             time_s: f.stamp.0 as f64 * 1e-9 - start_s,
             path_m,
             shortest_m,
-            final_error_m: goal.filter(|_| f.state != NavState::Rejected).map(|g| (g[0] - now.0).hypot(g[1] - now.1)),
+            final_error_m: goal
+                .filter(|_| f.state != NavState::Rejected)
+                .map(|g| (g[0] - now.0).hypot(g[1] - now.1)),
         });
     }
 
@@ -218,16 +220,20 @@ impl RunObserver for NavigationRun {
     fn on_start(&mut self, stack: &Stack) {
         let planner = orsa_interfaces::planner::NAME;
         let (tx, rx) = mpsc::unbounded_channel();
-        if let Ok(c) =
-            PushNewestClient::connect_to(&stack.registry, navigation::NAVIGATION.on(planner), Sink::channel(tx))
-            && c.subscribe().is_ok()
+        if let Ok(c) = PushNewestClient::connect_to(
+            &stack.registry,
+            navigation::NAVIGATION.on(planner),
+            Sink::channel(tx),
+        ) && c.subscribe().is_ok()
         {
             self.feedback = Some((rx, c));
         }
         let (tx, rx) = mpsc::unbounded_channel();
-        if let Ok(c) =
-            PushNewestClient::connect_to(&stack.registry, navigation::POSE.on(navigation::LOCALIZER), Sink::channel(tx))
-            && c.subscribe().is_ok()
+        if let Ok(c) = PushNewestClient::connect_to(
+            &stack.registry,
+            navigation::POSE.on(navigation::LOCALIZER),
+            Sink::channel(tx),
+        ) && c.subscribe().is_ok()
         {
             self.poses = Some((rx, c));
         }
@@ -242,7 +248,7 @@ impl RunObserver for NavigationRun {
         }
         if let Some((rx, _)) = &mut self.poses {
             while let Ok(p) = rx.try_recv() {
-                self.pending.push(p.value.clone());
+                self.pending.push(p.value);
             }
         }
         let truth = &self.truth;
@@ -281,7 +287,9 @@ impl RunObserver for NavigationRun {
     }
 
     fn on_end(&mut self, outcome: &mut super::RunOutcome) {
-        if let Some(last) = self.running.as_ref().map(|r| r.last).or(self.truth.last_key_value().map(|(_, p)| *p)) {
+        if let Some(last) =
+            self.running.as_ref().map(|r| r.last).or(self.truth.last_key_value().map(|(_, p)| *p))
+        {
             self.drain(last);
         }
         let mut report = std::mem::take(&mut self.report);
@@ -392,7 +400,8 @@ impl Clearance {
         dist[s] = 0;
         heap.push(Reverse((0u64, s)));
         // Costs in micrometres: integers keep the search exact and ordered.
-        let (straight, diagonal) = ((self.cell_m * 1e6).round() as u64, (self.cell_m * 1e6 * 2f64.sqrt()).round() as u64);
+        let (straight, diagonal) =
+            ((self.cell_m * 1e6).round() as u64, (self.cell_m * 1e6 * 2f64.sqrt()).round() as u64);
         while let Some(Reverse((d, i))) = heap.pop() {
             if i == g {
                 break;
@@ -499,7 +508,11 @@ mod tests {
             final_error_m: Some(0.0),
         };
         let mut r = NavigationReport {
-            goals: vec![goal("succeeded", 10.0, Some(8.0)), goal("aborted", 3.0, Some(8.0)), goal("succeeded", 5.0, Some(5.0))],
+            goals: vec![
+                goal("succeeded", 10.0, Some(8.0)),
+                goal("aborted", 3.0, Some(8.0)),
+                goal("succeeded", 5.0, Some(5.0)),
+            ],
             ..NavigationReport::default()
         };
         r.finish();

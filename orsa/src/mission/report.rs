@@ -216,7 +216,9 @@ impl Ended {
                 ))
             ),
             Ended::Interrupted { at_s, signal } => format!("was interrupted by {signal} at {at_s:.1} s"),
-            Ended::MissionEnded { at_s, result } => format!("ended with its mission at {at_s:.1} s: {result}"),
+            Ended::MissionEnded { at_s, result } => {
+                format!("ended with its mission at {at_s:.1} s: {result}")
+            }
             Ended::Failed { at_s, error } => format!("failed at {at_s:.1} s: {error}"),
         }
     }
