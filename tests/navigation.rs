@@ -137,3 +137,89 @@ fn paths_from_the_start_reach_every_place_of_every_shipped_world_clear_of_everyt
         }
     }
 }
+
+/// Runs `orsa run --world worlds/FILE.toml --goto ...` on the paused clock: its report.
+async fn goto_mission(file: &str, targets: &[&str], seed: u64) -> orsa::mission::report::Report {
+    let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let targets: Vec<String> = targets.iter().map(|t| t.to_string()).collect();
+    let config = orsa::config::Config::default().with_goto(&targets).expect("a config with the places");
+    let mut o = orsa::mission::RunOptions::new(world, file, config, seed, 900.0);
+    o.keep_series = false;
+    o.until_mission_ends = true;
+    orsa::mission::run(o).await.expect("a report").report
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_office_mission_reaches_every_place_and_reports_it() {
+    let r = goto_mission("office", &["room-3", "room-5", "dock"], 1).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}", nav.table());
+    assert!(
+        matches!(&r.ended, orsa::mission::report::Ended::MissionEnded { result, .. } if result == "completed"),
+        "{:?}",
+        r.ended
+    );
+    let targets: Vec<&str> = nav.goals.iter().map(|g| g.target.as_str()).collect();
+    assert_eq!(targets, ["room-3", "room-5", "dock"]);
+    for g in &nav.goals {
+        assert_eq!(g.status, "succeeded", "{g:?}");
+        // Reached: the true pose within 0.25 m of the place.
+        assert!(g.final_error_m.is_some_and(|e| e < 0.25), "{g:?}");
+        let shortest = g.shortest_m.expect("a shortest path");
+        assert!(g.path_m >= shortest - 0.05, "{g:?}: drove less than the shortest path");
+    }
+    assert_eq!(nav.success_rate, 1.0);
+    assert!(nav.spl >= 0.85, "SPL {}", nav.spl);
+    assert!(nav.localization.samples > 500 && nav.localization.rms_m <= 0.10, "{:?}", nav.localization);
+    assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+    // The same seed, the same run.
+    let again = goto_mission("office", &["room-3", "room-5", "dock"], 1).await;
+    assert_eq!(again.navigation, r.navigation);
+}
+
+#[tokio::test(start_paused = true)]
+async fn goals_to_no_place_are_rejected_at_once_naming_why_and_the_mission_goes_on() {
+    let r = goto_mission("office", &["kitchen", "100,100", "0.02,3", "room-1"], 2).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}", nav.table());
+    let got: Vec<(&str, &str)> = nav.goals.iter().map(|g| (g.target.as_str(), g.status.as_str())).collect();
+    assert_eq!(
+        got,
+        [
+            ("kitchen", "rejected"),
+            ("100.00,100.00", "rejected"),
+            ("0.02,3.00", "rejected"),
+            ("room-1", "succeeded")
+        ]
+    );
+    let reasons: Vec<&str> = nav.goals.iter().map(|g| g.reason.as_str()).collect();
+    assert!(reasons[0].contains("no place 'kitchen'") && reasons[0].contains("room-3"), "{}", reasons[0]);
+    assert!(reasons[1].contains("outside the map"), "{}", reasons[1]);
+    assert!(reasons[2].contains("inside a wall"), "{}", reasons[2]);
+    for g in &nav.goals[..3] {
+        assert_eq!(g.time_s, 0.0, "{g:?}: not rejected at once");
+    }
+}
+
+#[test]
+fn a_mission_of_places_needs_the_navigation_components_and_names_the_key() {
+    let c = orsa::config::Config::from_toml(
+        "[params.planner]\nmission = [{ goto = \"room-3\" }]\n",
+        "places.toml",
+    );
+    let e = c.expect_err("no navigate mode").to_string();
+    assert!(e.contains("params.planner.mission[0].goto") && e.contains("navigation"), "{e}");
+    let shipped = orsa::config::Config::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/config/navigation.toml"
+    )))
+    .expect("the shipped navigation config");
+    let modes: Vec<String> = shipped.executive().modes.keys().cloned().collect();
+    for m in ["navigate", "patrol", "stop"] {
+        assert!(modes.iter().any(|k| k == m), "{m} missing from {modes:?}");
+    }
+    let bad = "[params.planner]\nmission = [{ goto = \"room-3\", patrol = 5 }]\n";
+    let e = orsa::config::Config::from_toml(bad, "both.toml").expect_err("two kinds in a step").to_string();
+    assert!(e.contains("params.planner.mission[0]") && e.contains("exactly one"), "{e}");
+}

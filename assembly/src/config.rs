@@ -473,6 +473,12 @@ impl Config {
             let line_start = text[..offset.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
             return Err(at(line_start, message));
         }
+        // A system with a path follower has the master's mode that wires it, unless given.
+        if config.navigate_mode().map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })? {
+            config
+                .complete_params()
+                .map_err(|(_, m)| ConfigError::Invalid { origin: origin.to_string(), error: Invalid::new("", m) })?;
+        }
         config.validate().map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })?;
         Ok(config)
     }
@@ -581,25 +587,35 @@ impl Config {
                 t.members.push("pathfollow".into());
             }
         }
-        let follower = c.of_kind(&["pathfollow"]).map(|s| s.name.clone()).unwrap_or_default();
-        if let Some(master) = c.of_kind(&["master"]).map(|s| s.name.clone()) {
-            let params = c.params.entry(master.clone()).or_default();
-            let modes = params
-                .entry("modes")
-                .or_insert_with(|| toml::Value::Table(Default::default()))
-                .as_table_mut()
-                .ok_or_else(|| invalid(Invalid::new(format!("params.{master}.modes"), "is not a table")))?;
-            if !modes.contains_key(orsa_planner::NAVIGATE_MODE) {
-                let mode: toml::Table = toml::from_str(&format!(
-                    "behaviours = [\"{follower}\"]\nrules = [{{ drive = \"{follower}\" }}]\n"
-                ))
-                .map_err(|e| invalid(Invalid::new("navigate", e.to_string())))?;
-                modes.insert(orsa_planner::NAVIGATE_MODE.into(), toml::Value::Table(mode));
-            }
-        }
+        // Written out in full first, so that the mode is added to the master's modes and does
+        // not replace them.
+        c.complete_params().map_err(|(_, m)| invalid(Invalid::new("", m)))?;
+        c.navigate_mode().map_err(invalid)?;
         c.complete_params().map_err(|(_, m)| invalid(Invalid::new("", m)))?;
         c.validate().map_err(invalid)?;
         Ok(c)
+    }
+
+    /// Adds the master's mode `navigate` (the path follower drives) where the system has a
+    /// path follower and a master whose modes (written out in full) lack it; whether it did.
+    fn navigate_mode(&mut self) -> Result<bool, Invalid> {
+        let Some(follower) = self.of_kind(&["pathfollow"]).map(|s| s.name.clone()) else { return Ok(false) };
+        let Some(master) = self.of_kind(&["master"]).map(|s| s.name.clone()) else { return Ok(false) };
+        let params = self.params.entry(master.clone()).or_default();
+        let modes = params
+            .entry("modes")
+            .or_insert_with(|| toml::Value::Table(Default::default()))
+            .as_table_mut()
+            .ok_or_else(|| Invalid::new(format!("params.{master}.modes"), "is not a table"))?;
+        if modes.contains_key(orsa_planner::NAVIGATE_MODE) {
+            return Ok(false);
+        }
+        let mode: toml::Table = toml::from_str(&format!(
+            "behaviours = [\"{follower}\"]\nrules = [{{ drive = \"{follower}\" }}]\n"
+        ))
+        .map_err(|e| Invalid::new(format!("params.{master}.modes.navigate"), e.to_string()))?;
+        modes.insert(orsa_planner::NAVIGATE_MODE.into(), toml::Value::Table(mode));
+        Ok(true)
     }
 
     /// This configuration with the navigation components and a mission of `targets` (each a
