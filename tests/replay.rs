@@ -458,3 +458,26 @@ async fn a_recording_that_cannot_be_replayed_says_why_and_where() {
     );
     std::fs::remove_dir_all(&d).expect("clean up");
 }
+
+#[tokio::test(start_paused = true)]
+async fn a_replay_of_a_mission_of_places_is_bit_exact() {
+    let d = dir("places");
+    let path = d.join("office.mcap");
+    let world = World::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml")).expect("world");
+    let config = Config::default().with_goto(&["room-1".into(), "dock".into()]).expect("config");
+    let mut opts = RunOptions::new(world, "office", config, 3, 300.0);
+    opts.record = Some(path.clone());
+    opts.until_mission_ends = true;
+    let out = mission::run(opts).await.expect("the run");
+    out.recording.expect("a recording").expect("written");
+    let nav = out.report.navigation.expect("a navigation section");
+    assert_eq!(nav.success_rate, 1.0, "{}", nav.table());
+    let rec = Recording::open(&path).expect("a replayable recording");
+    let replayed = replay_as_recorded(&rec).await;
+    assert_bit_exact(&replayed);
+    // The localizer, the path follower and the planner ran again and made the same.
+    for topic in ["localizer/pose", "pathfollow/status", "pathfollow/path", "planner/navigation"] {
+        assert!(replayed.replayed.get(topic).is_some_and(|m| m.len() > 1), "{topic} was replayed");
+    }
+    std::fs::remove_dir_all(&d).expect("clean up");
+}

@@ -474,10 +474,14 @@ impl Config {
             return Err(at(line_start, message));
         }
         // A system with a path follower has the master's mode that wires it, unless given.
-        if config.navigate_mode().map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })? {
-            config
-                .complete_params()
-                .map_err(|(_, m)| ConfigError::Invalid { origin: origin.to_string(), error: Invalid::new("", m) })?;
+        if config
+            .navigate_mode()
+            .map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })?
+        {
+            config.complete_params().map_err(|(_, m)| ConfigError::Invalid {
+                origin: origin.to_string(),
+                error: Invalid::new("", m),
+            })?;
         }
         config.validate().map_err(|error| ConfigError::Invalid { origin: origin.to_string(), error })?;
         Ok(config)

@@ -338,7 +338,22 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
     if let Some(at) = rec.system_starting {
         tokio::time::sleep_until(clock.instant_of(Timestamp(at))).await;
     }
-    let system = System::builder(&config)
+    // The navigation components' known map is the recorded world (none for a process that
+    // simulated none).
+    let world = match rec.meta.world_toml.trim() {
+        "" => None,
+        text => Some(orsa_hardware::world::World::from_str(text, "the recording's world").map_err(|e| {
+            ReplayError::Metadata {
+                path: rec.path.clone(),
+                problem: format!("metadata '{}': key 'world_toml': {e}", crate::record::meta::RUN_METADATA),
+            }
+        })?),
+    };
+    let mut builder = System::builder(&config);
+    if let Some(world) = world {
+        builder = builder.world(world);
+    }
+    let system = builder
         .catalog(catalog)
         .select(&hosted)
         .supervisor(supervisor)
