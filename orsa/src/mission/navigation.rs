@@ -105,7 +105,13 @@ impl NavigationReport {
                 .goals
                 .iter()
                 .map(|g| match (ok(g), g.shortest_m) {
-                    (true, Some(s)) => s / g.path_m.max(s).max(1e-9),
+                    // A goal already within the success radius at its start needs no driving: the
+                    // radius stands for its shortest path, so the robot's jitter there does not
+                    // count as a detour of 100 %.
+                    (true, Some(s)) => {
+                        let s = s.max(SUCCESS_RADIUS_M);
+                        s / g.path_m.max(s)
+                    }
                     _ => 0.0,
                 })
                 .sum::<f64>()
@@ -315,6 +321,9 @@ impl RunObserver for NavigationRun {
     }
 }
 
+/// A goal is reached within this distance of it (the definition), m.
+pub const SUCCESS_RADIUS_M: f64 = 0.25;
+
 /// The cell of the independent search, m.
 const CELL_M: f64 = 0.05;
 
@@ -518,5 +527,18 @@ mod tests {
         r.finish();
         assert!((r.success_rate - 2.0 / 3.0).abs() < 1e-12);
         assert!((r.spl - (0.8 + 0.0 + 1.0) / 3.0).abs() < 1e-12, "{}", r.spl);
+        // A goal where the robot already is: jitter of 5 cm is no detour, 1 m is.
+        let mut r = NavigationReport {
+            goals: vec![goal("succeeded", 0.05, Some(0.01))],
+            ..NavigationReport::default()
+        };
+        r.finish();
+        assert_eq!(r.spl, 1.0);
+        let mut r = NavigationReport {
+            goals: vec![goal("succeeded", 1.0, Some(0.01))],
+            ..NavigationReport::default()
+        };
+        r.finish();
+        assert!((r.spl - 0.25).abs() < 1e-12, "{}", r.spl);
     }
 }
