@@ -7,25 +7,11 @@ use orsa_hardware::board::AxisVelocities;
 use orsa_hardware::geometry::Point;
 use orsa_hardware::sim::{SimConfig, SimNomad200};
 use orsa_hardware::world::World;
-use orsa_interfaces::nomad200::{DistanceScan, PushPeriods, RingParams};
-use orsa_navigation::mcl::{Beam, Localizer, MclParams, Pose2};
+use orsa_interfaces::nomad200::PushPeriods;
+use orsa_navigation::localizer::ring_beams as beams;
+use orsa_navigation::mcl::{Localizer, MclParams, Pose2};
 use orsa_navigation::plan::{PlanParams, plan};
 use std::time::Duration;
-
-/// A ring's readings as localization's beams (no echo: `None`).
-fn beams(scan: &DistanceScan, ring: &RingParams, out: &mut Vec<Beam>) {
-    for r in &scan.readings {
-        let Some(&a) = ring.angles_rad.get(usize::from(r.sensor_id)) else { continue };
-        let echo = r.valid && r.distance_m.is_finite() && r.distance_m < ring.max_range_m;
-        out.push(Beam {
-            origin: (ring.mount_radius_m * a.cos(), ring.mount_radius_m * a.sin()),
-            angle_rad: a,
-            half_width_rad: ring.beam_width_rad / 2.0,
-            range_m: echo.then_some(r.distance_m),
-            max_range_m: ring.max_range_m,
-        });
-    }
-}
 
 /// Wanders `world` for `secs` simulated seconds (ahead at 0.3 m/s, turning away from what the
 /// front sonars see within 0.9 m), localizing every 0.1 s from the start pose; returns the RMS

@@ -177,7 +177,7 @@ impl Component for Localization {
 
     async fn handle(
         &self,
-        ctx: &Ctx<LocalizationMsg>,
+        _ctx: &Ctx<LocalizationMsg>,
         st: &mut LocalizationState,
         msg: LocalizationMsg,
     ) -> Result<(), ComponentError> {
@@ -250,7 +250,6 @@ impl Component for Localization {
             odom_y_m: t.y,
             odom_heading_rad: t.theta,
         });
-        let _ = ctx;
         Ok(())
     }
 }
