@@ -213,8 +213,72 @@ struct ViewState {
     dead_from: Option<Timestamp>,
     /// When it last read something valid.
     last_valid: Option<Timestamp>,
-    /// Second differences of the window: (stamp, |d|).
-    scatter: VecDeque<(Timestamp, f64)>,
+    /// Second differences of the window.
+    scatter: Scatter,
+}
+
+/// The median of |N(0, 6 sd^2)| in units of sd: `0.6745 sqrt(6)`.
+fn scatter_unit() -> f64 {
+    0.6745 * 6f64.sqrt()
+}
+
+/// A view's second differences over the window (in units of the scatter allowed at their
+/// distance), in arrival order, with how many of them exceed the noise limit on their own.
+///
+/// Whether the window's median exceeds the limit is all the judge decides on, and that needs
+/// no sort: `x / unit > 1` is monotone in `x`, so the median (the element at index `len / 2`
+/// in order) exceeds it exactly when at least `len - len / 2` elements do. Counting them as
+/// they come and go makes each scan cost O(its readings), not a selection over the whole
+/// window (about a thousand values, dozens of times a second); the median itself is worked out
+/// only for the message of a verdict.
+#[derive(Debug, Clone, Default)]
+struct Scatter {
+    window: VecDeque<(Timestamp, f64)>,
+    /// How many of `window` exceed the limit: `x / unit > 1`.
+    over: usize,
+}
+
+impl Scatter {
+    fn exceeds(x: f64) -> bool {
+        x / scatter_unit() > 1.0
+    }
+
+    fn push(&mut self, at: Timestamp, x: f64) {
+        self.over += usize::from(Self::exceeds(x));
+        self.window.push_back((at, x));
+    }
+
+    /// Forgets what is older than `window` ns at `now`.
+    fn expire(&mut self, now: Timestamp, window: u64) {
+        while let Some(&(t, x)) = self.window.front() {
+            if now.0.saturating_sub(t.0) <= window {
+                break;
+            }
+            self.over -= usize::from(Self::exceeds(x));
+            self.window.pop_front();
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.window.len()
+    }
+
+    /// Whether the median exceeds the limit (`median / unit > 1`).
+    fn median_exceeds(&self) -> bool {
+        let n = self.window.len();
+        n > 0 && self.over >= n - n / 2
+    }
+
+    /// The median in units of the limit (a selection over the window: for messages).
+    fn ratio(&self) -> f64 {
+        let mut d: Vec<f64> = self.window.iter().map(|(_, d)| *d).collect();
+        if d.is_empty() {
+            return 0.0;
+        }
+        let mid = d.len() / 2;
+        let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+        *median / scatter_unit()
+    }
 }
 
 /// The judge of a robot's sensors (see the module docs).
@@ -422,28 +486,23 @@ impl Judge {
             if let (Some(d0), Some(d1), Some(d2)) = (b[0], b[1], *d) {
                 // In units of the scatter allowed at that distance.
                 let allowed = p.noisy_sd_m + p.noisy_fraction * d1;
-                st.scatter.push_back((now, (d2 - 2.0 * d1 + d0).abs() / allowed));
+                st.scatter.push(now, (d2 - 2.0 * d1 + d0).abs() / allowed);
             }
             *b = [b[1], *d];
         }
         let window = (p.window_s / NS) as u64;
-        while st.scatter.front().is_some_and(|(t, _)| now.0.saturating_sub(t.0) > window) {
-            st.scatter.pop_front();
-        }
+        st.scatter.expire(now, window);
         // Nothing valid to scatter: noise, if any, harms nothing.
         let mut calm = (valid == 0 && st.scatter.len() < 20).then_some(true);
         if st.scatter.len() >= 20 {
-            let mut d: Vec<f64> = st.scatter.iter().map(|(_, d)| *d).collect();
-            let mid = d.len() / 2;
-            let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-            // |N(0, 6 sd^2)| has median 0.6745 sqrt(6) sd.
-            let ratio = *median / (0.6745 * 6f64.sqrt());
-            calm = Some(ratio <= 1.0);
-            if ratio > 1.0 {
+            let noisy = st.scatter.median_exceeds();
+            calm = Some(!noisy);
+            if noisy {
                 evidence = true;
+                let scatter = &st.scatter;
                 changed |= st.judged.condemn(
                     Verdict::Noisy,
-                    || format!("readings scatter {ratio:.1} times what the sensor may"),
+                    || format!("readings scatter {:.1} times what the sensor may", scatter.ratio()),
                     now,
                 );
             }
@@ -572,6 +631,31 @@ mod tests {
     use orsa_interfaces::nomad200::{DistanceReading, Ring};
 
     const MS: u64 = 1_000_000;
+
+    /// The counted verdict is the one a selection of the median gives, on windows with ties
+    /// (repeated readings scatter exactly 0), values at the limit and values expiring.
+    #[test]
+    fn the_counted_median_verdict_is_the_selected_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let unit = scatter_unit();
+        let mut s = Scatter::default();
+        let (mut noisy, mut calm) = (0, 0);
+        for k in 0..20_000u64 {
+            let x = match rng.random_range(0..4) {
+                0 => 0.0,
+                1 => unit,
+                2 => unit * (1.0 + f64::EPSILON),
+                _ => rng.random_range(0.0..3.0 * unit),
+            };
+            s.push(Timestamp(k * MS), x);
+            s.expire(Timestamp(k * MS), rng.random_range(1..200) * MS);
+            let selected = s.ratio() > 1.0;
+            assert_eq!(s.median_exceeds(), selected, "window of {} at {k}", s.len());
+            if selected { noisy += 1 } else { calm += 1 }
+        }
+        assert!(noisy > 1000 && calm > 1000, "both verdicts tried: {noisy} noisy, {calm} calm");
+    }
 
     fn judge() -> Judge {
         let ir = ViewSpec { period_s: 0.04, min_range_m: 0.0, max_range_m: 0.6 };
