@@ -277,31 +277,13 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
         }
         let keep = Duration::from_secs_f64(m.params.memory_s);
         // What each fresh view sees free, set out once for every point remembered.
-        let sights: Vec<Sight> = [&ir, &sonar]
-            .into_iter()
-            .enumerate()
-            .filter(|(v, _)| fresh[*v])
-            .map(|(v, scan)| m.beams[v].sight(scan))
-            .collect();
-        let seen_through = |p: &Seen, at: (f64, f64)| {
-            if !sights.iter().any(|s| s.newer_than(p.stamp)) {
-                return false;
+        let mut sight = Sight::default();
+        for (v, scan) in [&ir, &sonar].into_iter().enumerate() {
+            if fresh[v] {
+                m.beams[v].add_to(&mut sight, scan);
             }
-            // The sensor `at` faces, for each ring size the views have (most often one).
-            let mut faced: Option<(usize, usize)> = None;
-            sights.iter().any(|s| {
-                let n = s.len();
-                let nearest = match faced {
-                    Some((m, i)) if m == n => i,
-                    _ => {
-                        let i = sweep::facing(at, n);
-                        faced = Some((n, i));
-                        i
-                    }
-                };
-                s.clears(p.stamp, at, nearest)
-            })
-        };
+        }
+        let seen_through = |p: &Seen, at: (f64, f64)| sight.newer_than(p.stamp) && sight.clears(p.stamp, at);
         memory.recall(pose, now, keep, near, seen_through, &mut look.seen);
         Ok(look)
     }

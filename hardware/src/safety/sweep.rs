@@ -5,7 +5,7 @@ use super::SafetyParams;
 use orsa_actors::Timestamp;
 use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, RingParams, RobotParams};
 use orsa_interfaces::range::sector_coverage;
-use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::f64::consts::{FRAC_PI_4, PI, TAU};
 
 /// Why the monitor limited a command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,12 +55,12 @@ pub fn free_distance(p: (f64, f64), v: f64, omega: f64, r: f64) -> f64 {
     if rho < 1e-9 {
         return f64::INFINITY; // on the centre of rotation: its distance never changes
     }
-    let phi0 = (-rc).atan2(0.0);
-    let delta = (omega.signum() * (qy.atan2(qx) - phi0)).rem_euclid(TAU);
     let cos_contact = (big_r * big_r + rho * rho - r * r) / (2.0 * big_r * rho);
     if cos_contact >= 1.0 {
         return f64::INFINITY; // the swept annulus misses it
     }
+    let phi0 = (-rc).atan2(0.0);
+    let delta = (omega.signum() * (qy.atan2(qx) - phi0)).rem_euclid(TAU);
     let contact = cos_contact.max(-1.0).acos();
     if delta > contact && delta < TAU - contact {
         return (delta - contact) * big_r;
@@ -97,6 +97,9 @@ pub struct Beams {
     sensors: Vec<Beam>,
     /// Per sensor: the unit direction of its axis.
     axes: Vec<(f64, f64)>,
+    /// Per sensor: the octants its beam reaches into (bit `k`: bearings from `k` to `k + 1`
+    /// times 45 degrees, seen from the centre).
+    octants: Vec<u8>,
     /// The cosine of half a beam's width.
     cos_half: f64,
     /// The shortest range a reading vouches for, m: nothing closer is seen free.
@@ -129,30 +132,62 @@ impl Beams {
             })
             .collect();
         let axes = view.angles_rad.iter().map(|a| (a.cos(), a.sin())).collect();
-        Beams { sensors, axes, cos_half: half.cos(), min_range_m: view.min_range_m }
+        // The octants (of bearing from the centre) each beam reaches into: a point in a beam
+        // lies within half the beam of its axis, seen from the centre (the beam starts on the
+        // axis, outwards). The margin keeps a point on an octant's edge in both.
+        let octants = view
+            .angles_rad
+            .iter()
+            .map(|a| {
+                let of = |b: f64| ((b.rem_euclid(TAU) / FRAC_PI_4) as usize).min(7);
+                let mut set = 0u8;
+                let steps = 8;
+                for k in 0..=steps {
+                    let b = a - half - OCTANT_MARGIN
+                        + (view.beam_width_rad + 2.0 * OCTANT_MARGIN) * k as f64 / steps as f64;
+                    set |= 1 << of(b);
+                }
+                set
+            })
+            .collect();
+        Beams { sensors, axes, octants, cos_half: half.cos(), min_range_m: view.min_range_m }
     }
 
     /// What `scan` sees free, set out for testing many points against it (see [`Sight`]).
     pub fn sight(&self, scan: &DistanceScan) -> Sight {
-        let mut newest = None;
-        let sensors = (0..self.axes.len())
-            .map(|i| {
-                // The reading of sensor `i`: where it is in a full scan, else the first that says so.
-                let r = scan
-                    .readings
-                    .get(i)
-                    .filter(|r| usize::from(r.sensor_id) == i)
-                    .or_else(|| scan.readings.iter().find(|r| usize::from(r.sensor_id) == i))?;
-                let hi = r.distance_m - CLEAR_MARGIN_M;
-                if !(r.valid && r.distance_m.is_finite() && hi > self.min_range_m) {
-                    return None;
+        let mut sight = Sight::default();
+        self.add_to(&mut sight, scan);
+        sight
+    }
+
+    /// Adds to `sight` what `scan` sees free.
+    pub fn add_to(&self, sight: &mut Sight, scan: &DistanceScan) {
+        for r in &scan.readings {
+            let i = usize::from(r.sensor_id);
+            let (Some(((ox, oy), _)), Some(&(ax, ay)), Some(&octants)) =
+                (self.sensors.get(i), self.axes.get(i), self.octants.get(i))
+            else {
+                continue;
+            };
+            let hi = r.distance_m - CLEAR_MARGIN_M;
+            if !(r.valid && r.distance_m.is_finite() && hi > self.min_range_m) {
+                continue;
+            }
+            sight.newest = sight.newest.max(Some(r.stamp));
+            for (k, of) in sight.by_octant.iter_mut().enumerate() {
+                if octants & (1 << k) != 0 {
+                    of.push(sight.rays.len() as u16);
                 }
-                newest = newest.max(Some(r.stamp));
-                let (((ox, oy), _), (ax, ay)) = (&self.sensors[i], self.axes[i]);
-                Some(Ray { origin: (*ox, *oy), axis: (ax, ay), hi, stamp: r.stamp })
-            })
-            .collect();
-        Sight { sensors, newest, cos_half: self.cos_half, lo: self.min_range_m }
+            }
+            sight.rays.push(Ray {
+                origin: (*ox, *oy),
+                axis: (ax, ay),
+                hi,
+                lo: self.min_range_m,
+                cos_half: self.cos_half,
+                stamp: r.stamp,
+            });
+        }
     }
 
     /// The points the valid `readings` stand for: each reading anywhere across its beam.
@@ -170,16 +205,16 @@ impl Beams {
     }
 }
 
-/// What one scan of a sector view sees free: per sensor, its beam out to [`CLEAR_MARGIN_M`]
-/// short of what it read, beyond the shortest range it vouches for (`None` where its reading
-/// vouches for nothing: invalid, or too short).
-#[derive(Debug, Clone)]
+/// What sector views' readings see free: per reading, its beam from [`CLEAR_MARGIN_M`] short of what it
+/// read down to the shortest range its view vouches for (a reading that vouches for nothing,
+/// invalid or too short, is left out).
+#[derive(Debug, Clone, Default)]
 pub struct Sight {
-    sensors: Vec<Option<Ray>>,
-    /// The newest stamp of a reading that vouches for something.
+    rays: Vec<Ray>,
+    /// Per octant of bearing from the centre, the rays whose beams reach into it.
+    by_octant: [Vec<u16>; 8],
+    /// The newest stamp among them.
     newest: Option<Timestamp>,
-    cos_half: f64,
-    lo: f64,
 }
 
 /// One sensor's reading as [`Sight`] tests points against it (body frame).
@@ -190,80 +225,68 @@ struct Ray {
     axis: (f64, f64),
     /// How far out it sees free, m.
     hi: f64,
+    /// The shortest range its view vouches for, m.
+    lo: f64,
+    /// The cosine of half its beam.
+    cos_half: f64,
     stamp: Timestamp,
 }
 
 impl Sight {
-    /// Whether a reading taken after `since` may see through anything: a test that spares the
-    /// bearing for a point older than none of them.
+    /// Whether a reading taken after `since` is among them: a test that spares the rest for a
+    /// point newer than all of them.
     pub fn newer_than(&self, since: Timestamp) -> bool {
         self.newest.is_some_and(|n| n > since)
     }
 
-    /// How many sensors the view has.
+    /// How many readings it holds.
     pub fn len(&self) -> usize {
-        self.sensors.len()
+        self.rays.len()
     }
 
-    /// Whether it has no sensors.
+    /// Whether it holds none.
     pub fn is_empty(&self) -> bool {
-        self.sensors.is_empty()
+        self.rays.is_empty()
     }
 
-    /// Whether a reading taken after `since` sees through `p` (body frame): `p` lies within a
-    /// sensor's beam, beyond the shortest range it vouches for and more than [`CLEAR_MARGIN_M`]
-    /// short of what it read there. `nearest` is the sensor `p` faces (the module's `facing`).
-    pub fn clears(&self, since: Timestamp, p: (f64, f64), nearest: usize) -> bool {
-        let n = self.sensors.len();
-        if nearest >= n {
-            return false;
-        }
-        // Only the sensors facing about where `p` lies can see it: a point in a beam lies
-        // within half the beam of its axis, seen from the centre.
-        let before = if nearest == 0 { n - 1 } else { nearest - 1 };
-        let after = if nearest + 1 == n { 0 } else { nearest + 1 };
-        [before, nearest, after].into_iter().any(|i| {
-            let Some(ray) = &self.sensors[i] else { return false };
-            if ray.stamp <= since {
-                return false;
-            }
+    /// Whether a reading taken after `since` sees through `p` (body frame): `p` lies within the
+    /// reading's beam, beyond the shortest range it vouches for and more than
+    /// [`CLEAR_MARGIN_M`] short of what it read there.
+    pub fn clears(&self, since: Timestamp, p: (f64, f64)) -> bool {
+        self.by_octant[octant(p)].iter().any(|&i| {
+            let ray = &self.rays[usize::from(i)];
             let ((ox, oy), (ax, ay)) = (ray.origin, ray.axis);
             let (vx, vy) = (p.0 - ox, p.1 - oy);
             let d2 = vx * vx + vy * vy;
-            let (lo, hi) = (self.lo, ray.hi);
             let along = vx * ax + vy * ay;
-            d2 > lo * lo && d2 < hi * hi && along > 0.0 && along * along >= d2 * self.cos_half * self.cos_half
+            let (lo, hi, c) = (ray.lo, ray.hi, ray.cos_half);
+            ray.stamp > since && d2 > lo * lo && d2 < hi * hi && along > 0.0 && along * along >= d2 * c * c
         })
     }
 }
 
-/// Which of `n` sensors spread evenly from the front faces `p` (body frame) most nearly:
-/// `round(bearing / (2 pi / n)) mod n`, with the bearing taken from the centre in [0, 2 pi).
-///
-/// Exactly as that formula with `atan2` gives it, at a fraction of its cost: the bearing is
-/// first estimated within 0.0038 rad (Rajan et al., 2006), and taken from `atan2` only where
-/// the estimate lies within 0.01 rad of the half-way between two sensors.
-pub(super) fn facing(p: (f64, f64), n: usize) -> usize {
-    let exact = || ((p.1.atan2(p.0).rem_euclid(TAU) / TAU * n as f64 + 0.5) as usize) % n;
-    let (ax, ay) = (p.0.abs(), p.1.abs());
-    if ax.max(ay) == 0.0 || !(ax.is_finite() && ay.is_finite()) {
-        return exact();
+/// How far beyond a beam's edge (rad) the octants it reaches into are counted.
+const OCTANT_MARGIN: f64 = 0.01;
+
+/// The octant of the bearing of `p` from the centre: `k` for bearings from `k` to `k + 1`
+/// times 45 degrees, counter-clockwise from the front (a point on an edge in either).
+fn octant(p: (f64, f64)) -> usize {
+    let (x, y) = p;
+    if y >= 0.0 {
+        if x > 0.0 {
+            if y < x { 0 } else { 1 }
+        } else if y > -x {
+            2
+        } else {
+            3
+        }
+    } else if x < 0.0 {
+        if -y < -x { 4 } else { 5 }
+    } else if -y > x {
+        6
+    } else {
+        7
     }
-    // atan(z) for z in [0, 1], then unfolded to the octant `p` lies in.
-    let z = ax.min(ay) / ax.max(ay);
-    let a = FRAC_PI_4 * z + 0.273 * z * (1.0 - z);
-    let a = if ay > ax { FRAC_PI_2 - a } else { a };
-    let a = if p.0 < 0.0 { PI - a } else { a };
-    let bearing = if p.1 < 0.0 { TAU - a } else { a };
-    let x = bearing / TAU * n as f64 + 0.5;
-    let margin = 0.01 / TAU * n as f64;
-    // `x` is positive: truncation is its floor.
-    let whole = x as usize;
-    let frac = x - whole as f64;
-    if frac < margin || frac > 1.0 - margin {
-        return exact();
-    }
-    if whole >= n { whole - n } else { whole }
 }
 
 /// What the monitor knows of the robot, and decides from one look at its sensors.
@@ -465,30 +488,77 @@ mod tests {
         }
     }
 
-    /// The sensor a point faces is the one `atan2` gives, on a fine grid of points and around
-    /// every half-way between two sensors, for rings of 16 and of 5.
+    /// Testing a point only against the rays of its octant clears exactly what testing it
+    /// against every ray does, on rings of 16 and of 5 (uneven) with wide and narrow beams,
+    /// including points on the octants' edges.
     #[test]
-    fn facing_is_the_sector_atan2_gives() {
-        let exact =
-            |p: (f64, f64), n: usize| ((p.1.atan2(p.0).rem_euclid(TAU) / TAU * n as f64 + 0.5) as usize) % n;
-        for n in [16, 5] {
-            for i in 0..200_000 {
-                let th = i as f64 / 200_000.0 * TAU;
-                let r = 0.05 + (i % 97) as f64 * 0.031;
-                let p = (r * th.cos(), r * th.sin());
-                assert_eq!(facing(p, n), exact(p, n), "n {n}, {p:?}");
-            }
-            for k in 0..n {
-                let half = (k as f64 + 0.5) / n as f64 * TAU;
-                for d in [-1e-3, -1e-9, -1e-15, 0.0, 1e-15, 1e-9, 1e-3] {
-                    let p = ((half + d).cos(), (half + d).sin());
-                    assert_eq!(facing(p, n), exact(p, n), "n {n}, half-way {k} {d}");
+    fn a_point_is_cleared_by_the_rays_of_its_octant_as_by_all() {
+        use orsa_interfaces::nomad200::{DistanceReading, Ring};
+        let every = |s: &Sight, since: Timestamp, p: (f64, f64)| {
+            s.rays.iter().any(|ray| {
+                let (vx, vy) = (p.0 - ray.origin.0, p.1 - ray.origin.1);
+                let d2 = vx * vx + vy * vy;
+                let along = vx * ray.axis.0 + vy * ray.axis.1;
+                let (lo, hi, c) = (ray.lo, ray.hi, ray.cos_half);
+                ray.stamp > since
+                    && d2 > lo * lo
+                    && d2 < hi * hi
+                    && along > 0.0
+                    && along * along >= d2 * c * c
+            })
+        };
+        let rings =
+            [(0..16).map(|i| i as f64 * TAU / 16.0).collect::<Vec<_>>(), vec![0.0, 0.7, 1.6, 3.3, 5.0]];
+        let (mut cleared, mut tried) = (0, 0);
+        for angles in rings {
+            for width_deg in [22.5f64, 8.0] {
+                let view = RingParams {
+                    angles_rad: angles.clone(),
+                    mount_radius_m: 0.25,
+                    beam_width_rad: width_deg.to_radians(),
+                    min_range_m: 0.05,
+                    max_range_m: 2.0,
+                    fire_period_s: 0.004,
+                };
+                let beams = Beams::of(&view);
+                let readings = (0..angles.len())
+                    .map(|i| DistanceReading {
+                        sensor_id: i as u8,
+                        stamp: Timestamp(10 + i as u64),
+                        valid: true,
+                        distance_m: 0.3 + 0.23 * i as f64 % 1.5,
+                    })
+                    .collect();
+                let scan = DistanceScan { stamp: Timestamp(30), ring: Ring::Sonar, readings };
+                let sight = beams.sight(&scan);
+                for k in 0..40_000 {
+                    let th = k as f64 / 40_000.0 * TAU;
+                    let r = 0.2 + (k % 53) as f64 * 0.04;
+                    let mut points = vec![(r * th.cos(), r * th.sin())];
+                    if k < 8 {
+                        let edge = k as f64 * FRAC_PI_4;
+                        points.extend([
+                            (r * edge.cos(), r * edge.sin()),
+                            (r, r),
+                            (-r, r),
+                            (0.0, -r),
+                            (-r, 0.0),
+                        ]);
+                    }
+                    for p in points {
+                        let want = every(&sight, Timestamp(12), p);
+                        assert_eq!(
+                            sight.clears(Timestamp(12), p),
+                            want,
+                            "{p:?} on {angles:?}, {width_deg} deg"
+                        );
+                        cleared += usize::from(want);
+                        tried += 1;
+                    }
                 }
             }
-            for p in [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0), (-1.0, -0.0), (0.0, 0.0)] {
-                assert_eq!(facing(p, n), exact(p, n), "n {n}, {p:?}");
-            }
         }
+        assert!(cleared > tried / 20 && cleared < tried, "{cleared} of {tried} cleared");
     }
 
     /// Braking at `a` after `t` from the speed allowed covers exactly the free distance.
