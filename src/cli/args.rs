@@ -37,9 +37,10 @@ pub(crate) struct RobotArgs {
     /// /ir_scan, /odom, /tf and /bumper, and take /cmd_vel as teleoperation (see docs/ros2.md).
     #[arg(long)]
     pub(crate) ros2: bool,
-    /// The ROS 2 domain (ROS_DOMAIN_ID) of --ros2 and --hardware ros2.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
-    pub(crate) domain: u32,
+    /// The ROS 2 domain of --ros2 and --hardware ros2 [default: ROS_DOMAIN_ID from the
+    /// environment, as every ROS 2 node takes it, else 0]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=MAX_DOMAIN as i64))]
+    pub(crate) domain: Option<u32>,
     /// The robot to drive, a robot kind of the catalog: `sim` (the simulator, the robot the
     /// config's [sim] describes) or `ros2` (a ROS 2 robot that publishes a laser scan and
     /// odometry and takes Twist commands, described by the config's [ros2.base]).
@@ -58,9 +59,16 @@ pub(crate) struct RobotArgs {
     pub(crate) net: Network,
 }
 
-impl From<RobotArgs> for orsa::remote::RobotOptions {
-    fn from(a: RobotArgs) -> Self {
-        orsa::remote::RobotOptions {
+impl TryFrom<RobotArgs> for orsa::remote::RobotOptions {
+    type Error = anyhow::Error;
+
+    /// The options, with the domain from `--domain`, else from `ROS_DOMAIN_ID`.
+    fn try_from(a: RobotArgs) -> anyhow::Result<Self> {
+        let domain = match a.domain {
+            Some(d) => d,
+            None => domain_from_env(std::env::var_os("ROS_DOMAIN_ID"))?,
+        };
+        Ok(orsa::remote::RobotOptions {
             world: a.world,
             seed: a.seed,
             fallback: a.fallback,
@@ -68,14 +76,14 @@ impl From<RobotArgs> for orsa::remote::RobotOptions {
             faults: a.faults,
             record: a.record,
             ros2: a.ros2,
-            domain: a.domain,
+            domain,
             hardware: a.hardware,
             catalog: orsa::system::Catalog::builtin(),
             foxglove: a.foxglove,
             net: a.net.into(),
             config: a.shared.config,
             report: a.shared.report,
-        }
+        })
     }
 }
 
@@ -374,4 +382,44 @@ fn parse_velocity(s: &str) -> Result<(f64, f64), String> {
             .ok_or_else(|| format!("{what} '{t}' is not a number"))
     };
     Ok((num(v, "V")?, num(w, "OMEGA")?))
+}
+
+/// The highest ROS 2 domain id (ROS 2's own limit for DDS; rmw_zenoh keeps the same range).
+const MAX_DOMAIN: u32 = 232;
+
+/// The ROS 2 domain `ROS_DOMAIN_ID` names, as a ROS 2 node reads it: unset or empty means 0;
+/// anything else must be a whole number from 0 to 232.
+pub(crate) fn domain_from_env(value: Option<std::ffi::OsString>) -> anyhow::Result<u32> {
+    let Some(value) = value else { return Ok(0) };
+    let text =
+        value.to_str().ok_or_else(|| anyhow::anyhow!("ROS_DOMAIN_ID in the environment is not UTF-8"))?;
+    let text = text.trim();
+    if text.is_empty() {
+        return Ok(0);
+    }
+    match text.parse::<u32>() {
+        Ok(d) if d <= MAX_DOMAIN => Ok(d),
+        _ => anyhow::bail!(
+            "ROS_DOMAIN_ID in the environment is {text:?}: a ROS 2 domain is a whole number from 0 to {MAX_DOMAIN} \
+             (or give --domain)"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::domain_from_env;
+
+    #[test]
+    fn the_domain_is_read_from_ros_domain_id_as_a_ros_2_node_reads_it() {
+        let env = |s: &str| domain_from_env(Some(s.into()));
+        assert_eq!(domain_from_env(None).expect("unset"), 0);
+        assert_eq!(env("").expect("empty"), 0);
+        assert_eq!(env(" 7 ").expect("7"), 7);
+        assert_eq!(env("232").expect("232"), 232);
+        for bad in ["233", "-1", "seven", "1.5"] {
+            let e = env(bad).expect_err(bad).to_string();
+            assert!(e.contains("ROS_DOMAIN_ID") && e.contains(bad), "{e}");
+        }
+    }
 }

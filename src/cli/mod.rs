@@ -63,7 +63,7 @@ pub(crate) fn run(cli: Cli) -> anyhow::Result<Outcome> {
     let done = |r: anyhow::Result<()>| r.map(|()| Outcome::Completed);
     match cli.command {
         Command::Run(args) => run::run_mission(args),
-        Command::Robot(args) => orsa::remote::robot(args.into()),
+        Command::Robot(args) => orsa::remote::robot(args.try_into()?),
         Command::Executive(args) => orsa::remote::executive(args.into()),
         Command::Teleop(args) => done(orsa::remote::teleop(args.into())),
         Command::List(args) => done(orsa::remote::list(args.into())),

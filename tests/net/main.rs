@@ -66,10 +66,18 @@ pub(crate) fn free_port() -> u16 {
 
 /// Starts `orsa ARGS...`, stderr into a temporary file named after `name`.
 pub(crate) fn orsa(name: &str, args: &[&str]) -> Proc {
+    orsa_with_env(name, args, &[])
+}
+
+/// `orsa` with these variables in its environment (and no `ROS_DOMAIN_ID` from the test's own
+/// unless given here).
+pub(crate) fn orsa_with_env(name: &str, args: &[&str], env: &[(&str, &str)]) -> Proc {
     let log = std::env::temp_dir().join(format!("orsa-test-{}-{name}.log", std::process::id()));
     let file = std::fs::File::create(&log).expect("log file");
     let child = Command::new(env!("CARGO_BIN_EXE_orsa"))
         .args(args)
+        .env_remove("ROS_DOMAIN_ID")
+        .envs(env.iter().copied())
         .env("RUST_LOG", "warn")
         .stdout(Stdio::piped())
         .stderr(file)
@@ -108,10 +116,19 @@ impl System {
     }
 
     pub(crate) fn robot(&self, extra: &[&str]) -> Proc {
+        self.robot_with_env(extra, &[])
+    }
+
+    /// The robot, with these variables in its environment.
+    pub(crate) fn robot_with_env(&self, extra: &[&str], env: &[(&str, &str)]) -> Proc {
         let mut args: Vec<String> = vec!["robot".into()];
         args.extend(self.listen_args());
         args.extend(extra.iter().map(|s| s.to_string()));
-        orsa(&format!("{}-robot", self.prefix), &args.iter().map(String::as_str).collect::<Vec<_>>())
+        orsa_with_env(
+            &format!("{}-robot", self.prefix),
+            &args.iter().map(String::as_str).collect::<Vec<_>>(),
+            env,
+        )
     }
 
     pub(crate) fn run(&self, name: &str, sub: &str, extra: &[&str]) -> Proc {

@@ -71,16 +71,19 @@ fn report_path(name: &str) -> PathBuf {
 async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_and_counted() {
     let sys = System::new("ros2face");
     let report = report_path("ros2face");
-    let robot = sys.robot(&["--ros2", "--report", report.to_str().expect("utf-8")]);
+    // The domain comes from ROS_DOMAIN_ID, as for every ROS 2 node: the node, on domain 7, sees
+    // the robot only if the robot took it from its environment (it would be on 0 otherwise).
+    let robot = sys
+        .robot_with_env(&["--ros2", "--report", report.to_str().expect("utf-8")], &[("ROS_DOMAIN_ID", "7")]);
 
-    let seen = fixture(&sys, "observe", &[], Duration::from_secs(60), &[&robot]).await;
+    let seen = fixture(&sys, "observe", &["--domain", "7"], Duration::from_secs(60), &[&robot]).await;
     eprintln!("observe: {seen}");
     assert_eq!(seen["robot_node"], "orsa", "{seen}");
     assert!(seen["moved_m"].as_f64().expect("moved_m") > 0.1, "{seen}");
     // Velocity timeout 0.5 s, then the robot decelerates: at rest well within 2 s.
     assert!(seen["at_rest_after_s"].as_f64().expect("at_rest") < 2.0, "{seen}");
 
-    let bad = fixture(&sys, "bad-input", &[], Duration::from_secs(60), &[&robot]).await;
+    let bad = fixture(&sys, "bad-input", &["--domain", "7"], Duration::from_secs(60), &[&robot]).await;
     eprintln!("bad input: {bad}");
     let r = interrupt_and_report(robot, &report).await;
     let ros2 = r.ros2.expect("a ros2 section in the report");
