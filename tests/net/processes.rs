@@ -223,12 +223,20 @@ async fn a_flood_of_malformed_messages_is_counted_whole_and_logged_within_a_budg
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_robot_drives_its_fallback_mode_without_an_executive_and_hands_back_to_a_new_one() {
+async fn a_robot_drives_its_fallback_mode_without_an_executive_from_the_start_and_hands_back() {
     let sys = System::new("fallback");
     let robot = sys.robot(&["--fallback", "patrol"]);
     let (registry, t) = sys.observe().await;
     let (_c, mut base) = base_stream(&registry, &t).await;
+    // No executive ever connected: the fallback drives from the start.
+    t.wait_for(&["fallback/goal".parse().expect("addr")], STARTUP).await.expect("the fallback starts alone");
+    until_base(&mut base, STARTUP, "the fallback drives from the start", |b| b.v_m_s > 0.15).await;
     let mut exec = sys.run("exec1", "executive", &["--duration", "120"]);
+    t.wait_for(&["master/goal".parse().expect("addr")], STARTUP).await.expect("the executive starts");
+    assert!(
+        t.wait_gone(&"fallback/goal".parse().expect("addr"), Duration::ZERO).await,
+        "the fallback stopped before the executive's master started"
+    );
     until_base(&mut base, STARTUP, "the executive drives", |b| b.v_m_s > 0.15).await;
     exec.child.kill().expect("kill the executive");
     t.wait_for(&["fallback/goal".parse().expect("addr")], STARTUP).await.expect("the fallback master starts");

@@ -104,6 +104,9 @@ pub(super) struct Watchdog<'a> {
     executives: std::collections::BTreeMap<String, Executive>,
     last_base: Option<orsa_interfaces::nomad200::BaseState>,
     departed: std::collections::BTreeSet<String>,
+    /// Whether an executive was ever heard (found or beating), or the fallback was started
+    /// for want of one: until then the fallback starts a lease after the robot does.
+    heard: bool,
     watched: &'a mut Watched,
 }
 
@@ -133,6 +136,7 @@ impl<'a> Watchdog<'a> {
             executives: std::collections::BTreeMap::new(),
             last_base: None,
             departed: std::collections::BTreeSet::new(),
+            heard: false,
             watched,
         })
     }
@@ -148,13 +152,18 @@ impl<'a> Watchdog<'a> {
         >,
     ) -> crate::ending::Stop {
         let far = Duration::from_secs(86_400);
+        // With no executive at all, the fallback drives a lease after the start, as it does a
+        // lease after an executive is lost.
+        let unheard = tokio::time::Instant::now() + self.lease;
         tokio::pin!(stop);
         loop {
             let now = tokio::time::Instant::now();
             let next =
                 self.executives.values().filter(|e| !e.lost).map(|e| e.deadline).min().unwrap_or(now + far);
+            let alone = !self.heard && self.fallback_mode.is_some();
             tokio::select! {
                 stop = &mut stop => break stop,
+                () = tokio::time::sleep_until(unheard), if alone => self.never_heard().await,
                 () = tokio::time::sleep_until(next) => self.expired().await,
                 Some(ev) = ev_rx.recv() => match ev {
                     RobotEvent::ExecutiveFound(zid) => self.executive_found(zid).await,
@@ -166,6 +175,13 @@ impl<'a> Watchdog<'a> {
                 Some(u) = base_rx.recv() => self.base_state(u),
             }
         }
+    }
+
+    /// No executive was heard within a lease of the start: the fallback drives.
+    async fn never_heard(&mut self) {
+        self.heard = true;
+        eprintln!("robot: no executive within {} ms of the start", self.lease.as_millis());
+        start_fallback_if(self.registry, self.config, self.fallback_mode, &mut self.watched.fallback).await;
     }
 
     /// The heartbeat leases that expired: their executives are lost.
@@ -211,6 +227,7 @@ impl<'a> Watchdog<'a> {
 
     /// A process of role executive appeared.
     async fn executive_found(&mut self, zid: String) {
+        self.heard = true;
         self.departed.remove(&zid);
         // A new executive takes over: the fallback master goes first (the
         // executive waits for its services to disappear before it starts).
@@ -286,6 +303,7 @@ impl<'a> Watchdog<'a> {
 
     /// A heartbeat of executive `zid` (not departed), which beats every `period_ms`.
     async fn beat(&mut self, zid: String, period_ms: u64) {
+        self.heard = true;
         let lease = self.lease;
         let e = self.executives.entry(zid.clone()).or_insert(Executive {
             deadline: tokio::time::Instant::now() + lease,
