@@ -70,6 +70,38 @@ fn replay_paused(rec: &Recording) -> orsa::replay::Replayed {
         .expect("the recording replays")
 }
 
+/// `rec` as a loaded machine records it: the first wiring of centre following to the motors
+/// heard by the recorder 2.5 ms after the scan that came next (more than the replay timer's
+/// millisecond), and the behaviour's step on that scan after it, so delivered. `None` if the
+/// recording has no such wiring followed by a scan and centre following's step on it.
+fn wired_heard_late(mut rec: Recording) -> Option<Recording> {
+    use orsa::replay::file::Published;
+    let scan = |p: &Published| matches!(p, Published::Ir(_) | Published::Sonar(_));
+    let (j, k, heard, step) = (0..rec.controls.len()).find_map(|j| {
+        let wired = matches!(&rec.controls[j].1, Control::Port { component, status }
+            if component == "centerfollow" && status.target.is_some());
+        if !wired || rec.controls_early[j] {
+            return None;
+        }
+        // The scan after it, the step on it before the next scan, and the next control later.
+        let k = (rec.controls_after[j]..rec.published.len()).find(|&k| scan(&rec.published[k].1))?;
+        let heard = rec.published[k].0 + 2_500_000;
+        let next_scan = rec.published[k + 1..].iter().find(|p| scan(&p.1)).map_or(u64::MAX, |p| p.0);
+        let step = rec.outputs["centerfollow/status"].iter().position(|m| m.log_time > rec.published[k].0)?;
+        let next_control_ok =
+            rec.controls.get(j + 1).is_none_or(|c| rec.controls_after[j + 1] > k && c.0 > heard + 100_000);
+        (next_control_ok
+            && heard + 100_000 < next_scan
+            && rec.outputs["centerfollow/status"][step].log_time < next_scan)
+            .then_some((j, k, heard, step))
+    })?;
+    rec.outputs.get_mut("centerfollow/status")?[step].log_time = heard + 100_000;
+    rec.controls[j].0 = heard;
+    rec.controls_after[j] = k + 1;
+    rec.controls_early[j] = true;
+    Some(rec)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_robot_and_executive_processes_replay_from_their_recordings_with_teleop_and_a_link_cut() {
     let sys = System::new("replay");
@@ -180,6 +212,13 @@ async fn the_robot_and_executive_processes_replay_from_their_recordings_with_tel
     .expect("join");
     let text = String::from_utf8_lossy(&both.stdout).into_owned() + &String::from_utf8_lossy(&both.stderr);
     assert!(both.status.success() && text.contains("all 2 recordings bit-exact"), "{text}");
+
+    // A wiring the recorder heard late, after the scan whose step saw it: the replay applies it
+    // where the recording places it, between the scan and the step, whatever its log time.
+    let late = wired_heard_late(Recording::open(&path).expect("readable"))
+        .expect("centre following was wired before a scan and its step");
+    let out = tokio::task::spawn_blocking(move || replay_paused(&late)).await.expect("join");
+    assert!(out.divergence.is_none(), "a wiring heard late replays bit-exact: {:?}", out.divergence);
 
     // One altered behaviour output, and one altered wiring request, are reported at exactly
     // that message.

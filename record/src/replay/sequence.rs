@@ -11,7 +11,10 @@
 //! the outputs recorded before it of what it acts on (see [`Recording::controls_outputs`])
 //! are made: right after a publication, before anything it sets going runs, where the
 //! recording says it went before the step on that publication
-//! ([`Recording::controls_early`]); else once what the publication set going has run.
+//! ([`Recording::controls_early`]); else once what the publication set going has run. A
+//! control that went before the step is placed by that order alone, without waiting for its
+//! time: the recorder logs a change when it hears of it, which on a loaded machine can be
+//! milliseconds after the publication the step was on.
 //!
 //! A paused-clock recording is replayed at its exact instants and does not need this (see
 //! [`super::feed_controls`]).
@@ -80,9 +83,13 @@ impl Sequencer {
         self.registry.clock().instant_of(Timestamp(self.controls[j].0))
     }
 
-    /// Whether control `j`'s place has come.
+    /// Whether control `j`'s place has come. A control that went before the step on the
+    /// publication before it (`early`) is placed by that order alone, not by its log time: the
+    /// recorder logs a change when it hears of it, which under load can be more than the
+    /// timer's millisecond after that publication, though the step came after the change.
+    /// Waiting for its time there would let the step run first.
     fn ready(&self, j: usize) -> bool {
-        if tokio::time::Instant::now() < self.due(j)
+        if (!self.early[j] && tokio::time::Instant::now() < self.due(j))
             || self.playback.cursor.load(Ordering::SeqCst) < self.after[j]
         {
             return false;
@@ -121,9 +128,9 @@ impl Sequencer {
 /// with a publication are applied by the stand-in), until all are.
 pub(super) async fn feed(seq: Arc<Sequencer>) {
     loop {
-        if seq.next().is_some_and(|j| seq.ready(j)) {
+        if seq.next().is_some_and(|j| !seq.early[j] && seq.ready(j)) {
             // What the publications before it set going runs first (a step on the last one),
-            // as it did before the control in the recording.
+            // as it did before the control in the recording; an early control goes before.
             for _ in 0..super::SETTLE_YIELDS {
                 tokio::task::yield_now().await;
             }
