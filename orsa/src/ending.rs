@@ -6,7 +6,6 @@
 
 use crate::mission::report::Ended;
 use orsa_actors::supervision::{SupervisorEvent, SupervisorEventKind};
-use orsa_hardware::board::MotorBoard;
 use std::time::Duration;
 use tokio::sync::watch;
 
@@ -72,23 +71,6 @@ pub async fn until_end(duration: Option<Duration>, top: &TopWatch) -> Stop {
 
 /// How long a process that gave up waits for the robot to come to rest.
 pub const STOP_WAIT: Duration = Duration::from_secs(2);
-
-/// Stops the motors straight on the board (the robot server and its watchdog are gone) and
-/// waits up to [`STOP_WAIT`] for the robot to come to rest: the seconds it took, or `None` if
-/// it was still moving.
-pub async fn stop_on_board<B: MotorBoard>(board: &B) -> Option<f64> {
-    let t0 = tokio::time::Instant::now();
-    if let Err(e) = board.stop().await {
-        tracing::error!("cannot stop the motors: {e}");
-    }
-    match board.wait_stop(STOP_WAIT).await {
-        Ok(()) => Some(t0.elapsed().as_secs_f64()),
-        Err(e) => {
-            tracing::error!("the robot is still moving {STOP_WAIT:?} after the motors were stopped: {e}");
-            None
-        }
-    }
-}
 
 /// The [`Ended`] of a process stopped by `stop` at `at_s` (seconds on its clock); a give-up's
 /// `stopped_in_s` is how long the robot took to come to rest, if the process drives one.

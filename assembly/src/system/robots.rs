@@ -193,14 +193,21 @@ impl Robot {
     }
 
     /// Stops the motors on the board itself, past every fault switch and component; how long
-    /// they took to come to rest (None: they did not within `wait`).
+    /// they took to come to rest (None: they did not within `wait`), on the board's own clock
+    /// (its readings' stamps: a simulator's time, which a loaded host can hold back, or a real
+    /// board's), else on the host's.
     pub async fn stop_on_board(&self, wait: Duration) -> Option<f64> {
         let t0 = tokio::time::Instant::now();
+        let stamp = async || self.motors.read_state().await.ok().map(|s| s.stamp);
+        let from = stamp().await;
         if let Err(e) = self.motors.stop().await {
             tracing::error!("cannot stop the motors: {e}");
         }
         match self.motors.wait_stop(wait).await {
-            Ok(()) => Some(t0.elapsed().as_secs_f64()),
+            Ok(()) => Some(match (from, stamp().await) {
+                (Some(from), Some(to)) if to >= from => (to.0 - from.0) as f64 / 1e9,
+                _ => t0.elapsed().as_secs_f64(),
+            }),
             Err(e) => {
                 tracing::error!("the robot is still moving {wait:?} after the motors were stopped: {e}");
                 None
