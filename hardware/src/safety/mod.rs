@@ -99,6 +99,8 @@ struct GuardState {
     counters: MonitorCounters,
     /// What the sensors saw lately, in the odometry frame (see the module docs).
     memory: Memory,
+    /// What the last look's readings saw free (kept for its buffers).
+    sight: Sight,
     /// When the sensors were last looked at.
     looked: Option<tokio::time::Instant>,
 }
@@ -265,7 +267,7 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
         let mut st = self.state.lock();
         let speed = motors.velocities.translate_m_s.abs().max(st.applied.0.abs());
         st.looked = Some(tokio::time::Instant::now());
-        let memory = &mut st.memory;
+        let GuardState { memory, sight, .. } = &mut *st;
         // What lies beyond the path the robot may need from its top speed never limits it.
         let p = &m.params;
         let near =
@@ -276,13 +278,15 @@ impl<S: SensorBoard, M: MotorBoard> Inner<S, M> {
             }
         }
         let keep = Duration::from_secs_f64(m.params.memory_s);
-        // What each fresh view sees free, set out once for every point remembered.
-        let mut sight = Sight::default();
+        // What each fresh view sees free, set out once for every point remembered (in the
+        // buffers of the look before: a look allocates nothing once they have grown).
+        sight.clear();
         for (v, scan) in [&ir, &sonar].into_iter().enumerate() {
             if fresh[v] {
-                m.beams[v].add_to(&mut sight, scan);
+                m.beams[v].add_to(sight, scan);
             }
         }
+        let sight = &*sight;
         let seen_through = |p: &Seen, at: (f64, f64)| sight.newer_than(p.stamp) && sight.clears(p.stamp, at);
         memory.recall(pose, now, keep, near, seen_through, &mut look.seen);
         Ok(look)

@@ -239,6 +239,13 @@ impl Sight {
         self.newest.is_some_and(|n| n > since)
     }
 
+    /// Forgets every reading, keeping its buffers.
+    pub fn clear(&mut self) {
+        self.rays.clear();
+        self.by_octant.iter_mut().for_each(Vec::clear);
+        self.newest = None;
+    }
+
     /// How many readings it holds.
     pub fn len(&self) -> usize {
         self.rays.len()
@@ -510,6 +517,8 @@ mod tests {
         let rings =
             [(0..16).map(|i| i as f64 * TAU / 16.0).collect::<Vec<_>>(), vec![0.0, 0.7, 1.6, 3.3, 5.0]];
         let (mut cleared, mut tried) = (0, 0);
+        // One sight cleared and filled again for every ring: nothing of the last stays.
+        let mut reused = Sight::default();
         for angles in rings {
             for width_deg in [22.5f64, 8.0] {
                 let view = RingParams {
@@ -531,6 +540,8 @@ mod tests {
                     .collect();
                 let scan = DistanceScan { stamp: Timestamp(30), ring: Ring::Sonar, readings };
                 let sight = beams.sight(&scan);
+                reused.clear();
+                beams.add_to(&mut reused, &scan);
                 for k in 0..40_000 {
                     let th = k as f64 / 40_000.0 * TAU;
                     let r = 0.2 + (k % 53) as f64 * 0.04;
@@ -552,6 +563,7 @@ mod tests {
                             want,
                             "{p:?} on {angles:?}, {width_deg} deg"
                         );
+                        assert_eq!(reused.clears(Timestamp(12), p), want, "reused: {p:?} on {angles:?}");
                         cleared += usize::from(want);
                         tried += 1;
                     }
