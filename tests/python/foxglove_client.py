@@ -228,6 +228,9 @@ async def watch(url, seconds):
         scan = decoded[topic]
         if scan.frame_id != "base_link" or len(scan.ranges) != 16:
             fail(f"{topic}: a scan in {scan.frame_id!r} with {len(scan.ranges)} ranges")
+        # Foxglove's 3D panel draws an infinite range at infinity: none is sent.
+        if not all(math.isfinite(r) for r in scan.ranges):
+            fail(f"{topic}: a range that is not finite in {list(scan.ranges)}")
     chain = [(t.parent_frame_id, t.child_frame_id) for t in decoded["/tf"].transforms]
     if chain != [("world", "odom"), ("odom", "base_link")]:
         fail(f"/tf: the chain {chain}")

@@ -8,7 +8,8 @@ Checks, each failing with a message that names what is wrong:
   its boxes and discs the world file's;
 - `/infrared` and `/sonar` hold one scan per JSON scan, at the same log time, in `base_link`,
   with 16 ranges at the ring's angles (sensor i at i x 22.5 degrees), each the JSON reading
-  plus the mount radius (infinite where the reading is not valid), at the push periods
+  plus the mount radius with intensity 1 (range 0, intensity 0 where the reading is not
+  valid: never an infinite range, which Foxglove draws at infinity), at the push periods
   (40 ms and 64 ms);
 - `/tf` chains `world` -> `odom` -> `base_link`: `odom` at the world's start pose, `base_link`
   at the JSON `basestate`'s odometry; `/truth/tf` places `base_link_truth`; the odometry's
@@ -196,11 +197,15 @@ def main(path):
             step = (scan.end_angle - scan.start_angle) / (RING - 1)
             if abs(scan.start_angle) > 1e-12 or abs(step - STEP) > 1e-12:
                 fail(path, f"{topic} at {t}: angles from {scan.start_angle} by {step}, not 0 by 22.5 degrees")
+            if not all(math.isfinite(r) for r in scan.ranges) or len(scan.intensities) != RING:
+                fail(path, f"{topic} at {t}: ranges {list(scan.ranges)}, {len(scan.intensities)} intensities")
             for r in js["value"]["readings"]:
-                got = scan.ranges[r["sensor_id"]]
-                want = mount + r["distance_m"] if r["valid"] else math.inf
-                if not (got == want or math.isclose(got, want, abs_tol=1e-12)):
-                    fail(path, f"{topic} at {t}: sensor {r['sensor_id']} range {got}, JSON says {want}")
+                i = r["sensor_id"]
+                got = (scan.ranges[i], scan.intensities[i])
+                # No return: range 0 (the scan's origin, inside the robot) and intensity 0.
+                want = (mount + r["distance_m"], 1.0) if r["valid"] else (0.0, 0.0)
+                if got[1] != want[1] or not (got[0] == want[0] or math.isclose(got[0], want[0], abs_tol=1e-12)):
+                    fail(path, f"{topic} at {t}: sensor {i} range and intensity {got}, JSON says {want}")
         median = statistics.median(periods_ms([t for t, _ in scans]))
         if abs(median - expected_ms) > 1e-6:
             fail(path, f"{topic}: scans every {median} ms, not {expected_ms}")

@@ -16,7 +16,7 @@
 //! | [`ROBOT_TOPIC`] | `foxglove.SceneUpdate` | the robot's body at its truth and (faint) at its odometry, coloured by the behaviour driving |
 //! | [`TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `odom` -> `base_link`, at every `basestate` |
 //! | [`TRUTH_TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `base_link_truth`, at every truth sample |
-//! | [`INFRARED_TOPIC`], [`SONAR_TOPIC`] | `foxglove.LaserScan` | every `distanceir` and `distanceson` scan, in `base_link` |
+//! | [`INFRARED_TOPIC`], [`SONAR_TOPIC`] | `foxglove.LaserScan` | every `distanceir` and `distanceson` scan, in `base_link`; a sensor with no valid return at range 0, intensity 0 (a return: intensity 1), never an infinite range |
 //! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |

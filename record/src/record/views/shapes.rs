@@ -186,14 +186,18 @@ pub(crate) fn robot_entity(
 
 /// A ring's scan in the robot's frame: one range per sensor, sensor `i` at
 /// [`ring_angle_rad`]`(i)`, measured from the robot's centre (the reading plus the ring's
-/// `mount_radius_m`); a sensor without a valid reading has an infinite range (nothing seen).
+/// `mount_radius_m`), its intensity 1. A sensor without a valid reading (nothing seen, or a
+/// reading refused) has range 0 and intensity 0: `foxglove.LaserScan` has no mark for a missing
+/// return, and an infinite range is drawn at infinity by Foxglove's 3D panel, where a range of
+/// 0 is the scan's origin, inside the robot (no real return is nearer than the ring). ROS 2's
+/// `/scan` keeps REP 117's `+inf` for no return.
 pub(crate) fn laser_scan(scan: &DistanceScan, mount_radius_m: f64) -> LaserScan {
-    let mut ranges = vec![f64::INFINITY; RING_SIZE];
+    let (mut ranges, mut intensities) = (vec![0.0; RING_SIZE], vec![0.0; RING_SIZE]);
     for r in &scan.readings {
-        if let Some(range) = ranges.get_mut(usize::from(r.sensor_id))
-            && r.valid
-        {
-            *range = mount_radius_m + r.distance_m;
+        let i = usize::from(r.sensor_id);
+        if i < RING_SIZE && r.valid && r.distance_m.is_finite() {
+            ranges[i] = mount_radius_m + r.distance_m;
+            intensities[i] = 1.0;
         }
     }
     LaserScan {
@@ -203,7 +207,7 @@ pub(crate) fn laser_scan(scan: &DistanceScan, mount_radius_m: f64) -> LaserScan 
         start_angle: ring_angle_rad(0),
         end_angle: ring_angle_rad(RING_SIZE - 1),
         ranges,
-        intensities: Vec::new(),
+        intensities,
     }
 }
 
@@ -246,7 +250,9 @@ mod tests {
         assert_eq!(s.ranges.len(), RING_SIZE);
         assert_eq!(s.frame_id, BASE_FRAME);
         assert!((s.ranges[4] - 0.65).abs() < 1e-12);
-        assert!(s.ranges[3].is_infinite());
+        assert_eq!((s.ranges[3], s.intensities[3]), (0.0, 0.0), "no return: at the origin, dark");
+        assert_eq!(s.intensities[4], 1.0);
+        assert!(s.ranges.iter().all(|r| r.is_finite()));
         // Evenly spread from the start to the end angle: sensor 4 is at 90 degrees (left).
         let step = (s.end_angle - s.start_angle) / (RING_SIZE - 1) as f64;
         assert!((s.start_angle + 4.0 * step - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
