@@ -25,3 +25,40 @@ async fn a_python_client_sees_numbered_updates_and_its_own_gaps_and_duplicates_c
     );
     assert!(stdout.contains("robot counted missing 3 duplicated 1"), "{stdout}");
 }
+
+/// `orsa robot --foxglove`, watched by a Foxglove client written from the WebSocket protocol's
+/// specification (Python): every message it gets, the latched world and robot sent when it
+/// subscribes included, is stamped on the system's time base (UNIX time, as the scans), never
+/// at time zero.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robots_live_view_stamps_every_message_on_the_systems_time_base() {
+    let sys = System::new("foxstamps");
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let robot = sys.robot(&["--foxglove", &addr]);
+    // Its live view listens before the robot joins the network.
+    let (registry, t) = sys.observe().await;
+    let (_c, _base) = base_stream(&registry, &t).await;
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/foxglove_client.py");
+    let url = format!("ws://{addr}");
+    let out = tokio::task::spawn_blocking(move || {
+        Command::new("python3").args([script, &url, "--time-base", "--seconds", "2"]).output()
+    })
+    .await
+    .expect("join")
+    .expect("run python3");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}\nrobot:\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        robot.log_text()
+    );
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("the client prints JSON");
+    for topic in ["/world", "/robot", "/tf"] {
+        assert!(
+            v["topics"][topic]["first_ns"].as_u64().is_some_and(|t| t > 1_700_000_000_000_000_000),
+            "{v}"
+        );
+    }
+}

@@ -249,6 +249,48 @@ async def watch(url, seconds):
     }
 
 
+
+async def time_base(url, seconds, within_s=60.0):
+    """Subscribes to every topic of a server (a robot process serves fewer than a run) and
+    checks that every message, the latched views sent on subscribing included, is stamped on
+    one time base: within `within_s` of the wall clock (UNIX time), as the scans are. Its log
+    times' spread per topic."""
+    ws, _, channels = await handshake(url, {"/world", "/robot", "/tf"})
+    decoders = {cid: decoder(c) for cid, c in channels.items()}
+    subs, request = subscribe_all(channels)
+    sub_channel = {s["id"]: s["channelId"] for s in subs}
+    await ws.send(request)
+    seen = {}
+    start = time.monotonic()
+    while time.monotonic() - start < seconds:
+        msg = await asyncio.wait_for(ws.recv(), 5.0)
+        if isinstance(msg, str) or len(msg) < 13 or msg[0] != OP_MESSAGE_DATA:
+            continue
+        sub_id, log_time = struct.unpack_from("<IQ", msg, 1)
+        cid = sub_channel.get(sub_id)
+        if cid is None:
+            fail(f"message data on subscription {sub_id}, which this client did not make")
+        topic = channels[cid]["topic"]
+        now = time.time()
+        stamps = [log_time / 1e9]
+        m = decoders[cid](msg[13:])
+        # The stamps inside: a scene's entities, a message's own, each transform's.
+        inner = [m] + list(getattr(m, "entities", [])) + list(getattr(m, "transforms", []))
+        for part in inner:
+            if "timestamp" in part.DESCRIPTOR.fields_by_name and part.HasField("timestamp"):
+                stamps.append(part.timestamp.seconds + part.timestamp.nanos / 1e9)
+        for t in stamps:
+            if abs(t - now) > within_s:
+                fail(f"{topic}: a message stamped {t:.3f} s (UNIX time), {t - now:+.1f} s from now")
+        lo, hi = seen.get(topic, (log_time, log_time))
+        seen[topic] = (min(lo, log_time), max(hi, log_time))
+    await ws.close()
+    for topic in ("/world", "/robot", "/tf"):
+        if topic not in seen:
+            fail(f"{topic}: nothing in {seconds} s")
+    return {"topics": {t: {"first_ns": lo, "last_ns": hi} for t, (lo, hi) in seen.items()}}
+
+
 class Session:
     """One connection whose binary messages on /tf are turned into the robot's positions
     (odom -> base_link, by log time) while the test waits for text replies."""
@@ -373,8 +415,11 @@ def main():
     p.add_argument("url")
     p.add_argument("--seconds", type=float, default=5.0)
     p.add_argument("--params", nargs=2, metavar=("NAME", "VALUE"))
+    p.add_argument("--time-base", action="store_true", help="check every message's stamps only")
     a = p.parse_args()
-    if a.params:
+    if a.time_base:
+        out = asyncio.run(time_base(a.url, a.seconds))
+    elif a.params:
         out = asyncio.run(params(a.url, a.params[0], json.loads(a.params[1])))
     else:
         out = asyncio.run(watch(a.url, a.seconds))

@@ -12,7 +12,7 @@
 
 use super::Shared;
 use super::sink::LiveSink;
-use crate::record::views::{Input, TRAJECTORY_PERIOD_NS, TruthSample, ViewSetup, Views};
+use crate::record::views::{Input, TRAJECTORY_PERIOD_NS, TruthSample, ViewSetup, ViewSink, Views};
 use orsa_actors::Timestamp;
 use orsa_actors::supervision::SupervisorEvent;
 use orsa_actors::tap::Tap;
@@ -176,40 +176,57 @@ pub const POLL: std::time::Duration = std::time::Duration::from_millis(20);
 fn serve(mut views: Views, mut sink: LiveSink, shared: &Shared, queue: mpsc::Receiver<Item>) -> u64 {
     let mut warned = false;
     let mut last = Timestamp::ZERO;
-    let mut open = true;
-    while open {
+    loop {
         std::thread::sleep(POLL);
-        let mut done = Ok(());
-        if shared.rewrite.swap(false, Ordering::AcqRel) {
-            done = views.rewrite_latched(&mut sink, last);
-        }
-        while done.is_ok() {
-            let item = match queue.try_recv() {
-                Ok(item) => item,
-                Err(mpsc::TryRecvError::Empty) => break,
-                Err(mpsc::TryRecvError::Disconnected) => {
-                    open = false;
-                    break;
-                }
-            };
-            done = match &item {
-                Item::Message { input, topic, at, json } => {
-                    last = last.max(*at);
-                    views.message(&mut sink, *input, topic, *at, json)
-                }
-                Item::Truth(sample) => {
-                    last = last.max(sample.at);
-                    views.truth(&mut sink, sample)
-                }
-            };
-        }
+        let (open, done) = take(&mut views, &mut sink, shared, &queue, &mut last);
         if let Err(e) = done
             && !std::mem::replace(&mut warned, true)
         {
             tracing::warn!("{e} (further errors of the live view are not logged)");
         }
+        if !open {
+            return sink.sent;
+        }
     }
-    sink.sent
+}
+
+/// One poll of the views' thread: what a subscription asked to be written again, then every
+/// item queued, in order; whether the queue is still open. `last` is the newest time the views
+/// were given: the latched views written again are stamped with it, on the system's time base.
+/// Until the first item comes (a robot hands nothing but its health and events while nobody
+/// watches) there is no such time, and they wait for it rather than go out stamped 1970.
+fn take<S: ViewSink>(
+    views: &mut Views,
+    sink: &mut S,
+    shared: &Shared,
+    queue: &mpsc::Receiver<Item>,
+    last: &mut Timestamp,
+) -> (bool, Result<(), S::Error>) {
+    let mut done = Ok(());
+    if *last > Timestamp::ZERO && shared.rewrite.swap(false, Ordering::AcqRel) {
+        done = views.rewrite_latched(sink, *last);
+    }
+    while done.is_ok() {
+        let item = match queue.try_recv() {
+            Ok(item) => item,
+            Err(mpsc::TryRecvError::Empty) => break,
+            Err(mpsc::TryRecvError::Disconnected) => return (false, done),
+        };
+        done = match &item {
+            Item::Message { input, topic, at, json } => {
+                *last = (*last).max(*at);
+                views.message(sink, *input, topic, *at, json)
+            }
+            Item::Truth(sample) => {
+                *last = (*last).max(sample.at);
+                views.truth(sink, sample)
+            }
+        };
+        if done.is_ok() && *last > Timestamp::ZERO && shared.rewrite.swap(false, Ordering::AcqRel) {
+            done = views.rewrite_latched(sink, *last);
+        }
+    }
+    (true, done)
 }
 
 /// A tap that hands every message to two taps (a recording's and a live view's).
@@ -248,15 +265,15 @@ pub fn both(a: Option<Arc<dyn Tap>>, b: Option<Arc<dyn Tap>>) -> Option<Arc<dyn 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::views::{
-        DRIVING_TOPIC, MAP_TOPIC, ROBOT_TOPIC, TRAJECTORY_TOPIC, ViewSink, WORLD_TOPIC,
-    };
+    use crate::record::views::{DRIVING_TOPIC, MAP_TOPIC, ROBOT_TOPIC, TRAJECTORY_TOPIC, WORLD_TOPIC};
 
     /// Remembers the topics declared and written.
     #[derive(Default)]
     struct Topics {
         declared: Vec<String>,
         written: Vec<String>,
+        /// The log time of each written.
+        stamps: Vec<Timestamp>,
     }
 
     impl ViewSink for Topics {
@@ -265,10 +282,11 @@ mod tests {
         fn view<T: foxglove::Encode>(
             &mut self,
             topic: &str,
-            _at: Timestamp,
+            at: Timestamp,
             _msg: &T,
         ) -> Result<(), Self::Error> {
             self.written.push(topic.to_owned());
+            self.stamps.push(at);
             Ok(())
         }
 
@@ -315,6 +333,40 @@ mod tests {
         sink.written.clear();
         views.rewrite_latched(&mut sink, at).expect("written again");
         assert_eq!(sink.written, [WORLD_TOPIC, MAP_TOPIC, ROBOT_TOPIC, DRIVING_TOPIC, TRAJECTORY_TOPIC]);
+    }
+
+    #[test]
+    fn latched_views_asked_for_before_any_time_is_known_wait_for_it() {
+        let mut views = Views::new(setup(true, false));
+        let mut sink = Topics::default();
+        let shared = Shared::default();
+        let (tx, rx) = mpsc::sync_channel(4);
+        let mut last = Timestamp::ZERO;
+        // A client subscribes before the robot handed anything: nothing goes out at time zero.
+        shared.rewrite.store(true, Ordering::Release);
+        let (open, done) = take(&mut views, &mut sink, &shared, &rx, &mut last);
+        assert!(open && done.is_ok());
+        assert!(sink.written.is_empty(), "{:?}", sink.written);
+        assert!(shared.rewrite.load(Ordering::Acquire), "still asked for");
+        // The first item gives the time: the latched views go out stamped with it.
+        let at = Timestamp::from_secs_f64(1_795_000_000.5);
+        let change = orsa_actors::Stamped {
+            seq: 1,
+            sent_at: at,
+            value: orsa_interfaces::executive::WiringChange { stamp: at, driving: None, mode: None },
+        };
+        let json = serde_json::to_vec(&change).expect("json");
+        tx.send(Item::Message { input: Input::Driving, topic: "master/driving".into(), at, json })
+            .expect("queued");
+        let (open, done) = take(&mut views, &mut sink, &shared, &rx, &mut last);
+        assert!(open && done.is_ok());
+        assert!(
+            sink.written.iter().any(|t| t == WORLD_TOPIC) && sink.written.iter().any(|t| t == ROBOT_TOPIC)
+        );
+        assert!(sink.stamps.iter().all(|&t| t == at), "{:?}", sink.stamps);
+        assert!(!shared.rewrite.load(Ordering::Acquire));
+        drop(tx);
+        assert!(!take(&mut views, &mut sink, &shared, &rx, &mut last).0, "the queue closed");
     }
 
     #[test]
