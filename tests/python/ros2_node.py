@@ -201,6 +201,17 @@ def observe(node, args):
     moved = math.hypot(last.pose.pose.position.x - x0, last.pose.pose.position.y - y0)
     if max(moving) < 0.1 or moved < 0.1:
         fail(f"/cmd_vel did not drive the robot: speeds {moving}, moved {moved:.3f} m")
+    # Covariances: never zero where measured (x, y, yaw: zero would say certain), large where
+    # not (z, roll, pitch), and the position's growing as the robot drives (drift).
+    for name, odom in [("before driving", o), ("after driving", last)]:
+        c = list(odom.pose.covariance)
+        if min(c[0], c[7], c[35]) <= 0.0 or min(c[14], c[21], c[28]) < 1e3:
+            fail(f"/odom pose covariance {name}: diagonal {[c[i * 7] for i in range(6)]}")
+        if min(odom.twist.covariance[0], odom.twist.covariance[35]) <= 0.0:
+            fail(f"/odom twist covariance {name}: {list(odom.twist.covariance)}")
+    if last.pose.covariance[0] + last.pose.covariance[7] <= o.pose.covariance[0] + o.pose.covariance[7]:
+        fail(f"/odom position variance did not grow over {moved:.2f} m: "
+             f"{o.pose.covariance[0] + o.pose.covariance[7]} then {last.pose.covariance[0] + last.pose.covariance[7]}")
     # The commands ceased: the velocity timeout stops the robot.
     at_rest = None
     deadline = stopped_publishing + 5.0

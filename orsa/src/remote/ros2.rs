@@ -20,6 +20,7 @@ use orsa_actors::send::SendClient;
 use orsa_actors::service::PushTimedService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
 use orsa_hardware::ros2base::{Odom, Scan};
+use orsa_hardware::sim::OdometryConfig;
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
 };
@@ -101,6 +102,7 @@ impl RobotRos2 {
         robot: &str,
         params: &RobotParams,
         ros2: &Ros2Params,
+        drift: &OdometryConfig,
         domain: u32,
     ) -> anyhow::Result<Self> {
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
@@ -117,6 +119,7 @@ impl RobotRos2 {
         let scan = node.publisher("scan", Qos::SensorData).await?;
         let ir_scan = node.publisher("ir_scan", Qos::SensorData).await?;
         let odom: Ros2Publisher<Odometry> = node.publisher("odom", Qos::Default).await?;
+        let drift = parking_lot::Mutex::new(Drift::new(drift.clone()));
         let tf: Ros2Publisher<TfMessage> = node.publisher("/tf", Qos::Default).await?;
         let bumper: Ros2Publisher<Bool> = node.publisher("bumper", Qos::Default).await?;
         let clients = vec![
@@ -126,7 +129,10 @@ impl RobotRos2 {
                 registry,
                 nomad200::BASESTATE.on(robot),
                 Sink::from_fn(move |u: Update<BaseState>| {
-                    let (o, t) = odometry(&u.value);
+                    let (mut o, t) = odometry(&u.value);
+                    let mut drift = drift.lock();
+                    drift.follow(&u.value);
+                    (o.pose.covariance, o.twist.covariance) = drift.covariances(&u.value);
                     odom.publish(&o, u.value.stamp.0);
                     tf.publish(&t, u.value.stamp.0);
                     Ok(())
@@ -276,6 +282,85 @@ pub fn laser_scan(scan: &DistanceScan, ring: &RingParams) -> LaserScan {
     }
 }
 
+/// What the odometry's covariances say: how far it may have drifted, by the simulator's own
+/// drift model ([`OdometryConfig`]: a scale error on distance and on turning, a steady curve
+/// per metre), from what the robot travelled and turned since its axes were zeroed, and the
+/// board's resolution. A real base's errors are set in the same `[sim.odometry]` table. Each
+/// error is taken as one standard deviation (the sign of a systematic error is not known to a
+/// user of the odometry). z, roll and pitch are not measured: variance 1e6, as ROS bases
+/// (kobuki, turtlebot) publish them, which robot_localization's 2D mode ignores.
+#[derive(Debug, Clone)]
+pub struct Drift {
+    model: OdometryConfig,
+    /// Distance travelled, m, and angle turned, rad, since the start (absolute sums).
+    travelled_m: f64,
+    turned_rad: f64,
+    last: Option<(f64, f64, f64)>,
+}
+
+/// The variance of what is not measured.
+const UNMEASURED: f64 = 1e6;
+
+impl Drift {
+    /// Nothing travelled yet.
+    pub fn new(model: OdometryConfig) -> Drift {
+        Drift { model, travelled_m: 0.0, turned_rad: 0.0, last: None }
+    }
+
+    /// Counts the motion since the last base state.
+    pub fn follow(&mut self, b: &BaseState) {
+        if let Some((x, y, h)) = self.last {
+            let step = (b.x_m - x).hypot(b.y_m - y);
+            let turn = (b.heading_rad - h).sin().atan2((b.heading_rad - h).cos()).abs();
+            if step.is_finite() && turn.is_finite() {
+                self.travelled_m += step;
+                self.turned_rad += turn;
+            }
+        }
+        self.last = Some((b.x_m, b.y_m, b.heading_rad));
+    }
+
+    /// The pose's and the twist's covariances (6x6, row major: x, y, z, roll, pitch, yaw) at
+    /// `b`: along the heading, the distance error of what was travelled; across it, what the
+    /// heading error does over that distance; the heading's own error; each with the
+    /// resolution's (a uniform rounding: step^2 / 12).
+    pub fn covariances(&self, b: &BaseState) -> (m::Covariance, m::Covariance) {
+        let d = &self.model;
+        let res_m2 = d.resolution_m * d.resolution_m / 12.0;
+        let res_rad = d.resolution_deg.to_radians();
+        let res_rad2 = res_rad * res_rad / 12.0;
+        let yaw_sd = d.heading_error.abs() * self.turned_rad
+            + d.heading_error_deg_per_m.abs().to_radians() * self.travelled_m;
+        let along_sd = d.distance_error.abs() * self.travelled_m;
+        let across_sd = self.travelled_m * yaw_sd;
+        let (along, across) = (along_sd * along_sd + res_m2, across_sd * across_sd + res_m2);
+        let (sin, cos) = b.heading_rad.sin_cos();
+        let mut pose = [0.0; 36];
+        pose[0] = cos * cos * along + sin * sin * across;
+        pose[7] = sin * sin * along + cos * cos * across;
+        pose[1] = sin * cos * (along - across);
+        pose[6] = pose[1];
+        pose[14] = UNMEASURED;
+        pose[21] = UNMEASURED;
+        pose[28] = UNMEASURED;
+        pose[35] = yaw_sd * yaw_sd + res_rad2;
+        // The velocities (in base_link): the scale errors at the speeds and the curve per
+        // metre at the speed, the resolution's as a floor (sideways, a wheeled base does not
+        // move: that floor alone).
+        let (v, w) = (b.v_m_s.abs(), b.omega_rad_s.abs());
+        let v_sd = d.distance_error.abs() * v;
+        let w_sd = d.heading_error.abs() * w + d.heading_error_deg_per_m.abs().to_radians() * v;
+        let mut twist = [0.0; 36];
+        twist[0] = v_sd * v_sd + res_m2;
+        twist[7] = res_m2;
+        twist[14] = UNMEASURED;
+        twist[21] = UNMEASURED;
+        twist[28] = UNMEASURED;
+        twist[35] = w_sd * w_sd + res_rad2;
+        (m::Covariance(pose), m::Covariance(twist))
+    }
+}
+
 /// The base state as odometry (`odom` -> `base_link`) and as the same transform on `/tf`.
 pub fn odometry(b: &BaseState) -> (Odometry, TfMessage) {
     let header = m::Header { stamp: time(b.stamp), frame_id: "odom".into() };
@@ -365,5 +450,49 @@ mod tests {
         assert_eq!((o.twist.twist.linear.x, o.twist.twist.angular.z), (0.3, -0.1));
         assert_eq!(tf.transforms[0].transform.translation.y, 2.0);
         assert_eq!(tf.transforms[0].header.frame_id, "odom");
+    }
+
+    #[test]
+    fn odometry_covariances_grow_with_the_drift_the_model_gives_what_was_travelled() {
+        let model = OdometryConfig::default();
+        let mut drift = Drift::new(model.clone());
+        let at = |x_m: f64, y_m: f64, heading_rad: f64| BaseState {
+            stamp: Timestamp(1),
+            x_m,
+            y_m,
+            heading_rad,
+            v_m_s: 0.25,
+            omega_rad_s: 0.0,
+            steer_rad: heading_rad,
+            turret_rad: heading_rad,
+            turret_omega_rad_s: 0.0,
+            compass_rad: 0.0,
+            compass_valid: false,
+        };
+        drift.follow(&at(0.0, 0.0, 0.0));
+        let (start, _) = drift.covariances(&at(0.0, 0.0, 0.0));
+        // Nothing travelled: the resolution's alone, never zero (zero says certain).
+        assert!(start.0[0] > 0.0 && start.0[0] < 1e-5 && start.0[35] > 0.0, "{:?}", start.0);
+        assert_eq!([start.0[14], start.0[21], start.0[28]], [UNMEASURED; 3]);
+        // 10 m straight along x.
+        for i in 1..=100 {
+            drift.follow(&at(0.1 * f64::from(i), 0.0, 0.0));
+        }
+        let (pose, twist) = drift.covariances(&at(10.0, 0.0, 0.0));
+        let along = model.distance_error * 10.0;
+        let yaw = model.heading_error_deg_per_m.to_radians() * 10.0;
+        assert!((pose.0[0].sqrt() - along).abs() < 1e-3, "x sd {} want {along}", pose.0[0].sqrt());
+        assert!((pose.0[7].sqrt() - 10.0 * yaw).abs() < 1e-3, "y sd {}", pose.0[7].sqrt());
+        assert!((pose.0[35].sqrt() - yaw).abs() < 1e-3, "yaw sd {}", pose.0[35].sqrt());
+        assert!(pose.0[1].abs() < 1e-12 && pose.0[1] == pose.0[6]);
+        let floor = model.resolution_m * model.resolution_m / 12.0;
+        assert!((twist.0[0] - (model.distance_error * 0.25).powi(2) - floor).abs() < 1e-15);
+        assert_eq!(twist.0[7], floor, "sideways: the floor alone");
+        // Heading north, the same uncertainty lies along y: the matrix turns with the robot.
+        let (north, _) = drift.covariances(&at(10.0, 0.0, std::f64::consts::FRAC_PI_2));
+        assert!((north.0[7] - pose.0[0]).abs() < 1e-9 && (north.0[0] - pose.0[7]).abs() < 1e-9);
+        // At 45 degrees the two mix: x and y correlate.
+        let (diag, _) = drift.covariances(&at(10.0, 0.0, std::f64::consts::FRAC_PI_4));
+        assert!((diag.0[1] - (pose.0[0] - pose.0[7]) / 2.0).abs() < 1e-9);
     }
 }

@@ -128,10 +128,18 @@ impl Faces {
     ) -> anyhow::Result<()> {
         let name = &config.robot_name();
         if args.ros2 {
-            let face =
-                ros2::RobotRos2::start(registry, transport, name, &robot.params, &config.ros2, args.domain)
-                    .await
-                    .context("joining ROS 2 (--ros2)")?;
+            let drift = &config.sim.odometry;
+            let face = ros2::RobotRos2::start(
+                registry,
+                transport,
+                name,
+                &robot.params,
+                &config.ros2,
+                drift,
+                args.domain,
+            )
+            .await
+            .context("joining ROS 2 (--ros2)")?;
             eprintln!("robot: on ROS 2 domain {} as node {}", args.domain, config.ros2.node);
             self.ros2_face = Some(face);
         }
