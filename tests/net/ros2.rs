@@ -82,6 +82,8 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
     assert!(seen["moved_m"].as_f64().expect("moved_m") > 0.1, "{seen}");
     // Velocity timeout 0.5 s, then the robot decelerates: at rest well within 2 s.
     assert!(seen["at_rest_after_s"].as_f64().expect("at_rest") < 2.0, "{seen}");
+    // TwistStamped drove it too (stamped now, or zero).
+    assert!(seen["stamped_top_speed"].as_f64().expect("stamped speed") >= 0.1, "{seen}");
 
     let bad = fixture(&sys, "bad-input", &["--domain", "7"], Duration::from_secs(60), &[&robot]).await;
     eprintln!("bad input: {bad}");
@@ -96,6 +98,9 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
     assert!(ros2.cmd_vel_forwarded < 200, "{ros2:?}");
     // The three commands that are not finite reached the robot server, which refused them.
     assert!(r.safety.failed >= 3, "{:?}", r.safety);
+    // The TwistStamped commands 5 s old reached it and were refused as stale, by their stamp.
+    let stale_sent = seen["stamped_stale_sent"].as_u64().expect("stale sent");
+    assert!(r.safety.stale_refused >= stale_sent, "{:?}", r.safety);
     assert!(ros2.node.published > 100, "{ros2:?}");
 }
 

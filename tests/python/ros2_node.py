@@ -141,6 +141,29 @@ def discover(node, want, within=30):
     return found
 
 
+def subscribed_types(node, topic, count, within=10):
+    """The (DDS type, hash) of every subscription some node announces on `topic`, once there
+    are `count` of them; fails after `within`."""
+    found = set()
+    lock = threading.Lock()
+
+    def on_token(sample):
+        parts = str(sample.key_expr).split("/")
+        if len(parts) == 13 and parts[5] == "MS" and "/" + parts[9].replace("%", "/").lstrip("/") == topic:
+            with lock:
+                found.add((parts[10], parts[11]))
+
+    sub = node.session.liveliness().declare_subscriber(f"@ros2_lv/{node.domain}/**", on_token, history=True)
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        with lock:
+            if len(found) >= count:
+                break
+        time.sleep(0.05)
+    sub.undeclare()
+    return found
+
+
 def observe(node, args):
     want = {
         "/scan": "sensor_msgs/msg/LaserScan",
@@ -224,10 +247,55 @@ def observe(node, args):
         time.sleep(0.02)
     if at_rest is None:
         fail("the robot did not come to rest within 5 s of the last /cmd_vel")
+
+    # /cmd_vel is announced as a subscription of each type it takes, with ROS 2's hashes.
+    want_cmd = {(dds_name(t), TS.hash_rihs01(t)) for t in ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped")}
+    got_cmd = subscribed_types(node, "/cmd_vel", 2)
+    if got_cmd != want_cmd:
+        fail(f"/cmd_vel subscriptions announced {sorted(got_cmd)}, not {sorted(want_cmd)}")
+
+    # TwistStamped on /cmd_vel (what diff_drive_controller takes since Jazzy), judged by its
+    # header's stamp: 5 s old, refused (the robot stays at rest); stamped now, or zero as
+    # `ros2 topic pub` sends it, it drives.
+    stamped = node.publisher("/cmd_vel", "geometry_msgs/msg/TwistStamped")
+    H = TS.types["std_msgs/msg/Header"]
+    T = TS.types["builtin_interfaces/msg/Time"]
+
+    def twist_stamped(v, stamp_s):
+        sec = int(stamp_s)
+        return TS.types["geometry_msgs/msg/TwistStamped"](
+            header=H(stamp=T(sec=sec, nanosec=int((stamp_s - sec) * 1e9)), frame_id="base_link"),
+            twist=twist(v, 0.0))
+
+    def drive_stamped(stamp_of, seconds):
+        """Sends for `seconds`; how many it sent and the speeds odometry reported meanwhile."""
+        began, sent = time.monotonic(), 0
+        while time.monotonic() < began + seconds:
+            stamped(twist_stamped(0.2, stamp_of()))
+            sent += 1
+            time.sleep(0.05)
+        time.sleep(0.3)
+        with lock:
+            return sent, [m.twist.twist.linear.x for t_arr, m, _ in seen["/odom"] if t_arr > began]
+
+    stale_sent, stale = drive_stamped(lambda: time.time() - 5.0, 1.0)
+    if not stale or max(abs(v) for v in stale) > 0.0:
+        fail(f"TwistStamped 5 s old moved the robot: {stale}")
+    n = [0]
+
+    def now_or_zero():
+        n[0] += 1
+        return time.time() if n[0] % 2 else 0.0
+
+    _, fresh = drive_stamped(now_or_zero, 1.5)
+    if max(fresh) < 0.1:
+        fail(f"TwistStamped stamped now (or zero) did not drive the robot: speeds {fresh}")
     for sub in subs:
         sub.undeclare()
     return {
         "found": sorted(found),
+        "stamped_stale_sent": stale_sent,
+        "stamped_top_speed": round(max(fresh), 3),
         "robot_node": found["/odom"]["node"],
         "rates_hz": {t: round(r, 1) for t, r in rates.items()},
         "moved_m": round(moved, 3),
@@ -240,7 +308,8 @@ def bad_input(node, args):
     odoms = []
     sub = node.subscribe("/odom", "nav_msgs/msg/Odometry", lambda m, a: odoms.append(m))
     cmd = node.publisher("/cmd_vel", "geometry_msgs/msg/Twist")
-    stamped = node.publisher("/cmd_vel", "geometry_msgs/msg/TwistStamped")
+    # Not a type /cmd_vel takes (it takes Twist and TwistStamped).
+    wrong = node.publisher("/cmd_vel", "geometry_msgs/msg/Vector3")
     deadline = time.monotonic() + 10
     while not odoms and time.monotonic() < deadline:
         time.sleep(0.01)
@@ -250,10 +319,8 @@ def bad_input(node, args):
     for raw in [b"", b"\x00", b"\x00\x01\x00\x00\x01", b"\x07\x07\x00\x00" + b"\x00" * 48, os.urandom(20)]:
         cmd(raw=raw)
         sent["undecodable"] += 1
-    H = TS.types["std_msgs/msg/Header"]
-    T = TS.types["builtin_interfaces/msg/Time"]
     for _ in range(3):
-        stamped(TS.types["geometry_msgs/msg/TwistStamped"](header=H(stamp=T(sec=0, nanosec=0), frame_id=""), twist=twist(0.3, 0.0)))
+        wrong(TS.types["geometry_msgs/msg/Vector3"](x=0.3, y=0.0, z=0.0))
         sent["wrong_type"] += 1
     time.sleep(0.5)  # the rate gate fills up again
     for v, w in [(float("nan"), 0.0), (0.0, float("inf")), (float("-inf"), float("nan"))]:

@@ -17,4 +17,4 @@ mod node;
 pub use cdr::{CDR_LE, CdrError, decode, encode, encode_into};
 pub use graph::{NameError, Qos, data_key, qualified_topic, read_attachment};
 pub use msg::Message;
-pub use node::{Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};
+pub use node::{Either, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};

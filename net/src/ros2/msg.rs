@@ -217,8 +217,7 @@ pub struct Twist {
 }
 message!(Twist, "geometry_msgs", "Twist", "9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a");
 
-/// `geometry_msgs/msg/TwistStamped` (known, to recognise it on `/cmd_vel`, where it is the
-/// wrong type).
+/// `geometry_msgs/msg/TwistStamped`: a Twist with a stamp and frame, taken on `/cmd_vel`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TwistStamped {
     /// Header.

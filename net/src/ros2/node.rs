@@ -136,8 +136,19 @@ impl Ros2Node {
         topic: &str,
         qos: Qos,
     ) -> Result<(zenoh::liveliness::LivelinessToken, String), NetError> {
+        self.token_of(entity, topic, T::DDS_NAME, T::HASH, qos).await
+    }
+
+    async fn token_of(
+        &self,
+        entity: Entity,
+        topic: &str,
+        dds: &str,
+        hash: &str,
+        qos: Qos,
+    ) -> Result<(zenoh::liveliness::LivelinessToken, String), NetError> {
         let n = self.inner.next_entity.fetch_add(1, Ordering::Relaxed);
-        let key = self.inner.id.token(entity, n, Some((topic, T::DDS_NAME, T::HASH, qos)));
+        let key = self.inner.id.token(entity, n, Some((topic, dds, hash, qos)));
         let token = self
             .inner
             .session
@@ -180,10 +191,52 @@ impl Ros2Node {
         qos: Qos,
         on: impl Fn(T, Option<i64>) + Send + Sync + 'static,
     ) -> Result<Ros2Subscription, NetError> {
+        let types = [(T::NAME, T::DDS_NAME, T::HASH)];
+        self.subscribe_types(topic, qos, &types, move |_, bytes, stamp| {
+            on(cdr::decode::<T>(bytes)?, stamp);
+            Ok(())
+        })
+        .await
+    }
+
+    /// Subscribes to `topic` taking either of two types (announced as a subscription of
+    /// each, as a node with one subscription per type is): `on` gets each message that decodes
+    /// as its type, as [`Either`]. Messages of any other type, and messages that do not decode,
+    /// are dropped and counted.
+    pub async fn subscribe_either<A: Message, B: Message>(
+        &self,
+        topic: &str,
+        qos: Qos,
+        on: impl Fn(Either<A, B>, Option<i64>) + Send + Sync + 'static,
+    ) -> Result<Ros2Subscription, NetError> {
+        let types = [(A::NAME, A::DDS_NAME, A::HASH), (B::NAME, B::DDS_NAME, B::HASH)];
+        self.subscribe_types(topic, qos, &types, move |i, bytes, stamp| {
+            let msg = if i == 0 {
+                Either::A(cdr::decode::<A>(bytes)?)
+            } else {
+                Either::B(cdr::decode::<B>(bytes)?)
+            };
+            on(msg, stamp);
+            Ok(())
+        })
+        .await
+    }
+
+    /// The subscription of [`subscribe`](Self::subscribe) and
+    /// [`subscribe_either`](Self::subscribe_either): `take` gets the index in `types` (name,
+    /// DDS name, hash) of each message's type, its bytes and its source timestamp.
+    async fn subscribe_types(
+        &self,
+        topic: &str,
+        qos: Qos,
+        types: &[(&'static str, &'static str, &'static str)],
+        take: impl Fn(usize, &[u8], Option<i64>) -> Result<(), CdrError> + Send + Sync + 'static,
+    ) -> Result<Ros2Subscription, NetError> {
         let topic = self.topic(topic)?;
         let domain = self.inner.id.domain;
         let weak = Arc::downgrade(&self.inner);
         let name = topic.clone();
+        let accepted = types.to_vec();
         let subscriber = self
             .inner
             .session
@@ -191,22 +244,21 @@ impl Ros2Node {
             .callback(move |sample| {
                 let Some(node) = weak.upgrade() else { return };
                 let key = sample.key_expr().as_str();
-                if graph::type_of_key(key, domain, &name) != Some((T::DDS_NAME, T::HASH)) {
+                let found = graph::type_of_key(key, domain, &name);
+                let Some(i) = accepted.iter().position(|&(_, dds, hash)| found == Some((dds, hash))) else {
                     node.counts.wrong_type.fetch_add(1, Ordering::Relaxed);
+                    let names: Vec<String> = accepted.iter().map(|(n, _, h)| format!("{n} ({h})")).collect();
                     node.warn(format_args!(
-                        "ROS 2 {name}: dropped a message on {key}: the topic's type is {} ({})",
-                        T::NAME,
-                        T::HASH
+                        "ROS 2 {name}: dropped a message on {key}: the topic takes {}",
+                        names.join(" or ")
                     ));
                     return;
-                }
-                match cdr::decode::<T>(&sample.payload().to_bytes()) {
-                    Ok(msg) => {
+                };
+                let stamp =
+                    sample.attachment().and_then(|a| graph::read_attachment(&a.to_bytes()).map(|a| a.1));
+                match take(i, &sample.payload().to_bytes(), stamp) {
+                    Ok(()) => {
                         node.counts.received.fetch_add(1, Ordering::Relaxed);
-                        let stamp = sample
-                            .attachment()
-                            .and_then(|a| graph::read_attachment(&a.to_bytes()).map(|a| a.1));
-                        on(msg, stamp);
                     }
                     Err(e) => {
                         node.counts.undecodable.fetch_add(1, Ordering::Relaxed);
@@ -216,9 +268,21 @@ impl Ros2Node {
             })
             .await
             .map_err(|e| NetError::Open(format!("ROS 2 subscription to {topic}: {e}")))?;
-        let (token, _) = self.token::<T>(Entity::Subscription, &topic, qos).await?;
-        Ok(Ros2Subscription { _subscriber: subscriber, _token: token })
+        let mut tokens = Vec::new();
+        for (_, dds, hash) in types {
+            tokens.push(self.token_of(Entity::Subscription, &topic, dds, hash, qos).await?.0);
+        }
+        Ok(Ros2Subscription { _subscriber: subscriber, _tokens: tokens })
     }
+}
+
+/// A message of one of two types (see [`Ros2Node::subscribe_either`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Either<A, B> {
+    /// Of the first type.
+    A(A),
+    /// Of the second.
+    B(B),
 }
 
 impl NodeInner {
@@ -284,7 +348,8 @@ impl<T: Message> Ros2Publisher<T> {
 /// A subscription to a ROS 2 topic; announced while it lives, ended when dropped.
 pub struct Ros2Subscription {
     _subscriber: zenoh::pubsub::Subscriber<()>,
-    _token: zenoh::liveliness::LivelinessToken,
+    /// One per type taken.
+    _tokens: Vec<zenoh::liveliness::LivelinessToken>,
 }
 
 impl std::fmt::Debug for Ros2Subscription {

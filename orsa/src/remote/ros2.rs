@@ -9,7 +9,7 @@
 //! | `/odom` | `nav_msgs/msg/Odometry` | `basestate`: `odom` -> `base_link` |
 //! | `/tf` | `tf2_msgs/msg/TFMessage` | `basestate`: `odom` -> `base_link` |
 //! | `/bumper` | `std_msgs/msg/Bool` | `bumpers`: whether any bumper is pressed |
-//! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` | -> `teleop`, stamped on arrival |
+//! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` or `TwistStamped` | -> `teleop`: a Twist stamped on arrival, a TwistStamped by its header (zero: now) |
 //!
 //! `orsa robot --hardware ros2` is the other way round ([`BaseLink`]): a ROS 2 robot's scan and
 //! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as Twist.
@@ -24,7 +24,8 @@ use orsa_hardware::sim::OdometryConfig;
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
 };
-use orsa_net::ros2::msg::{self as m, Bool, LaserScan, Odometry, TfMessage, Twist};
+use orsa_net::ros2::Either;
+use orsa_net::ros2::msg::{self as m, Bool, LaserScan, Odometry, TfMessage, Twist, TwistStamped};
 use orsa_net::ros2::{Qos, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -154,15 +155,13 @@ impl RobotRos2 {
         let gate = parking_lot::Mutex::new(RateGate::new(ros2.cmd_vel_rate_hz, ros2.cmd_vel_burst));
         let (fw, rr, reg) = (Arc::clone(&forwarded), Arc::clone(&rate_refused), registry.clone());
         let cmd_vel = node
-            .subscribe::<Twist>("cmd_vel", Qos::Default, move |t, _| {
-                // No stamp in a Twist: its arrival time is its stamp, so the server's velocity
-                // timeout runs from here.
+            .subscribe_either::<Twist, TwistStamped>("cmd_vel", Qos::Default, move |t, _| {
                 if !gate.lock().admit(tokio::time::Instant::now()) {
                     rr.fetch_add(1, Ordering::Relaxed);
                     return;
                 }
-                let cmd =
-                    NavigationVelocity { stamp: reg.now(), v_m_s: t.linear.x, omega_rad_s: t.angular.z };
+                let (twist, stamp) = command_stamp(t, reg.now());
+                let cmd = NavigationVelocity { stamp, v_m_s: twist.linear.x, omega_rad_s: twist.angular.z };
                 match teleop.send(cmd) {
                     Ok(()) => {
                         fw.fetch_add(1, Ordering::Relaxed);
@@ -279,6 +278,22 @@ pub fn laser_scan(scan: &DistanceScan, ring: &RingParams) -> LaserScan {
         range_max: (ring.max_range_m + r0) as f32,
         ranges,
         intensities: Vec::new(),
+    }
+}
+
+/// A `/cmd_vel` message's twist and the stamp the robot server judges it by (its velocity
+/// timeout runs from it): a Twist has none, so its arrival `now` is its stamp; a TwistStamped
+/// has its header's (ROS time is UNIX time, as orsa's clock), which the server judges as any
+/// command's: older than its timeout or than the last command applied, or from further in the
+/// future than the clock skew allowed, refused and counted. A zero stamp (what `ros2 topic pub`
+/// sends unless told otherwise) means now.
+pub fn command_stamp(t: Either<Twist, TwistStamped>, now: Timestamp) -> (Twist, Timestamp) {
+    match t {
+        Either::A(twist) => (twist, now),
+        Either::B(s) => {
+            let ns = s.header.stamp.as_nanos();
+            (s.twist, if ns == 0 { now } else { Timestamp(ns) })
+        }
     }
 }
 
@@ -450,6 +465,24 @@ mod tests {
         assert_eq!((o.twist.twist.linear.x, o.twist.twist.angular.z), (0.3, -0.1));
         assert_eq!(tf.transforms[0].transform.translation.y, 2.0);
         assert_eq!(tf.transforms[0].header.frame_id, "odom");
+    }
+
+    #[test]
+    fn a_twist_is_stamped_on_arrival_a_twist_stamped_by_its_header_zero_meaning_now() {
+        let now = Timestamp(1_800_000_000_000_000_000);
+        let t = Twist { linear: m::Vector3 { x: 0.2, y: 0.0, z: 0.0 }, ..Default::default() };
+        assert_eq!(command_stamp(Either::A(t), now), (t, now));
+        let stamped = |ns: u64| {
+            Either::B(TwistStamped {
+                header: m::Header { stamp: m::Time::from_nanos(ns), frame_id: String::new() },
+                twist: t,
+            })
+        };
+        assert_eq!(command_stamp(stamped(0), now), (t, now));
+        let past = now.0 - 300_000_000;
+        assert_eq!(command_stamp(stamped(past), now), (t, Timestamp(past)));
+        // Judged by the server, not here: a stamp ahead is kept (it refuses beyond its skew).
+        assert_eq!(command_stamp(stamped(now.0 + 5), now).1, Timestamp(now.0 + 5));
     }
 
     #[test]
