@@ -847,6 +847,15 @@ mod tests {
             assert!(e.contains(key), "{text}: {e}");
         }
         assert!(Config::from_toml("[ros2.base]\nwheels = 2\n", "t.toml").is_err(), "unknown keys are errors");
+        // The command type: TwistStamped unless the config names Twist; nothing else.
+        use orsa_hardware::ros2base::CmdVelType;
+        assert_eq!(Config::default().ros2.base.cmd_vel_type, CmdVelType::TwistStamped);
+        let twist = Config::from_toml("[ros2.base]\ncmd_vel_type = \"twist\"\n", "t.toml").expect("twist");
+        assert_eq!(twist.ros2.base.cmd_vel_type, CmdVelType::Twist);
+        let e = Config::from_toml("[ros2.base]\ncmd_vel_type = \"twist_stampd\"\n", "t.toml")
+            .expect_err("a type that is not one")
+            .to_string();
+        assert!(e.contains("t.toml:2") && e.contains("twist_stamped"), "{e}");
     }
 
     fn wf(c: &Config) -> WallFollowParams {

@@ -42,6 +42,16 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Duration;
 
+/// The message type a ROS 2 base takes its velocity commands in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CmdVelType {
+    /// `geometry_msgs/msg/Twist`.
+    Twist,
+    /// `geometry_msgs/msg/TwistStamped`, stamped when sent, in `base_link`.
+    TwistStamped,
+}
+
 /// The ROS 2 robot's geometry, limits and topics (`[ros2.base]` of the config).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -72,6 +82,9 @@ pub struct Ros2BaseParams {
     pub odom_topic: String,
     /// The velocity command topic.
     pub cmd_vel_topic: String,
+    /// The type of the velocity commands sent: `twist_stamped` (what diff_drive_controller
+    /// takes since Jazzy, the default) or `twist`.
+    pub cmd_vel_type: CmdVelType,
     /// The current command is sent again this often, s.
     pub cmd_period_s: f64,
     /// A scan older than this is not used, s.
@@ -94,6 +107,7 @@ impl Default for Ros2BaseParams {
             scan_topic: "scan".into(),
             odom_topic: "odom".into(),
             cmd_vel_topic: "cmd_vel".into(),
+            cmd_vel_type: CmdVelType::TwistStamped,
             cmd_period_s: 0.1,
             stale_s: 0.5,
         }

@@ -128,6 +128,14 @@ async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
     let r = interrupt_and_report(robot, &report).await;
     eprintln!("report: {:?}", r.ros2);
     assert!(run["commands"].as_u64().expect("commands") > 50, "{run}");
+    // Its commands came as TwistStamped (the config's default), stamped when sent: UNIX time,
+    // within moments of the fixture's clock on the same host.
+    assert_eq!(run["cmd_type"], "geometry_msgs/msg/TwistStamped", "{run}");
+    let (lag_lo, lag_hi) = (
+        run["stamp_lag_s"]["min"].as_f64().expect("stamped"),
+        run["stamp_lag_s"]["max"].as_f64().expect("stamped"),
+    );
+    assert!(lag_lo > -0.05 && lag_hi < 1.0, "{run}");
     assert!(run["travelled_m"].as_f64().expect("travelled") > 1.0, "{run}");
     assert!(run["min_clearance_m"].as_f64().expect("clearance") > 0.0, "it touched the wall: {run}");
     let (lo, hi) = (

@@ -351,14 +351,25 @@ def robot(node, args):
     state = {"x": 0.0, "y": 0.0, "yaw": 0.0, "v": 0.0, "w": 0.0, "cmd_at": None, "cmds": 0}
     lock = threading.Lock()
 
+    stamped = args.cmd_type == "geometry_msgs/msg/TwistStamped"
+    state["stamp_lag_s"] = []
+
     def on_cmd(msg, attachment):
+        if stamped:
+            # Stamped when sent (UNIX time), in the base's frame.
+            lag = time.time() - (msg.header.stamp.sec + msg.header.stamp.nanosec / 1e9)
+            if msg.header.frame_id != "base_link":
+                fail(f"a TwistStamped in {msg.header.frame_id!r}, not base_link")
+            msg = msg.twist
         with lock:
+            if stamped:
+                state["stamp_lag_s"].append(lag)
             state["v"] = max(-0.5, min(0.5, msg.linear.x)) if math.isfinite(msg.linear.x) else 0.0
             state["w"] = max(-1.0, min(1.0, msg.angular.z)) if math.isfinite(msg.angular.z) else 0.0
             state["cmd_at"] = time.monotonic()
             state["cmds"] += 1
 
-    sub = node.subscribe("/cmd_vel", "geometry_msgs/msg/Twist", on_cmd)
+    sub = node.subscribe("/cmd_vel", args.cmd_type, on_cmd)
     H = TS.types["std_msgs/msg/Header"]
     T = TS.types["builtin_interfaces/msg/Time"]
     P = TS.types["geometry_msgs/msg/Point"]
@@ -409,8 +420,11 @@ def robot(node, args):
         time.sleep(max(0.0, next_t - time.monotonic()))
     sub.undeclare()
     second_half = [d for t, _, d in trace if t > args.seconds / 2]
+    lags = state["stamp_lag_s"]
     return {
         "commands": state["cmds"],
+        "cmd_type": args.cmd_type,
+        "stamp_lag_s": {"min": round(min(lags), 4), "max": round(max(lags), 4)} if lags else None,
         "travelled_m": round(state["x"], 3),
         "wall_distance_m": {"min": round(min(second_half), 3), "max": round(max(second_half), 3)},
         "min_clearance_m": round(min_clear, 3),
@@ -508,6 +522,8 @@ def main():
     parser.add_argument("--wall-y", type=float, default=0.5)
     parser.add_argument("--radius", type=float, default=0.25)
     parser.add_argument("--speed", type=float, default=0.5, help="at-wall: the speed commanded, m/s")
+    parser.add_argument("--cmd-type", default="geometry_msgs/msg/TwistStamped",
+                        help="robot: the type it takes on /cmd_vel")
     parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall"])
     args = parser.parse_args()
     node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",

@@ -30,7 +30,7 @@ use orsa_hardware::sim::{SimNomad200, SimRobot, SimTruth};
 use orsa_hardware::world::World;
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_net::ros2::Ros2Publisher;
-use orsa_net::ros2::msg::Twist;
+use orsa_net::ros2::msg::{Header, Time, Twist, TwistStamped};
 use std::any::Any;
 use std::future::Future;
 use std::pin::Pin;
@@ -237,12 +237,38 @@ pub(crate) fn simulated(setup: &RobotSetup<'_>) -> Result<Robot, super::catalog:
 pub struct Ros2Robot {
     /// The base the boards stand for.
     pub base: Ros2Base,
-    publisher: Arc<OnceLock<Ros2Publisher<Twist>>>,
+    publisher: Arc<OnceLock<CmdVelPublisher>>,
+}
+
+/// Where a ROS 2 base's velocity commands go, in the type its config names
+/// ([`CmdVelType`](orsa_hardware::ros2base::CmdVelType)).
+#[derive(Debug)]
+pub enum CmdVelPublisher {
+    /// As `geometry_msgs/msg/Twist`.
+    Twist(Ros2Publisher<Twist>),
+    /// As `geometry_msgs/msg/TwistStamped`, stamped when sent, in `base_link`.
+    TwistStamped(Ros2Publisher<TwistStamped>),
+}
+
+impl CmdVelPublisher {
+    /// Sends `v` m/s and `w` rad/s, at `now` (ns, UNIX time).
+    fn send(&self, v: f64, w: f64, now: u64) {
+        let mut twist = Twist::default();
+        twist.linear.x = v;
+        twist.angular.z = w;
+        match self {
+            CmdVelPublisher::Twist(p) => p.publish(&twist, now),
+            CmdVelPublisher::TwistStamped(p) => {
+                let header = Header { stamp: Time::from_nanos(now), frame_id: "base_link".into() };
+                p.publish(&TwistStamped { header, twist }, now);
+            }
+        }
+    }
 }
 
 impl Ros2Robot {
     /// Sends the base's commands through `publisher` from now on (once: a second is refused).
-    pub fn connect_publisher(&self, publisher: Ros2Publisher<Twist>) -> Result<(), AlreadySet> {
+    pub fn connect_publisher(&self, publisher: CmdVelPublisher) -> Result<(), AlreadySet> {
         self.publisher.set(publisher).map_err(|_| AlreadySet)
     }
 }
@@ -265,14 +291,11 @@ impl RobotHandle for Ros2Robot {
 
 /// A ROS 2 base described by the config's `[ros2.base]`.
 pub(crate) fn ros2(setup: &RobotSetup<'_>) -> Result<Robot, super::catalog::BoxError> {
-    let publisher: Arc<OnceLock<Ros2Publisher<Twist>>> = Arc::default();
+    let publisher: Arc<OnceLock<CmdVelPublisher>> = Arc::default();
     let (slot, clock) = (Arc::clone(&publisher), setup.clock);
     let send: orsa_hardware::ros2base::SendCommand = Arc::new(move |v, w| {
         if let Some(p) = slot.get() {
-            let mut t = Twist::default();
-            t.linear.x = v;
-            t.angular.z = w;
-            p.publish(&t, clock.now().0);
+            p.send(v, w, clock.now().0);
         }
     });
     let config = setup.config;

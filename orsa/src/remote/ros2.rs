@@ -12,14 +12,15 @@
 //! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` or `TwistStamped` | -> `teleop`: a Twist stamped on arrival, a TwistStamped by its header (zero: now) |
 //!
 //! `orsa robot --hardware ros2` is the other way round ([`BaseLink`]): a ROS 2 robot's scan and
-//! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as Twist.
+//! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as TwistStamped or Twist (`ros2.base.cmd_vel_type`).
 
 use crate::config::Ros2Params;
 use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::send::SendClient;
 use orsa_actors::service::PushTimedService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
-use orsa_hardware::ros2base::{Odom, Scan};
+use orsa_assembly::system::robots::CmdVelPublisher;
+use orsa_hardware::ros2base::{CmdVelType, Odom, Scan};
 use orsa_hardware::sim::OdometryConfig;
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
@@ -234,7 +235,14 @@ impl BaseLink {
                 });
             })
             .await?;
-        let publisher = node.publisher::<Twist>(&p.cmd_vel_topic, Qos::Default).await?;
+        let publisher = match p.cmd_vel_type {
+            CmdVelType::Twist => {
+                CmdVelPublisher::Twist(node.publisher(&p.cmd_vel_topic, Qos::Default).await?)
+            }
+            CmdVelType::TwistStamped => {
+                CmdVelPublisher::TwistStamped(node.publisher(&p.cmd_vel_topic, Qos::Default).await?)
+            }
+        };
         robot.connect_publisher(publisher).map_err(anyhow::Error::msg)?;
         Ok(BaseLink { node, _subscriptions: vec![scan, odom] })
     }
