@@ -93,8 +93,15 @@ pub(super) async fn join<'t>(
         registry.set_transport(Arc::new(noting));
     }
     let robot = config.robot_name();
-    let mut needed =
-        vec![nomad200::DISTANCEIR.on(robot).untyped(), nomad200::NAVIGATIONVELOCITY.on(robot).untyped()];
+    // Every robot service the master connects to when it starts (the sonar too: the default
+    // rules read it). Each is announced on its own, so seeing one says nothing of the others:
+    // an executive that waited for the infrared alone failed to start, now and then under
+    // load, for want of the sonar.
+    let mut needed = vec![
+        nomad200::DISTANCEIR.on(robot).untyped(),
+        nomad200::DISTANCESON.on(robot).untyped(),
+        nomad200::NAVIGATIONVELOCITY.on(robot).untyped(),
+    ];
     for b in config.executive().behaviours() {
         needed.push(ServiceAddr::new(&b, "state"));
         needed.push(ServiceAddr::new(&b, "wiring"));
