@@ -121,6 +121,11 @@ impl Keys {
         format!("{}/alive/svc/**", self.root)
     }
 
+    /// Every token of one process: its process token and its services' tokens.
+    pub fn tokens_of(&self, host: &str) -> String {
+        format!("{}/alive/*/{host}/**", self.root)
+    }
+
     /// Parses a service token.
     pub fn parse_service_token(&self, key: &str) -> Option<Announced> {
         let rest = key.strip_prefix(&format!("{}/alive/svc/", self.root))?;

@@ -65,4 +65,4 @@ pub use heartbeat::{Heartbeat, HeartbeatWatch};
 pub use keys::{Announced, Keys, Process, pattern_name};
 pub use links::{Incoming, LinkLedger, MAX_LINK_STREAMS, Outgoing};
 pub use options::{NetError, NetOptions};
-pub use session::{NetStats, ZenohTransport};
+pub use session::{GONE_RECHECK, NetStats, ZenohTransport};

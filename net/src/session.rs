@@ -48,6 +48,10 @@ pub(crate) struct Held {
     pub(crate) payload: Vec<u8>,
 }
 
+/// While waiting for a service to go, how often the process announcing it is asked whether
+/// it still does ([`ZenohTransport::wait_gone`]).
+pub const GONE_RECHECK: Duration = Duration::from_secs(1);
+
 pub(crate) type ProcessLost = Box<dyn Fn(&Process) + Send + Sync>;
 
 pub(crate) struct Inner {
@@ -141,15 +145,6 @@ impl ZenohTransport {
         if let Some(period) = options.heartbeat {
             entities.push(Box::new(inner.start_heartbeat(role, period).await?));
         }
-        let proc_key = inner.keys.process_token(&inner.zid, role);
-        entities.push(Box::new(
-            inner
-                .session
-                .liveliness()
-                .declare_token(proc_key)
-                .await
-                .map_err(|e| NetError::Open(e.to_string()))?,
-        ));
         let weak = Arc::downgrade(&inner);
         let services = inner
             .session
@@ -178,6 +173,18 @@ impl ZenohTransport {
             .await
             .map_err(|e| NetError::Open(e.to_string()))?;
         entities.push(Box::new(procs));
+        // This process is announced after it follows the others' tokens: a peer that reacts to
+        // its arrival (a robot stopping its fallback master for a new executive) withdraws
+        // tokens this session is already following, not ones it is still being told about.
+        let proc_key = inner.keys.process_token(&inner.zid, role);
+        entities.push(Box::new(
+            inner
+                .session
+                .liveliness()
+                .declare_token(proc_key)
+                .await
+                .map_err(|e| NetError::Open(e.to_string()))?,
+        ));
         let weak = Arc::downgrade(&inner);
         let stats = inner
             .session
@@ -279,13 +286,24 @@ impl ZenohTransport {
     }
 
     /// Waits until no peer announces `addr` any more, at most `timeout`; whether it is gone.
+    ///
+    /// What this process knows of peers' services comes from zenoh's liveliness notifications.
+    /// A token withdrawn while this session was still learning the tokens already declared
+    /// (it had just opened) can be notified gone and then present: zenoh then shows it live
+    /// for good. So while it waits, every [`GONE_RECHECK`] this asks the announcing process what it
+    /// announces now (a liveliness query), and forgets the service if that process answers
+    /// without it.
     pub async fn wait_gone(&self, addr: &ServiceAddr, timeout: Duration) -> bool {
         let mut changes = self.inner.discovery.subscribe();
         let present = || self.inner.remote.read().contains_key(addr);
         let wait = async {
+            let mut recheck =
+                tokio::time::interval_at(tokio::time::Instant::now() + GONE_RECHECK, GONE_RECHECK);
+            recheck.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
             while present() {
-                if changes.changed().await.is_err() {
-                    return;
+                tokio::select! {
+                    changed = changes.changed() => if changed.is_err() { return },
+                    _ = recheck.tick() => self.inner.recheck(addr, GONE_RECHECK).await,
                 }
             }
         };
@@ -382,6 +400,38 @@ impl Inner {
                 }
             }
         }
+        self.discovery.send_modify(|v| *v += 1);
+    }
+
+    /// Asks the process that announced `addr` which tokens it holds now (at most `timeout`);
+    /// forgets `addr` if that process answers (its process token among the replies) and
+    /// `addr` is not among them, and nothing about `addr` changed meanwhile. A process that
+    /// does not answer proves nothing: the announcement stays.
+    pub(crate) async fn recheck(self: &Arc<Self>, addr: &ServiceAddr, timeout: Duration) {
+        let Some(host) = self.remote.read().get(addr).map(|a| a.host.clone()) else { return };
+        let version = *self.discovery.borrow();
+        let query = self.session.liveliness().get(self.keys.tokens_of(&host)).timeout(timeout);
+        let Ok(replies) = query.await else { return };
+        let (mut answered, mut still) = (false, false);
+        while let Ok(reply) = replies.recv_async().await {
+            let Ok(sample) = reply.result() else { continue };
+            let key = sample.key_expr().as_str();
+            if self.keys.parse_process_token(key).is_some_and(|p| p.zid == host) {
+                answered = true;
+            } else if self.keys.parse_service_token(key).is_some_and(|a| a.host == host && a.addr == *addr) {
+                still = true;
+            }
+        }
+        if !answered || still {
+            return;
+        }
+        let mut remote = self.remote.write();
+        if *self.discovery.borrow() != version || remote.get(addr).is_none_or(|a| a.host != host) {
+            return;
+        }
+        remote.remove(addr);
+        drop(remote);
+        tracing::warn!(%addr, %host, "zenoh still showed this service, which its process no longer announces: forgotten");
         self.discovery.send_modify(|v| *v += 1);
     }
 
@@ -495,5 +545,66 @@ impl Inner {
         self.held.lock().insert(id, Held { addr: addr.clone(), key: key.clone(), payload: payload.clone() });
         self.control(addr, key, payload);
         id
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use orsa_actors::send::SendServer;
+    use orsa_actors::service::SendService;
+    use orsa_actors::{Sink, Stamped};
+
+    const SPEED: SendService<f64> = SendService::new("speed");
+
+    async fn pair(prefix: &str) -> (Registry, ZenohTransport, ZenohTransport) {
+        let port =
+            std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
+        let a = Registry::new();
+        let server = NetOptions {
+            listen: vec![format!("tcp/127.0.0.1:{port}")],
+            prefix: prefix.into(),
+            ..NetOptions::default()
+        };
+        let client = NetOptions {
+            connect: vec![format!("tcp/127.0.0.1:{port}")],
+            prefix: prefix.into(),
+            ..NetOptions::default()
+        };
+        let ta = ZenohTransport::open(&a, &server, "robot").await.expect("open a");
+        let tb = ZenohTransport::open(&Registry::new(), &client, "executive").await.expect("open b");
+        (a, ta, tb)
+    }
+
+    /// What zenoh leaves behind when a token's withdrawal overtakes its declaration: `addr`
+    /// shown as announced by `host` in `t`'s picture of the network.
+    fn left_behind(t: &ZenohTransport, host: &str, addr: &ServiceAddr) {
+        let like = t.inner.remote.read().values().next().cloned().expect("something announced");
+        let stale = Announced { host: host.to_string(), addr: addr.clone(), info: like.info };
+        t.inner.remote.write().insert(addr.clone(), stale);
+    }
+
+    /// A service shown as announced by a live process that no longer announces it is
+    /// forgotten by `wait_gone` within about one recheck; one it still announces, or one shown
+    /// for a process that does not answer, is not.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn wait_gone_forgets_what_the_announcing_process_no_longer_announces() {
+        let (a, ta, tb) = pair("t_gone").await;
+        let (tx, _rx) = tokio::sync::mpsc::unbounded_channel::<Stamped<f64>>();
+        SendServer::<f64>::register(&a, SPEED.on("robot"), Sink::channel(tx)).expect("send server");
+        let speed = SPEED.on("robot").untyped();
+        tb.wait_for(std::slice::from_ref(&speed), Duration::from_secs(10)).await.expect("discovered");
+
+        let ghost = ServiceAddr::new("fallback", "goal");
+        left_behind(&tb, ta.zid(), &ghost);
+        assert!(tb.remote_services().iter().any(|s| s.addr == ghost), "shown as announced");
+        let t0 = tokio::time::Instant::now();
+        assert!(tb.wait_gone(&ghost, 4 * GONE_RECHECK).await, "forgotten: its process answers without it");
+        assert!(t0.elapsed() < 3 * GONE_RECHECK, "within about one recheck: {:?}", t0.elapsed());
+
+        assert!(!tb.wait_gone(&speed, 3 * GONE_RECHECK).await, "still announced: kept");
+        left_behind(&tb, "0123456789abcdef0123456789abcdef", &ghost);
+        assert!(!tb.wait_gone(&ghost, 3 * GONE_RECHECK).await, "its process does not answer: proves nothing");
+        drop(ta);
     }
 }
