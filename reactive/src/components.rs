@@ -39,6 +39,10 @@ impl Controller for WallFollower {
     type Params = WallFollowParams;
     const READS: &'static [Scan] = &[Scan::Infrared];
 
+    fn speeds(p: &WallFollowParams) -> Vec<(&'static str, f64)> {
+        vec![("v_max_m_s", p.v_max_m_s), ("v_slow_m_s", p.v_slow_m_s)]
+    }
+
     fn new(params: WallFollowParams, robot: &RobotParams) -> Self {
         let ring = RingGeometry::uniform(robot.infrared.mount_radius_m, robot.infrared.beam_width_rad);
         WallFollower::new(params, ring).with_blind(blind_sectors(robot, &[&robot.infrared]))
@@ -65,6 +69,10 @@ impl Controller for WallFollower {
 impl Controller for CenterFollower {
     type Params = CenterFollowParams;
     const READS: &'static [Scan] = &[Scan::Infrared, Scan::Sonar];
+
+    fn speeds(p: &CenterFollowParams) -> Vec<(&'static str, f64)> {
+        vec![("v_max_m_s", p.v_max_m_s), ("v_min_m_s", p.v_min_m_s)]
+    }
 
     fn new(params: CenterFollowParams, robot: &RobotParams) -> Self {
         CenterFollower::new(
@@ -98,6 +106,10 @@ impl Controller for PathFollower {
     type Params = PathFollowParams;
     const READS: &'static [Scan] = &[Scan::Infrared, Scan::Sonar];
     const NAVIGATES: bool = true;
+
+    fn speeds(p: &PathFollowParams) -> Vec<(&'static str, f64)> {
+        vec![("v_max_m_s", p.v_max_m_s)]
+    }
 
     fn new(params: PathFollowParams, _robot: &RobotParams) -> Self {
         PathFollower::new(params)

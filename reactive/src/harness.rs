@@ -33,7 +33,7 @@
 use crate::manoeuvres::contact_direction;
 use crate::ring::{Ranges, ranges};
 use orsa_actors::event::{EventMode, Fired};
-use orsa_actors::param::{LiveParams, ParamReply, ParamRequest, Parameters};
+use orsa_actors::param::{Invalid, LiveParams, ParamReply, ParamRequest, Parameters};
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::query::QueryRequest;
 use orsa_actors::state::StateSpec;
@@ -97,6 +97,11 @@ pub trait Controller: Send + Sync + 'static {
     fn note_contact(&mut self, _direction_rad: f64, _stamp: Timestamp) {}
     /// One step.
     fn step(&mut self, seen: &Seen<'_>) -> Step;
+    /// Its parameters that are translation speeds (name as its table spells it, and value,
+    /// m/s): a live set that puts one above the robot's top speed is refused.
+    fn speeds(_params: &Self::Params) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
     /// Whether it drives to places: the harness then serves its `path` service
     /// (`orsa_interfaces::navigation::PATH`) and subscribes to the localizer's `pose`.
     const NAVIGATES: bool = false;
@@ -173,6 +178,25 @@ pub async fn robot_params(
     Ok(params)
 }
 
+/// The check of a live set beyond the table's own: no speed of `C`'s above the top speed of
+/// the robot `robot` describes (a value the robot cannot drive would only mislead whoever set
+/// it). The config file's values are the robot configuration's business and are not refused
+/// here.
+fn within_top_speed<C: Controller>(robot: &RobotParams) -> orsa_actors::param::Check<C::Params> {
+    let top = robot.max_v_m_s;
+    std::sync::Arc::new(move |p: &C::Params| {
+        for (name, v) in C::speeds(p) {
+            if v > top {
+                return Err(Invalid::new(
+                    name,
+                    format!("{v} m/s is above the robot's top speed of {top} m/s"),
+                ));
+            }
+        }
+        Ok(())
+    })
+}
+
 fn sent(result: Result<(), PatternError>) -> bool {
     match result {
         Ok(()) => true,
@@ -193,8 +217,9 @@ impl<C: Controller> Component for Behaviour<C> {
             return Err(format!("{}: its controller reads no scan", ctx.name()).into());
         }
         ctx.declare_states(StateSpec::new().main_state(ACTIVE, &[COMPUTE]))?;
-        let params = ctx.parameters(&self.params, None, BehaviourMsg::Param)?;
         let robot = robot_params(ctx, &self.robot).await?;
+        let params =
+            ctx.parameters(&self.params, Some(within_top_speed::<C>(&robot)), BehaviourMsg::Param)?;
         let vel = ctx.send_port(VEL)?;
         let status = ctx.push_newest_server(STATUS)?;
         for scan in [Scan::Infrared, Scan::Sonar] {
