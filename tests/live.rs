@@ -162,8 +162,10 @@ fn foxglove_without_realtime_and_a_bad_address_are_refused_naming_the_flag() {
 }
 
 /// Setting a speed from Foxglove's parameter panel, as the protocol does it, and seeing the
-/// robot slow down; values the component refuses (out of range, of the wrong type, unknown)
-/// are answered with an error status naming the parameter, and change nothing.
+/// robot slow down, while a second client subscribed to the speeds is pushed the new values;
+/// values the component refuses (out of range, of the wrong type, above the robot's top speed,
+/// unknown) are answered with an error status naming the parameter, change nothing, and are
+/// pushed to no one.
 #[test]
 fn a_speed_set_from_foxglove_slows_the_robot() {
     let d = dir("params");
@@ -189,6 +191,7 @@ fn a_speed_set_from_foxglove_slows_the_robot() {
     for (label, needle) in [
         ("negative", "centerfollow.v_max_m_s"),
         ("text", "invalid type"),
+        ("too_fast", "above the robot's top speed of 0.5 m/s"),
         ("unknown", "no parameter 'v_max_m_s_nope'"),
     ] {
         let r = &v["refusals"][label];
@@ -203,6 +206,16 @@ fn a_speed_set_from_foxglove_slows_the_robot() {
         );
     }
     assert_eq!(v["now"][0]["value"], 0.1, "the refusals changed nothing: {v}");
+    // The second client, subscribed to both, was pushed both new values (the client checks
+    // they carry no request id), and nothing of the refused ones.
+    let pushed = v["pushed"].as_array().expect("pushed");
+    for name in ["wallfollow.v_max_m_s", "centerfollow.v_max_m_s"] {
+        assert!(pushed.iter().any(|p| p["name"] == name && p["value"] == 0.1), "{name}: {v}");
+    }
+    assert!(
+        v["pushed_after_refusals"].as_array().expect("late").iter().all(|p| p["value"] == 0.1),
+        "a refused value was pushed: {v}"
+    );
     let before = v["speed_before"].as_f64().expect("speed before");
     let after = v["speed_after"].as_f64().expect("speed after");
     assert!(before > 0.2, "before the set the robot went {before} m/s");
@@ -210,5 +223,57 @@ fn a_speed_set_from_foxglove_slows_the_robot() {
     assert!(after < 0.11, "after the set the robot went {after} m/s");
     let status = wait_end(&mut orsa, Duration::from_secs(40));
     assert!(status.success(), "orsa run: {status}");
+    std::fs::remove_dir_all(&d).expect("clean up");
+}
+
+/// Driving from Foxglove as its Teleop panel does (client publish of JSON
+/// `geometry_msgs/msg/Twist` on `/cmd_vel`, from a client written from the protocol's
+/// specification): zero commands hold the robot the behaviours drive, as teleop's do;
+/// TwistStamped commands stamped 10 s ago are refused as stale by the robot, which drives on;
+/// a channel on another topic, a message that is not JSON and a lateral speed are each answered
+/// with a status, and the run reports what clients published.
+#[test]
+fn velocity_commands_published_from_foxglove_drive_under_teleops_rules() {
+    let d = dir("teleop");
+    let port = free_port();
+    let (mut orsa, rest) = live_run(&d, port, "25");
+    let out = Command::new("python3")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/foxglove_client.py"))
+        .arg(format!("ws://127.0.0.1:{port}"))
+        .arg("--teleop")
+        .output()
+        .expect("python3 runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let speed = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k}: {v}"));
+    assert!(speed("speed_before") > 0.15, "the behaviours drive: {v}");
+    assert!(v["positions_held"].as_u64().is_some_and(|n| n >= 10), "{v}");
+    assert!(speed("speed_held") < 0.02, "teleop's zeros hold the robot: {v}");
+    assert!(speed("speed_stale") > 0.15, "stale commands are refused, the behaviours drive: {v}");
+    let statuses: Vec<String> = v["statuses"]
+        .as_array()
+        .expect("statuses")
+        .iter()
+        .map(|s| format!("{} {}", s["level"], s["message"].as_str().unwrap_or_default()))
+        .collect();
+    for needle in
+        ["'/elsewhere' is ignored", "/elsewhere: refused", "/cmd_vel: refused: expected", "linear.y 0.3"]
+    {
+        assert!(statuses.iter().any(|s| s.contains(needle)), "{needle}: {statuses:?}");
+    }
+    let status = wait_end(&mut orsa, Duration::from_secs(40));
+    assert!(status.success(), "orsa run: {status}");
+    let summary: Vec<String> = rest.try_iter().collect();
+    let line = summary.iter().find(|l| l.starts_with("foxglove: ")).expect("the live view's summary");
+    let taken: u64 = line
+        .split("; ")
+        .nth(1)
+        .and_then(|p| p.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    // Three seconds of each kind at ten a second were handed on (the stale ones too: the
+    // robot judges them); the three bad messages were refused here.
+    assert!(taken >= 40, "{line}");
+    assert!(line.ends_with(", 3 refused"), "{line}");
     std::fs::remove_dir_all(&d).expect("clean up");
 }

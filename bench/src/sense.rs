@@ -366,7 +366,7 @@ async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<S
     let server = if live {
         let setup = orsa::mission::recording::view_setup(&config, Some(world.clone()), false);
         let addr = std::net::SocketAddr::from(([127, 0, 0, 1], 0));
-        let server = orsa::live::LiveView::start(addr, setup, None)?;
+        let server = orsa::live::LiveView::start(addr, setup, None, None)?;
         registry.set_tap(Some(server.tap() as Arc<dyn orsa_actors::tap::Tap>));
         let client = super::live::Client::start(server.addr())?;
         Some((server, client))

@@ -93,6 +93,7 @@ pub(crate) fn record_replay(duration_s: f64, runs: usize) -> anyhow::Result<supe
                         std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
                         setup,
                         None,
+                        None,
                     )?;
                     opts.live = Some(server.tap());
                     Some(server)

@@ -93,10 +93,16 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     }
     // The live server starts before the run; its parameters are the run's once it is up.
     let params = orsa::live::params::Pending::default();
+    let teleop = Arc::new(orsa::live::publish::Teleop::pending(config.robot_name()));
     let live = match args.foxglove {
         Some(addr) => {
             let setup = mission::recording::view_setup(&config, Some(world.clone()), true);
-            let live = orsa::live::LiveView::start(addr, setup, Some(Arc::new(params.clone())))?;
+            let live = orsa::live::LiveView::start(
+                addr,
+                setup,
+                Some(Arc::new(params.clone())),
+                Some(Arc::clone(&teleop)),
+            )?;
             say(&format!(
                 "foxglove: serving the run's views on ws://{} (Foxglove: Open connection, Foxglove WebSocket)",
                 live.addr()
@@ -124,6 +130,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let components: Vec<String> = opts.config.system.components.iter().map(|c| c.name.clone()).collect();
     opts.on_start = Some(Box::new(move |registry| {
         params.ready(orsa::system::live_params::ParamDirectory::new(registry, components));
+        teleop.ready(registry);
     }));
 
     opts.interrupt = Some(orsa::ending::interrupted());
@@ -142,10 +149,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     bar.finish_and_clear();
     if let Some(live) = live {
         let s = live.finish();
-        say(&format!(
-            "foxglove: {} messages made into views, {} dropped (the viewer was behind)",
-            s.handed, s.dropped
-        ));
+        say(&format!("foxglove: {s}"));
     }
 
     say(&report.table());

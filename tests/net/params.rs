@@ -74,3 +74,45 @@ async fn a_speed_set_from_another_process_slows_the_robot() {
     );
     t.close().await;
 }
+
+/// A value set by `orsa param set` from another process is pushed to a Foxglove client of the
+/// robot's live view subscribed to it (a client written from the WebSocket protocol's
+/// specification, in Python): whoever changes a parameter, the subscribed panels show it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_value_set_from_another_process_is_pushed_to_a_subscribed_foxglove_client() {
+    use std::io::BufRead as _;
+    let sys = System::new("parampush");
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let robot = sys.robot(&["--foxglove", &addr]);
+    let (registry, t) = sys.observe().await;
+    let (_c, _base) = base_stream(&registry, &t).await;
+    let mut client = Command::new("python3")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/foxglove_client.py"))
+        .args([format!("ws://{addr}").as_str(), "--watch-param", "wallfollow.target_m", "--seconds", "20"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    let mut stdout = std::io::BufReader::new(client.stdout.take().expect("stdout"));
+    let mut line = String::new();
+    stdout.read_line(&mut line).expect("the client's first line");
+    assert_eq!(line.trim(), "subscribed", "robot:\n{}", robot.log_text());
+
+    let (ok, out, log) = param(&sys, "set", &["set", "wallfollow", "target_m", "0.22", "--wait", "30"]);
+    assert!(ok, "{log}");
+    assert!(out.starts_with("wallfollow.target_m = 0.22"), "{out}");
+    let mut rest = String::new();
+    stdout.read_to_string(&mut rest).expect("the client's output");
+    let status = client.wait().expect("the client ends");
+    let mut err = String::new();
+    client.stderr.take().expect("stderr").read_to_string(&mut err).expect("its stderr");
+    assert!(status.success(), "{rest}\n{err}");
+    let v: serde_json::Value = serde_json::from_str(&rest).expect("JSON");
+    assert_eq!(
+        v["pushed"],
+        serde_json::json!([{"name": "wallfollow.target_m", "type": "float64", "value": 0.22}]),
+        "{v}"
+    );
+    t.close().await;
+}

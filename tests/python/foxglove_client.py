@@ -4,6 +4,8 @@ protocol specification (github.com/foxglove/ws-protocol, docs/spec.md, subprotoc
 
     python3 foxglove_client.py ws://127.0.0.1:PORT [--seconds S]
     python3 foxglove_client.py ws://127.0.0.1:PORT --params NAME VALUE
+    python3 foxglove_client.py ws://127.0.0.1:PORT --watch-param NAME [--seconds S]
+    python3 foxglove_client.py ws://127.0.0.1:PORT --teleop
 
 The first form checks, against a live `orsa run --realtime --foxglove`:
 - the server's info, and the channels it advertises (topics, encodings, schema names);
@@ -17,8 +19,17 @@ The first form checks, against a live `orsa run --realtime --foxglove`:
   odometry's periods, by their log times and by the wall clock.
 It prints what it saw as JSON on stdout and exits 1 with the reason on stderr if a check fails.
 
-The second form (`--params`) asks for every parameter, sets NAME to VALUE (JSON) and prints
-the values the server answers with, and any status it sends.
+The second form (`--params`) asks for every parameter, sets NAME to VALUE (JSON) while a
+second client is subscribed to it (spec: "Subscribe Parameter Update"), and prints the values the
+server answers with, those pushed to the second client, and any status it sends.
+
+The third form (`--watch-param`) subscribes to NAME's updates, prints `subscribed` once the
+server has the subscription, and then, as JSON, the first update pushed within S seconds
+(whoever changed the value).
+
+The fourth form (`--teleop`) drives the robot by client publish, as Foxglove's Teleop panel
+does, and prints how fast the robot went before, while held by zero commands, and while sent
+stale stamped ones, with the statuses the server sent (see `teleop`).
 """
 
 import argparse
@@ -368,9 +379,62 @@ class Session:
         return seen[-1]["parameters"], statuses
 
 
+async def subscribe_parameters(url, names):
+    """A second client, subscribed to updates of `names` (spec: "Subscribe Parameter Update")."""
+    ws, info, _ = await handshake(url, set())
+    if "parametersSubscribe" not in info.get("capabilities", []):
+        fail(f"the server does not offer parameter subscriptions: {info.get('capabilities')}")
+    await ws.send(json.dumps({"op": "subscribeParameterUpdates", "parameterNames": names}))
+    return ws
+
+
+async def parameter_updates(ws, names, value, timeout):
+    """The `parameterValues` pushed to a subscribed client (they carry no request id) until
+    every one of `names` was pushed with `value`; fails after `timeout` s."""
+    pushed = []
+    deadline = time.monotonic() + timeout
+    while not all(any(p["name"] == n and p.get("value") == value for p in pushed) for n in names):
+        try:
+            m = await recv_json(ws, deadline - time.monotonic())
+        except (TimeoutError, asyncio.TimeoutError):
+            fail(f"within {timeout} s the subscribed client was pushed only {pushed}")
+        if m.get("op") == "parameterValues":
+            if "id" in m:
+                fail(f"a pushed update carries a request id: {m}")
+            pushed.extend(m["parameters"])
+    return pushed
+
+
+async def watch_param(url, name, seconds):
+    """Subscribes to updates of `name`, says so on stdout (a line `subscribed`), and prints
+    every value pushed within `seconds`."""
+    ws = await subscribe_parameters(url, [name])
+    # The server takes the subscription before anything this client sends after it: a
+    # round trip (getParameters) says it has been read.
+    await ws.send(json.dumps({"op": "getParameters", "parameterNames": [name], "id": "now"}))
+    while True:
+        m = await recv_json(ws, 10.0)
+        if m.get("op") == "parameterValues" and m.get("id") == "now":
+            break
+    print("subscribed", flush=True)
+    pushed = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        try:
+            m = await recv_json(ws, end - time.monotonic())
+        except (TimeoutError, asyncio.TimeoutError):
+            break
+        if m.get("op") == "parameterValues" and "id" not in m:
+            pushed.extend(m["parameters"])
+            break
+    await ws.close()
+    return {"pushed": pushed}
+
+
 async def params(url, name, value):
     """Reads the parameters, watches the robot, sets `name` (and the other behaviour's same
-    parameter) to `value`, sends values that must be refused, and watches the robot again."""
+    parameter) to `value` while a second client is subscribed to both, sends values that must
+    be refused, and watches the robot again."""
     ws, info, channels = await handshake(url, {"/tf"})
     if "parameters" not in info.get("capabilities", []):
         fail(f"the server does not offer parameters: {info.get('capabilities')}")
@@ -385,10 +449,16 @@ async def params(url, name, value):
     before = s.top_speed(s.positions[0][0])
     field = name.split(".", 1)[1]
     targets = [f"{b}.{field}" for b in ("wallfollow", "centerfollow")]
+    other = await subscribe_parameters(url, targets)
+    # The subscription is read before the other client's getParameters, answered after it.
+    await other.send(json.dumps({"op": "getParameters", "parameterNames": targets, "id": "sub"}))
+    while (await recv_json(other, 5.0)).get("id") != "sub":
+        pass
     applied, statuses = await s.set("set", [{"name": t, "value": value} for t in targets])
     set_at = s.positions[-1][0] if s.positions else 0.0
+    pushed = await parameter_updates(other, targets, value, 5.0)
     refusals = {}
-    for label, v in [("negative", -1.0), ("text", "fast"), ("unknown", None)]:
+    for label, v in [("negative", -1.0), ("text", "fast"), ("too_fast", 5.0), ("unknown", None)]:
         p = {"name": name, "value": v} if label != "unknown" else {"name": name + "_nope", "value": 1.0}
         got, why = await s.set(label, [p])
         refusals[label] = {"applied": got, "statuses": why}
@@ -397,8 +467,20 @@ async def params(url, name, value):
     # The robot slows at its braking rate, then holds the new top speed.
     await s.read_for(5.0)
     after = s.top_speed(set_at + 1.5)
+    # Nothing refused was pushed to the subscribed client.
+    late = []
+    try:
+        while True:
+            m = await recv_json(other, 0.2)
+            if m.get("op") == "parameterValues":
+                late.extend(m["parameters"])
+    except (TimeoutError, asyncio.TimeoutError):
+        pass
+    await other.close()
     await ws.close()
     return {
+        "pushed": pushed,
+        "pushed_after_refusals": late,
         "parameters": names,
         "applied": applied,
         "set_statuses": statuses,
@@ -410,14 +492,83 @@ async def params(url, name, value):
     }
 
 
+async def teleop(url):
+    """Drives the robot from Foxglove as its Teleop panel does (the spec's client publish): a
+    `/cmd_vel` channel of JSON `geometry_msgs/msg/Twist`, zeros ten times a second, which must
+    stop the robot the behaviours drive; then TwistStamped zeros stamped 10 s ago, which the
+    robot must refuse as stale (it drives on); then bad input: a channel on another topic, a
+    message that is not JSON, a lateral speed, each answered with a status."""
+    ws, info, channels = await handshake(url, {"/tf"})
+    if "clientPublish" not in info.get("capabilities", []):
+        fail(f"the server does not take client messages: {info.get('capabilities')}")
+    if "json" not in info.get("supportedEncodings", []):
+        fail(f"the server does not take JSON: {info.get('supportedEncodings')}")
+    s = Session(ws, channels)
+    await s.subscribe_tf()
+    await s.read_for(3.0)
+    if len(s.positions) < 10:
+        fail(f"/tf: only {len(s.positions)} positions in 3 s")
+    before = s.top_speed(s.positions[0][0])
+    await ws.send(json.dumps({"op": "advertise", "channels": [
+        {"id": 1, "topic": "/cmd_vel", "encoding": "json", "schemaName": "geometry_msgs/msg/Twist"},
+        {"id": 2, "topic": "/cmd_vel", "encoding": "json", "schemaName": "geometry_msgs/msg/TwistStamped"},
+        {"id": 3, "topic": "/elsewhere", "encoding": "json", "schemaName": "geometry_msgs/msg/Twist"},
+    ]}))
+
+    def data(channel, obj):
+        raw = obj if isinstance(obj, bytes) else json.dumps(obj).encode()
+        return struct.pack("<BI", 0x01, channel) + raw  # spec: client "Message Data"
+
+    zero = {"linear": {"x": 0.0, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}
+    statuses = []
+
+    async def publish(channel, make, seconds):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            await ws.send(data(channel, make()))
+            statuses.extend(m for m in await s.read_for(0.1) if m.get("op") == "status")
+
+    start = s.positions[-1][0]
+    await publish(1, lambda: zero, 3.0)
+    held = s.top_speed(start + 1.0)
+    held_positions = len([p for p in s.positions if p[0] >= start + 1.0])
+
+    def stale():
+        t = time.time() - 10.0
+        return {"header": {"stamp": {"sec": int(t), "nanosec": int((t % 1) * 1e9)}, "frame_id": "base_link"},
+                "twist": zero}
+
+    start = s.positions[-1][0]
+    await publish(2, stale, 3.0)
+    stale_speed = s.top_speed(start + 1.0)
+    await ws.send(data(3, zero))
+    await ws.send(data(1, b"not json"))
+    await ws.send(data(1, {"linear": {"x": 0.1, "y": 0.3, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}))
+    statuses.extend(m for m in await s.read_for(1.0) if m.get("op") == "status")
+    await ws.close()
+    return {
+        "speed_before": before,
+        "speed_held": held,
+        "positions_held": held_positions,
+        "speed_stale": stale_speed,
+        "statuses": [{"level": m.get("level"), "message": m.get("message")} for m in statuses],
+    }
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("url")
     p.add_argument("--seconds", type=float, default=5.0)
     p.add_argument("--params", nargs=2, metavar=("NAME", "VALUE"))
     p.add_argument("--time-base", action="store_true", help="check every message's stamps only")
+    p.add_argument("--watch-param", metavar="NAME", help="print the first update of NAME pushed")
+    p.add_argument("--teleop", action="store_true", help="drive the robot by client publish")
     a = p.parse_args()
-    if a.time_base:
+    if a.teleop:
+        out = asyncio.run(teleop(a.url))
+    elif a.watch_param:
+        out = asyncio.run(watch_param(a.url, a.watch_param, a.seconds))
+    elif a.time_base:
         out = asyncio.run(time_base(a.url, a.seconds))
     elif a.params:
         out = asyncio.run(params(a.url, a.params[0], json.loads(a.params[1])))

@@ -8,7 +8,10 @@
 //! - [`sink`]: the views' thread writes to the server's channels ([`sink::LiveSink`], a
 //!   [`ViewSink`](crate::record::views::ViewSink) like the MCAP recorder);
 //! - [`params`]: the seam for live parameters ([`params::LiveParams`]), mapped onto the
-//!   protocol's `getParameters` and `setParameters`.
+//!   protocol's `getParameters`, `setParameters` and parameter subscriptions: every change a
+//!   component of this process makes (whoever asked for it: a Foxglove client, `orsa param
+//!   set` from another process, a ROS 2 tool) is pushed to the clients subscribed to it, as
+//!   is every change made through this server.
 //!
 //! The server runs on a tokio runtime of its own (one worker thread), so that neither it nor
 //! its clients ever run on the control loop's thread. What it does with a slow client is the
@@ -16,11 +19,12 @@
 //! full, and a client whose control queue (status, advertisements) fills is disconnected.
 
 pub mod params;
+pub mod publish;
 pub mod sink;
 pub mod tap;
 
 use crate::record::views::ViewSetup;
-use foxglove::websocket::{ChannelView, Client, ServerListener};
+use foxglove::websocket::{Capability, ChannelView, Client, ClientChannel, ServerListener, Status};
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -68,12 +72,59 @@ pub(crate) struct Shared {
     pub(crate) dropped: AtomicU64,
     /// Whether the first drop was logged.
     pub(crate) warned: AtomicBool,
+    /// The server, once it runs: what pushes parameter updates to the clients subscribed to
+    /// them (taken out when it stops).
+    pub(crate) server: ServerSlot,
 }
 
-/// Keeps [`Shared`] up to date with the clients' subscriptions.
-struct Listener(Arc<Shared>);
+/// The live server's handle, shared by [`LiveView`], the tap and the parameter bridge.
+#[derive(Default)]
+pub(crate) struct ServerSlot(parking_lot::Mutex<Option<foxglove::WebSocketServerHandle>>);
+
+impl std::fmt::Debug for ServerSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.lock().is_some() { "ServerSlot(running)" } else { "ServerSlot(none)" })
+    }
+}
+
+impl ServerSlot {
+    /// Pushes `parameters`' values to every client subscribed to them (the SDK keeps the
+    /// subscriptions and sends each client only the ones it asked for).
+    pub(crate) fn publish_parameters(&self, parameters: Vec<foxglove::websocket::Parameter>) {
+        if let Some(server) = self.0.lock().as_ref() {
+            server.publish_parameter_values(parameters);
+        }
+    }
+}
+
+/// Keeps [`Shared`] up to date with the clients' subscriptions, and hands what clients
+/// publish to the robot (if it takes it: [`publish`]).
+struct Listener(Arc<Shared>, Option<Arc<publish::Teleop>>);
 
 impl ServerListener for Listener {
+    fn on_client_advertise(&self, client: Client, channel: &ClientChannel) {
+        if self.1.is_none() {
+            return;
+        }
+        match publish::kind_of(&channel.topic, &channel.encoding, &channel.schema_name) {
+            Ok(kind) => tracing::info!("foxglove: a client publishes {kind:?} commands on {}", channel.topic),
+            Err(why) => {
+                tracing::warn!("foxglove: {why}");
+                client.send_status(Status::warning(why));
+            }
+        }
+    }
+
+    fn on_message_data(&self, client: Client, channel: &ClientChannel, payload: &[u8]) {
+        let Some(teleop) = &self.1 else { return };
+        let taken = teleop.take(&channel.topic, &channel.encoding, &channel.schema_name, payload);
+        if let Err(why) = taken
+            && teleop.tell()
+        {
+            client.send_status(Status::error(why));
+        }
+    }
+
     fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
         tracing::debug!("foxglove: client {:?} subscribed to {}", client.id(), channel.topic());
         self.0.subscriptions.fetch_add(1, Ordering::AcqRel);
@@ -98,7 +149,8 @@ impl ServerListener for Listener {
 pub struct LiveView {
     addr: SocketAddr,
     tap: Arc<tap::LiveTap>,
-    server: Option<foxglove::WebSocketServerHandle>,
+    shared: Arc<Shared>,
+    teleop: Option<Arc<publish::Teleop>>,
     runtime: Option<tokio::runtime::Runtime>,
 }
 
@@ -115,15 +167,35 @@ pub struct LiveSummary {
     pub handed: u64,
     /// Messages dropped because the views' queue was full.
     pub dropped: u64,
+    /// Velocity commands clients published, if the server took them.
+    pub published: Option<publish::Published>,
+}
+
+/// `N messages made into views, M dropped`, and what clients published if they did.
+impl std::fmt::Display for LiveSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} messages made into views, {} dropped", self.handed, self.dropped)?;
+        match self.published {
+            Some(p) if p.taken + p.refused > 0 => write!(
+                f,
+                "; {} velocity commands from clients handed to teleop, {} refused",
+                p.taken, p.refused
+            ),
+            _ => Ok(()),
+        }
+    }
 }
 
 impl LiveView {
-    /// Starts a server on `addr` serving the views `setup` describes, and the parameters of
-    /// `params` if given (only then does the server say it has parameters).
+    /// Starts a server on `addr` serving the views `setup` describes, the parameters of
+    /// `params` if given (only then does the server say it has parameters), and taking the
+    /// velocity commands clients publish to `teleop` if given (only then does it say it takes
+    /// client messages).
     pub fn start(
         addr: SocketAddr,
         setup: ViewSetup,
         params: Option<Arc<dyn params::LiveParams>>,
+        teleop: Option<Arc<publish::Teleop>>,
     ) -> Result<LiveView, LiveError> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -139,11 +211,16 @@ impl LiveView {
             .name(concat!("orsa ", env!("CARGO_PKG_VERSION")))
             .bind(addr.ip().to_string(), addr.port())
             .message_backlog_size(BACKLOG)
-            .listener(Arc::new(Listener(Arc::clone(&shared))))
+            .listener(Arc::new(Listener(Arc::clone(&shared), teleop.clone())))
             .tokio_runtime(runtime.handle());
+        if teleop.is_some() {
+            server =
+                server.capabilities([Capability::ClientPublish]).supported_encodings([publish::ENCODING]);
+        }
         if let Some(params) = params {
-            server = server
-                .parameter_handler(Arc::new(params::ParamBridge::new(params, runtime.handle().clone())));
+            let bridge =
+                params::ParamBridge::new(params, runtime.handle().clone()).publishing(Arc::clone(&shared));
+            server = server.parameter_handler(Arc::new(bridge));
         }
         // Started on its own runtime, waited for here without blocking on a runtime (the
         // caller may be on one).
@@ -162,12 +239,10 @@ impl LiveView {
             }
         };
         let bound = SocketAddr::new(addr.ip(), server.port());
-        let tap = tap::LiveTap::start(setup, context, shared).map_err(|source| LiveError::Start {
-            addr,
-            what: "views thread",
-            source,
-        })?;
-        Ok(LiveView { addr: bound, tap: Arc::new(tap), server: Some(server), runtime: Some(runtime) })
+        *shared.server.0.lock() = Some(server);
+        let tap = tap::LiveTap::start(setup, context, Arc::clone(&shared))
+            .map_err(|source| LiveError::Start { addr, what: "views thread", source })?;
+        Ok(LiveView { addr: bound, tap: Arc::new(tap), shared, teleop, runtime: Some(runtime) })
     }
 
     /// Where it listens (the port chosen if `0` was asked for).
@@ -186,8 +261,10 @@ impl LiveView {
     }
 
     fn stop(&mut self) -> LiveSummary {
-        let summary = self.tap.finish();
-        if let Some(server) = self.server.take() {
+        let mut summary = self.tap.finish();
+        summary.published = self.teleop.as_ref().map(|t| t.published());
+        let server = self.shared.server.0.lock().take();
+        if let Some(server) = server {
             // Dropping the shutdown handle aborts the clients' tasks at once.
             drop(server.stop());
         }
@@ -216,7 +293,8 @@ pub fn serve_process(
 ) -> Result<Option<LiveView>, LiveError> {
     let Some(addr) = addr else { return Ok(None) };
     let params = crate::system::live_params::ParamDirectory::new(registry, components);
-    let live = LiveView::start(addr, setup, Some(Arc::new(params)))?;
+    let teleop = Arc::new(publish::Teleop::new(registry, &setup.robot));
+    let live = LiveView::start(addr, setup, Some(Arc::new(params)), Some(teleop))?;
     registry.set_tap(tap::both(recording, Some(live.tap() as Arc<dyn orsa_actors::tap::Tap>)));
     eprintln!("{who}: foxglove: serving this process's views on ws://{}", live.addr());
     Ok(Some(live))

@@ -94,6 +94,8 @@ impl LiveParams for Pending {
 pub struct ParamBridge {
     params: Arc<dyn LiveParams>,
     runtime: tokio::runtime::Handle,
+    /// Where the values a set applied are pushed to the clients subscribed to them.
+    updates: Option<Arc<super::Shared>>,
 }
 
 impl std::fmt::Debug for ParamBridge {
@@ -105,7 +107,16 @@ impl std::fmt::Debug for ParamBridge {
 impl ParamBridge {
     /// Answers from `params`, on `runtime`.
     pub fn new(params: Arc<dyn LiveParams>, runtime: tokio::runtime::Handle) -> Self {
-        ParamBridge { params, runtime }
+        ParamBridge { params, runtime, updates: None }
+    }
+
+    /// The same, pushing the values every set applies to the clients of the server `shared`
+    /// belongs to that subscribed to them (the client that set them included, as the protocol
+    /// has it). A component of another process changes no value this server would otherwise
+    /// see.
+    pub(crate) fn publishing(mut self, shared: Arc<super::Shared>) -> Self {
+        self.updates = Some(shared);
+        self
     }
 
     /// The parameters to answer a `getParameters` of `names` with.
@@ -163,11 +174,17 @@ impl ParameterHandler for ParamBridge {
         responder: SetParametersResponder,
     ) {
         let params = Arc::clone(&self.params);
+        let updates = self.updates.clone();
         self.runtime.spawn(async move {
             let (applied, refused) = ParamBridge::set_values(&*params, parameters).await;
             for why in refused {
                 tracing::warn!("foxglove: a client's parameter was refused: {why}");
                 client.send_error(format!("parameter refused: {why}"));
+            }
+            if let Some(updates) = updates
+                && !applied.is_empty()
+            {
+                updates.server.publish_parameters(applied.clone());
             }
             responder.respond(applied);
         });

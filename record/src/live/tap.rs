@@ -137,6 +137,7 @@ impl LiveTap {
         super::LiveSummary {
             handed: self.handed.load(Ordering::Relaxed),
             dropped: self.shared.dropped.load(Ordering::Relaxed),
+            published: None,
         }
     }
 }
@@ -152,14 +153,36 @@ impl LiveTap {
     }
 }
 
+impl LiveTap {
+    /// A component of this process changed a parameter (`json` is its
+    /// [`ParamChange`](orsa_actors::param::ParamChange), on `component/params`): its new value
+    /// goes to the clients subscribed to it, by its full name (`component.name`).
+    fn param_changed(&self, topic: &str, json: &[u8]) {
+        let Some(component) = topic.strip_suffix(PARAM_CHANGES) else { return };
+        match serde_json::from_slice::<orsa_actors::param::ParamChange>(json) {
+            Ok(change) => {
+                let name = format!("{component}.{}", change.name);
+                self.shared.server.publish_parameters(vec![super::params::to_parameter(name, &change.new)]);
+            }
+            Err(e) => tracing::warn!("live view: a parameter change on {topic} does not read: {e}"),
+        }
+    }
+}
+
+/// The end of the topic of a component's parameter changes (`wallfollow/params`).
+const PARAM_CHANGES: &str = "/params";
+
 impl Tap for LiveTap {
-    fn record(&self, topic: &str, _type_id: &str, stamp: Timestamp, json: &[u8]) {
+    fn record(&self, topic: &str, type_id: &str, stamp: Timestamp, json: &[u8]) {
+        if type_id == <orsa_actors::param::ParamChange as orsa_actors::CommObject>::ID {
+            return self.param_changed(topic, json);
+        }
         let Some(input) = self.wanted(topic) else { return };
         self.hand(Item::Message { input, topic: topic.to_owned(), at: stamp, json: json.to_vec() });
     }
 
     fn wants(&self, topic: &str) -> bool {
-        self.wanted(topic).is_some()
+        self.wanted(topic).is_some() || topic.ends_with(PARAM_CHANGES)
     }
 
     /// Messages from another process are not made into views (as in a recording).

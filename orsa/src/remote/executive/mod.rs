@@ -132,7 +132,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
     registry.set_tap(None);
     if let Some(live) = live {
         let s = live.finish();
-        eprintln!("executive: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
+        eprintln!("executive: foxglove: {s}");
     }
     let link = transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default();
     let links = transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default();

@@ -210,7 +210,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     registry.set_tap(None);
     if let Some(live) = live {
         let s = live.finish();
-        eprintln!("robot: foxglove: {} messages made into views, {} dropped", s.handed, s.dropped);
+        eprintln!("robot: foxglove: {s}");
     }
     let recorded = recording.map(|r| {
         r.ended(ended_at, &ended.describe());
