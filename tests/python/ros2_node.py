@@ -16,7 +16,9 @@ The layout it follows:
 - liveliness tokens: `@ros2_lv/<domain>/<zid>/<nid>/<eid>/<NN|MP|MS>/<enclave>/<namespace>/<node>`
   and, for topics, `/<topic>/<DDS type>/<hash>/<qos>`, a name's '/' written '%';
 - a publication's attachment: int64 sequence number, int64 source timestamp (ns), then the
-  16-byte gid after its length, little-endian;
+  16-byte gid after its length, little-endian; the gid is the XXH3 128-bit hash of the
+  publisher's liveliness token, low 64 bits then high 64 bits (rmw_zenoh_cpp's
+  `liveliness_utils.cpp`, `Entity`'s constructor);
 - payloads: CDR with its 4-byte encapsulation header.
 """
 
@@ -29,6 +31,7 @@ import sys
 import threading
 import time
 
+import xxhash
 import zenoh
 from rosbags.typesys import Stores, get_typestore
 
@@ -67,19 +70,21 @@ class Node:
         self.domain = domain
         self.name = name
         self.entities = 0
-        self.tokens = [self.token("NN")]
+        self.tokens = [self.token("NN")[1]]
 
     def token(self, kind, topic=None, ros_type=None, qos=QOS_DEFAULT):
+        """Declares the next entity's token; its key and the token."""
         key = f"@ros2_lv/{self.domain}/{self.zid}/0/{self.entities}/{kind}/%/%/{self.name}"
         if topic is not None:
             key += f"/{mangle(topic)}/{dds_name(ros_type)}/{TS.hash_rihs01(ros_type)}/{qos}"
         self.entities += 1
-        return self.session.liveliness().declare_token(key)
+        return key, self.session.liveliness().declare_token(key)
 
     def publisher(self, topic, ros_type, qos=QOS_DEFAULT):
-        self.tokens.append(self.token("MP", topic, ros_type, qos))
+        key, token = self.token("MP", topic, ros_type, qos)
+        self.tokens.append(token)
         pub = self.session.declare_publisher(data_key(self.domain, topic, ros_type))
-        gid = os.urandom(16)
+        gid = gid_of(key)
         seq = [0]
 
         def publish(msg=None, raw=None):
@@ -91,7 +96,7 @@ class Node:
         return publish
 
     def subscribe(self, topic, ros_type, on, qos=QOS_DEFAULT):
-        self.tokens.append(self.token("MS", topic, ros_type, qos))
+        self.tokens.append(self.token("MS", topic, ros_type, qos)[1])
 
         def cb(sample):
             a = sample.attachment.to_bytes() if sample.attachment is not None else None
@@ -103,6 +108,12 @@ class Node:
         for t in self.tokens:
             t.undeclare()
         self.session.close()
+
+
+def gid_of(token):
+    """The gid rmw_zenoh derives from an entity's liveliness token."""
+    h = xxhash.xxh3_128_intdigest(token.encode())
+    return (h & (2**64 - 1)).to_bytes(8, "little") + (h >> 64).to_bytes(8, "little")
 
 
 def twist(v, w):
@@ -121,7 +132,8 @@ def discover(node, want, within=30):
             return
         topic = "/" + parts[9].replace("%", "/").lstrip("/")
         with lock:
-            found[topic] = {"zid": parts[2], "node": parts[8], "type": parts[10], "hash": parts[11], "qos": parts[12]}
+            found[topic] = {"zid": parts[2], "node": parts[8], "type": parts[10], "hash": parts[11], "qos": parts[12],
+                            "token": str(sample.key_expr)}
 
     sub = node.session.liveliness().declare_subscriber(f"@ros2_lv/{node.domain}/**", on_token, history=True)
     deadline = time.monotonic() + within
@@ -208,6 +220,14 @@ def observe(node, args):
         fail(f"tf frames {t.header.frame_id} -> {t.child_frame_id}")
     if len(seqs) < 5 or any(b != a + 1 for a, b in zip(seqs, seqs[1:])):
         fail(f"odometry attachments' sequence numbers are not consecutive: {seqs[:20]}")
+    # Every message's gid is its publisher's, derived from its token as rmw_zenoh does.
+    with lock:
+        for topic, got in seen.items():
+            want_gid = gid_of(found[topic]["token"])
+            bad = [a[17:].hex() for _, _, a in got if a is None or len(a) != 33 or a[16] != 16 or a[17:] != want_gid]
+            if bad:
+                fail(f"{topic}: {len(bad)} of {len(got)} attachments carry gid {bad[0]}, not {want_gid.hex()} "
+                     f"(the XXH3-128 of {found[topic]['token']})")
 
     # Drive it through /cmd_vel: forward at 0.2 m/s for 2 s, then nothing.
     cmd = node.publisher("/cmd_vel", "geometry_msgs/msg/Twist")

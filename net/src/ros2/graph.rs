@@ -163,16 +163,16 @@ impl NodeId {
     }
 }
 
-/// A publisher's gid: 16 bytes that name it among every entity of every process (from its
-/// token, which holds the session's zid and the entity's id).
+/// A publisher's gid, as rmw_zenoh derives it (`Entity`'s constructor,
+/// `rmw_zenoh_cpp/src/detail/liveliness_utils.cpp`, since its PR #298): the XXH3 128-bit hash
+/// of the entity's whole liveliness token (which holds the session's zid and the entity's id),
+/// its low 64 bits then its high 64 bits, each little-endian (the host order of every platform
+/// ROS 2 ships on). So `message_info.publisher_gid` is what `ros2 topic info -v` shows.
 pub(crate) fn gid(token: &str) -> [u8; 16] {
-    use std::hash::{Hash, Hasher};
+    let h = xxhash_rust::xxh3::xxh3_128(token.as_bytes());
     let mut out = [0u8; 16];
-    for (i, half) in out.chunks_mut(8).enumerate() {
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        (i, token).hash(&mut h);
-        half.copy_from_slice(&h.finish().to_le_bytes());
-    }
+    out[..8].copy_from_slice(&(h as u64).to_le_bytes());
+    out[8..].copy_from_slice(&((h >> 64) as u64).to_le_bytes());
     out
 }
 
@@ -243,6 +243,15 @@ mod tests {
         assert!(check_node("/r1/x", "orsa_2").is_ok());
         assert!(check_node("r1", "orsa").is_err());
         assert!(check_node("/", "or sa").is_err());
+    }
+
+    /// The gid of "abc" as the reference XXH3 (the C library, through Python's `xxhash`)
+    /// hashes it: low 64 bits then high 64 bits, little-endian.
+    #[test]
+    fn gids_are_the_xxh3_128_of_the_token_low_half_first() {
+        let expected =
+            [0x50, 0x39, 0x2f, 0x89, 0x94, 0x5f, 0xaf, 0x78, 0x85, 0x61, 0x3a, 0x73, 0xb6, 0x5a, 0xb0, 0x06];
+        assert_eq!(gid("abc"), expected);
     }
 
     #[test]
