@@ -186,6 +186,19 @@ async fn goals_to_no_place_are_rejected_at_once_naming_why_and_the_mission_goes_
     for g in &nav.goals[..3] {
         assert_eq!(g.time_s, 0.0, "{g:?}: not rejected at once");
     }
+    // The mission's end says which steps were skipped, and why.
+    let orsa::mission::report::Ended::MissionEnded { result, .. } = &r.ended else { panic!("{:?}", r.ended) };
+    assert!(result.starts_with("completed with 3 of 4 steps skipped: step 0 rejected: "), "{result}");
+    assert!(result.contains("step 2 rejected: ") && result.contains("inside a wall"), "{result}");
+}
+
+/// A mission none of whose steps could be done did not complete: its end says it failed.
+#[tokio::test(start_paused = true)]
+async fn a_mission_whose_every_step_is_rejected_ends_failed() {
+    let r = goto_mission("office", &["kitchen", "100,100"], 2).await;
+    let orsa::mission::report::Ended::MissionEnded { result, .. } = &r.ended else { panic!("{:?}", r.ended) };
+    assert!(result.starts_with("failed: all 2 steps skipped: step 0 rejected: "), "{result}");
+    assert!(result.contains("outside the map"), "{result}");
 }
 
 #[test]

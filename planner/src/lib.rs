@@ -381,6 +381,9 @@ pub struct PlannerState {
     goals: QueryClient<Goal, GoalReply>,
     status: PushNewestServer<MissionStatus>,
     nav: Option<NavState_>,
+    /// The steps given up and skipped (the skip policy), each `step N why`: the mission's
+    /// end says so.
+    skipped: Vec<String>,
 }
 
 fn secs(ctx: &Ctx<PlannerMsg>) -> f64 {
@@ -555,12 +558,24 @@ impl Planner {
                     self.publish(st, Some(format!("aborted: step {} {reason}", st.step)));
                     return Ok(());
                 }
-                _ => {}
+                _ => st.skipped.push(format!("step {} {reason}", st.step)),
             }
         }
         st.step += 1;
         st.attempts = 0;
         Self::next(ctx)
+    }
+
+    /// How a mission whose steps all ran ended: `completed`, `completed with N of M steps
+    /// skipped: ...` if some were given up, or `failed: all M steps skipped: ...` if every one
+    /// was (a mission that reached nothing did not complete).
+    fn mission_end(&self, st: &PlannerState) -> String {
+        let steps = self.mission.len();
+        match st.skipped.len() {
+            0 => "completed".into(),
+            n if n == steps => format!("failed: all {steps} steps skipped: {}", st.skipped.join("; ")),
+            n => format!("completed with {n} of {steps} steps skipped: {}", st.skipped.join("; ")),
+        }
     }
 
     /// Follows the running goal on a new pose: the obstacle layer, a path blocked, progress,
@@ -755,7 +770,16 @@ impl Component for Planner {
             }
         };
         Self::next(ctx)?;
-        Ok(PlannerState { step: 0, retried: 0, attempts: 0, goal_id: None, goals, status, nav })
+        Ok(PlannerState {
+            step: 0,
+            retried: 0,
+            attempts: 0,
+            goal_id: None,
+            goals,
+            status,
+            nav,
+            skipped: Vec::new(),
+        })
     }
 
     async fn handle(
@@ -767,7 +791,7 @@ impl Component for Planner {
         match msg {
             PlannerMsg::Next => {
                 let Some(step) = self.mission.get(st.step) else {
-                    self.publish(st, Some("completed".into()));
+                    self.publish(st, Some(self.mission_end(st)));
                     return Ok(());
                 };
                 let (mode, for_s) = match step.kind() {

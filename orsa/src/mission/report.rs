@@ -191,7 +191,9 @@ pub enum Ended {
     MissionEnded {
         /// Simulated time it ended at, s.
         at_s: f64,
-        /// How: `completed`, or `aborted: ...`.
+        /// How: `completed`, `completed with N of M steps skipped: ...` (steps given up under
+        /// the skip policy, each with why), `failed: all M steps skipped: ...`, or
+        /// `aborted: ...`.
         result: String,
     },
     /// A fatal error ended it (the command's exit code is 1).
