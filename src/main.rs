@@ -5,6 +5,7 @@
 
 use clap::Parser;
 use tracing_subscriber::EnvFilter;
+use tracing_subscriber::prelude::*;
 
 mod cli;
 
@@ -23,7 +24,12 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::from(2);
         }
     };
-    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+    // Warnings and errors also go where orsa's log lines are routed (`/rosout` of the robot's
+    // ROS 2 node), whatever --log shows on stderr.
+    tracing_subscriber::registry()
+        .with(tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_filter(filter))
+        .with(orsa::logline::RouteLayer.with_filter(tracing_subscriber::filter::LevelFilter::WARN))
+        .init();
     match cli::run(cli) {
         Ok(outcome) => std::process::ExitCode::from(outcome.exit_code()),
         Err(e) => {

@@ -27,7 +27,8 @@
 //! - [`remote`]: the robot, the executive, teleoperation and the tools as separate processes
 //!   over zenoh (crate `orsa-net`), each run from a plain options struct.
 //! - [`ending`]: how a long-running command ends (time, signal, giving up, fatal error), its
-//!   [`Outcome`](ending::Outcome) and exit code; [`output`]: what a command writes (lines on
+//!   [`Outcome`](ending::Outcome) and exit code; [`logline`]: its log lines, to stderr and to
+//!   `/rosout`; [`output`]: what a command writes (lines on
 //!   stdout, files in folders that may not exist yet).
 //!
 //! The benchmark harness is the crate `orsa-bench` (`cargo run --release -p orsa-bench`), and
@@ -44,6 +45,7 @@ pub use orsa_record::{live, plot, record, replay};
 
 pub mod ending;
 mod keyboard;
+pub mod logline;
 pub mod mission;
 pub mod output;
 pub mod remote;

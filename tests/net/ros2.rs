@@ -6,6 +6,8 @@
 //!   their rates, and it is driven through `/cmd_vel` and stops when the commands cease;
 //! - bad input on `/cmd_vel` (undecodable, wrong type, not finite, a burst of 5000) is refused
 //!   and counted, and the robot stays at rest and keeps running;
+//! - its node's parameter services answer `ros2 param` calls (list, get, set, describe, types,
+//!   atomic sets, bad requests) on the components' parameters, and its warnings reach `/rosout`;
 //! - `orsa robot --hardware ros2` drives the fixture's simulated ROS 2 robot along its wall;
 //! - a ROS 2 teleop driving `/cmd_vel` straight at a wall at top speed is stopped short of it.
 
@@ -87,11 +89,49 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
 
     let bad = fixture(&sys, "bad-input", &["--domain", "7"], Duration::from_secs(60), &[&robot]).await;
     eprintln!("bad input: {bad}");
+
+    // `ros2 param` on the robot's node: its parameter services, called as rclcpp's parameter
+    // client calls them, reach the components' own parameters.
+    let p = fixture(&sys, "params", &["--domain", "7"], Duration::from_secs(90), &[&robot]).await;
+    eprintln!("params: {p}");
+    assert!(
+        p["listed"].as_u64().expect("listed") >= 20 && p["shallow"].as_u64().expect("shallow") >= 5,
+        "{p}"
+    );
+    let set: Vec<(bool, String)> = serde_json::from_value(p["set"].clone()).expect("set results");
+    assert!(set[0].0, "a speed within the robot's limits is set: {p}");
+    for (i, why) in
+        [(1, "top speed"), (2, "no component 'nosuch'"), (3, "expected f64"), (4, "cannot be unset")]
+    {
+        assert!(!set[i].0 && set[i].1.contains(why), "set {i} refused for '{why}': {p}");
+    }
+    let (before, after) = (p["before"].as_f64().expect("before"), p["after"].as_f64().expect("after"));
+    assert!((after - before * 0.8).abs() < 1e-6, "the value in force is the one set: {p}");
+    assert_eq!(p["atomic"][0], false, "{p}");
+    assert_eq!(p["unchanged"].as_f64(), Some(after), "a refused atomic set changed nothing: {p}");
+    assert_eq!(p["still"].as_f64(), Some(after), "{p}");
+    assert_eq!(p["restored"], true, "{p}");
+    for (what, why) in
+        [("no_attachment", "attachment"), ("undecodable", "does not decode"), ("wrong_type", "GetParameters")]
+    {
+        assert!(p["bad"][what].as_str().expect("an error reply").contains(why), "{what}: {p}");
+    }
+    // /rosout: the robot's warnings, as rqt_console reads them.
+    assert_eq!(p["rosout_qos"], "::,1000:,:,:,,", "{p}");
+    let lines = p["rosout"].as_array().expect("rosout lines");
+    assert!(
+        lines.iter().any(|l| l["level"] == 30
+            && l["name"].as_str().is_some_and(|n| n.starts_with("orsa."))
+            && l["msg"].as_str().is_some_and(|m| m.contains("top speed"))),
+        "the refused set is on /rosout: {p}"
+    );
     let r = interrupt_and_report(robot, &report).await;
     let ros2 = r.ros2.expect("a ros2 section in the report");
     eprintln!("ros2: {ros2:?}\nsafety: {:?}", r.safety);
     assert_eq!(ros2.node.undecodable, 5, "{ros2:?}");
     assert_eq!(ros2.node.wrong_type, 3, "{ros2:?}");
+    assert_eq!(ros2.node.requests_refused, 3, "{ros2:?}");
+    assert!(ros2.node.requests_answered >= 12, "{ros2:?}");
     // The 5000-message burst (some may be dropped on the way under congestion): at most the
     // burst and what the rate refills while it lasts pass, with the 40 driving commands before.
     assert!(ros2.cmd_vel_rate_refused >= 1000, "{ros2:?}");

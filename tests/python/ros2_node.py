@@ -7,6 +7,7 @@ message definitions, CDR codec and RIHS01 type hashes are rosbags' (its ROS 2 Ja
     ros2_node.py --connect tcp/127.0.0.1:7447 bad-input   # feed its /cmd_vel what it must refuse
     ros2_node.py --connect tcp/127.0.0.1:7447 robot       # be a ROS 2 robot in a corridor
     ros2_node.py --connect tcp/127.0.0.1:7447 at-wall     # drive a robot at a wall at top speed
+    ros2_node.py --connect tcp/127.0.0.1:7447 params      # ros2 param list/get/set on its node
 
 Each mode prints one line of JSON (its findings) and exits 0, or exits non-zero saying what did
 not hold.
@@ -19,7 +20,11 @@ The layout it follows:
   16-byte gid after its length, little-endian; the gid is the XXH3 128-bit hash of the
   publisher's liveliness token, low 64 bits then high 64 bits (rmw_zenoh_cpp's
   `liveliness_utils.cpp`, `Entity`'s constructor);
-- payloads: CDR with its 4-byte encapsulation header.
+- payloads: CDR with its 4-byte encapsulation header;
+- services (rmw_service_data.cpp, rmw_client_data.cpp): a queryable on
+  `<domain>/<service>/<pkg>::srv::dds_::<Type>_/<service RIHS01 hash>`, announced by a token of
+  kind SS (clients: SC); a request is a query with the request in CDR and the client's attachment,
+  the reply carries the response and the client's sequence number and gid.
 """
 
 import argparse
@@ -534,6 +539,254 @@ def at_wall(node, args):
     }
 
 
+# The parameter services of a ROS 2 node (rcl_interfaces/srv, ROS 2 Jazzy), as their .srv files
+# define them. rosbags' typestore has their messages but not the services: they are registered
+# here, with the service type REP-2011 describes (request_message, response_message and
+# event_message, the event holding service_msgs/msg/ServiceEventInfo), so that rosbags computes
+# their RIHS01 hashes and encodes their requests.
+SERVICES = {
+    "ListParameters": ("uint64 DEPTH_RECURSIVE=0\nstring[] prefixes\nuint64 depth",
+                       "rcl_interfaces/msg/ListParametersResult result"),
+    "GetParameters": ("string[] names", "rcl_interfaces/msg/ParameterValue[] values"),
+    "SetParameters": ("rcl_interfaces/msg/Parameter[] parameters",
+                      "rcl_interfaces/msg/SetParametersResult[] results"),
+    "SetParametersAtomically": ("rcl_interfaces/msg/Parameter[] parameters",
+                                "rcl_interfaces/msg/SetParametersResult result"),
+    "DescribeParameters": ("string[] names", "rcl_interfaces/msg/ParameterDescriptor[] descriptors"),
+    "GetParameterTypes": ("string[] names", "uint8[] types"),
+}
+
+
+def _register_services():
+    from rosbags.typesys import get_types_from_msg
+
+    def rename(o):
+        if isinstance(o, str):
+            return o.replace("fixturesrv/msg/", "rcl_interfaces/srv/")
+        if isinstance(o, (list, tuple)):
+            return type(o)(rename(x) for x in o)
+        if isinstance(o, dict):
+            return {rename(k): rename(v) for k, v in o.items()}
+        return o
+
+    for name, (request, response) in SERVICES.items():
+        # rosbags names a parsed type pkg/msg/Name: parse under a placeholder, then rename.
+        b = f"fixturesrv/msg/{name}"
+        types = {}
+        types.update(get_types_from_msg(request, b + "_Request"))
+        types.update(get_types_from_msg(response, b + "_Response"))
+        types.update(get_types_from_msg(
+            f"service_msgs/msg/ServiceEventInfo info\n{b}_Request[<=1] request\n{b}_Response[<=1] response",
+            b + "_Event"))
+        types.update(get_types_from_msg(
+            f"{b}_Request request_message\n{b}_Response response_message\n{b}_Event event_message", b))
+        TS.register(rename(types))
+
+
+_register_services()
+PARAM_TYPE = {"NOT_SET": 0, "BOOL": 1, "INTEGER": 2, "DOUBLE": 3, "STRING": 4, "STRING_ARRAY": 9}
+
+
+def service_dds_name(srv):
+    return f"rcl_interfaces::srv::dds_::{srv}_"
+
+
+def service_key(domain, name, srv):
+    return f"{domain}/{name.lstrip('/')}/{service_dds_name(srv)}/{TS.hash_rihs01('rcl_interfaces/srv/' + srv)}"
+
+
+class ServiceClient:
+    """A service client as rmw_zenoh's (rmw_client_data.cpp): a liveliness token of kind SC; a
+    request is a query on the service's key, targeting every complete queryable, with the request
+    in CDR and the attachment (sequence number, source timestamp, the client's gid)."""
+
+    def __init__(self, node, name, srv):
+        self.node, self.name, self.srv = node, name, srv
+        # A service token carries the service's DDS name and hash (not its request's).
+        self.token_key, token = node.token("SC", name, f"rcl_interfaces/srv/{srv}")
+        node.tokens.append(token)
+        self.gid = gid_of(self.token_key)
+        self.seq = 0
+
+    def call_raw(self, payload, attachment=True, key=None, within=10.0):
+        """Sends one request: (ok, payload bytes or error text, reply attachment)."""
+        self.seq += 1
+        a = struct.pack("<qqB", self.seq, time.time_ns(), 16) + self.gid if attachment else None
+        replies = self.node.session.get(
+            key or service_key(self.node.domain, self.name, self.srv),
+            target=zenoh.QueryTarget.ALL_COMPLETE,
+            consolidation=zenoh.ConsolidationMode.NONE,
+            payload=payload,
+            attachment=a,
+            timeout=within,
+        )
+        got = list(replies)
+        if len(got) != 1:
+            fail(f"{self.name}: {len(got)} replies to one request")
+        r = got[0]
+        if r.ok is None:
+            return False, r.err.payload.to_bytes().decode("utf-8", "replace"), None
+        att = r.ok.attachment.to_bytes() if r.ok.attachment is not None else None
+        return True, r.ok.payload.to_bytes(), att
+
+    def call(self, **fields):
+        req_type = f"rcl_interfaces/srv/{self.srv}_Request"
+        req = TS.types[req_type](**fields)
+        ok, body, att = self.call_raw(bytes(TS.serialize_cdr(req, req_type)))
+        if not ok:
+            fail(f"{self.name}: an error reply to a valid request: {body}")
+        if att is None or len(att) != 33 or att[16] != 16:
+            fail(f"{self.name}: the reply's attachment is not rmw_zenoh's: {att!r}")
+        seq, stamp = struct.unpack("<qq", att[:16])
+        if seq != self.seq or att[17:] != self.gid:
+            fail(f"{self.name}: the reply carries sequence {seq} and gid {att[17:].hex()}, "
+                 f"not the request's {self.seq} and {self.gid.hex()}")
+        if abs(stamp - time.time_ns()) > 5e9:
+            fail(f"{self.name}: the reply's source timestamp {stamp} is not now")
+        return TS.deserialize_cdr(body, f"rcl_interfaces/srv/{self.srv}_Response")
+
+
+def value(kind, v=None):
+    V = TS.types["rcl_interfaces/msg/ParameterValue"]
+    import numpy as np
+    empty = dict(bool_value=False, integer_value=0, double_value=0.0, string_value="",
+                 byte_array_value=np.array([], dtype=np.uint8), bool_array_value=np.array([], dtype=np.bool_),
+                 integer_array_value=np.array([], dtype=np.int64), double_array_value=np.array([], dtype=np.float64),
+                 string_array_value=[])
+    field = {1: "bool_value", 2: "integer_value", 3: "double_value", 4: "string_value"}.get(kind)
+    if field:
+        empty[field] = v
+    return V(type=kind, **empty)
+
+
+def param(name, kind, v=None):
+    return TS.types["rcl_interfaces/msg/Parameter"](name=name, value=value(kind, v))
+
+
+def params(node, args):
+    """`ros2 param list/get/set/describe` on the robot's node, as rclcpp's parameter client makes
+    those calls, and the bad requests a peer can send; /rosout is watched meanwhile."""
+    target = "/" + args.target_node
+    names = ["list_parameters", "get_parameters", "set_parameters", "set_parameters_atomically",
+             "describe_parameters", "get_parameter_types"]
+    srv_of = dict(zip(names, ["ListParameters", "GetParameters", "SetParameters", "SetParametersAtomically",
+                              "DescribeParameters", "GetParameterTypes"]))
+    # The services, found by their tokens (kind SS), typed and hashed as REP-2011 computes it.
+    found = {}
+    lock = threading.Lock()
+
+    def on_token(sample):
+        parts = str(sample.key_expr).split("/")
+        if len(parts) == 13 and parts[5] == "SS" and parts[8] == args.target_node:
+            with lock:
+                found["/" + parts[9].replace("%", "/").lstrip("/")] = (parts[10], parts[11], parts[12])
+
+    sub = node.session.liveliness().declare_subscriber(f"@ros2_lv/{node.domain}/**", on_token, history=True)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        with lock:
+            if all(f"{target}/{n}" in found for n in names):
+                break
+        time.sleep(0.05)
+    sub.undeclare()
+    for n in names:
+        srv = srv_of[n]
+        want = (service_dds_name(srv), TS.hash_rihs01(f"rcl_interfaces/srv/{srv}"), QOS_DEFAULT)
+        if found.get(f"{target}/{n}") != want:
+            fail(f"{target}/{n} is announced as {found.get(f'{target}/{n}')}, not {want}")
+
+    # /rosout, as rqt_console reads it.
+    logs = []
+    node.subscribe("/rosout", "rcl_interfaces/msg/Log", lambda m, a: logs.append(m))
+    rosout_qos = subscribed_or_published(node, "/rosout", "MP")
+
+    c = {n: ServiceClient(node, f"{target}/{n}", srv_of[n]) for n in names}
+    listed = c["list_parameters"].call(prefixes=[], depth=0).result
+    speed = "centerfollow.v_max_m_s"
+    if speed not in listed.names or "centerfollow" not in listed.prefixes:
+        fail(f"list_parameters: {speed} not listed: {list(listed.names)[:20]} prefixes {list(listed.prefixes)}")
+    shallow = c["list_parameters"].call(prefixes=["centerfollow"], depth=1).result
+    if not shallow.names or any(not n.startswith("centerfollow.") or n.count(".") != 1 for n in shallow.names):
+        fail(f"list_parameters under centerfollow, depth 1: {list(shallow.names)}")
+
+    got = c["get_parameters"].call(names=[speed, "nosuch.param"]).values
+    if got[0].type != PARAM_TYPE["DOUBLE"] or got[1].type != PARAM_TYPE["NOT_SET"]:
+        fail(f"get_parameters: types {[v.type for v in got]}")
+    before = got[0].double_value
+    types = c["get_parameter_types"].call(names=[speed, "nosuch.param"]).types
+    described = c["describe_parameters"].call(names=[speed]).descriptors[0]
+    if list(types) != [PARAM_TYPE["DOUBLE"], PARAM_TYPE["NOT_SET"]] or described.type != PARAM_TYPE["DOUBLE"] \
+            or described.read_only or described.name != speed:
+        fail(f"types {list(types)}, descriptor {described}")
+    every = c["describe_parameters"].call(names=list(listed.names)).descriptors
+    read_only = sorted(d.name for d in every if d.read_only)
+
+    new = round(before * 0.8, 4)
+    results = c["set_parameters"].call(parameters=[
+        param(speed, PARAM_TYPE["DOUBLE"], new),
+        param(speed, PARAM_TYPE["DOUBLE"], 5.0),
+        param("nosuch.param", PARAM_TYPE["DOUBLE"], 1.0),
+        param(speed, PARAM_TYPE["STRING"], "fast"),
+        param(speed, PARAM_TYPE["NOT_SET"]),
+    ]).results
+    outcome = [(r.successful, r.reason) for r in results]
+    after = c["get_parameters"].call(names=[speed]).values[0].double_value
+    atomic = c["set_parameters_atomically"].call(parameters=[
+        param(speed, PARAM_TYPE["DOUBLE"], before), param("centerfollow.v_min_m_s", PARAM_TYPE["DOUBLE"], 0.01)]).result
+    unchanged = c["get_parameters"].call(names=[speed]).values[0].double_value
+
+    # Bad requests: each gets an error reply saying why; the service keeps answering.
+    gp = c["get_parameters"]
+    bad = {
+        "no_attachment": gp.call_raw(bytes(TS.serialize_cdr(
+            TS.types["rcl_interfaces/srv/GetParameters_Request"](names=[speed]),
+            "rcl_interfaces/srv/GetParameters_Request")), attachment=False),
+        "undecodable": gp.call_raw(b"\x00\x01\x00\x00\xff\xff\xff\x7f"),
+        "wrong_type": gp.call_raw(b"\x00\x01\x00\x00\x00\x00\x00\x00",
+                                  key=service_key(node.domain, f"{target}/get_parameters", "SetParameters")),
+    }
+    for what, (ok, text, _) in bad.items():
+        if ok:
+            fail(f"a request with {what} was answered")
+    still = c["get_parameters"].call(names=[speed]).values[0].double_value
+    # Put the speed back as it was.
+    restored = c["set_parameters"].call(parameters=[param(speed, PARAM_TYPE["DOUBLE"], before)]).results[0]
+    time.sleep(0.5)
+    return {
+        "listed": len(listed.names),
+        "prefixes": len(listed.prefixes),
+        "shallow": len(shallow.names),
+        "read_only": read_only,
+        "before": before,
+        "set": outcome,
+        "after": after,
+        "atomic": [atomic.successful, atomic.reason],
+        "unchanged": unchanged,
+        "bad": {k: v[1] for k, v in bad.items()},
+        "still": still,
+        "restored": restored.successful,
+        "rosout_qos": rosout_qos,
+        "rosout": [{"level": m.level, "name": m.name, "msg": m.msg} for m in logs],
+    }
+
+
+def subscribed_or_published(node, topic, kind, within=10):
+    """The QoS of the first `kind` (MP, MS) token on `topic`, once one is seen."""
+    found = []
+
+    def on_token(sample):
+        parts = str(sample.key_expr).split("/")
+        if len(parts) == 13 and parts[5] == kind and "/" + parts[9].replace("%", "/").lstrip("/") == topic:
+            found.append(parts[12])
+
+    sub = node.session.liveliness().declare_subscriber(f"@ros2_lv/{node.domain}/**", on_token, history=True)
+    deadline = time.monotonic() + within
+    while not found and time.monotonic() < deadline:
+        time.sleep(0.05)
+    sub.undeclare()
+    return found[0] if found else None
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--connect", required=True)
@@ -544,12 +797,14 @@ def main():
     parser.add_argument("--speed", type=float, default=0.5, help="at-wall: the speed commanded, m/s")
     parser.add_argument("--cmd-type", default="geometry_msgs/msg/TwistStamped",
                         help="robot: the type it takes on /cmd_vel")
-    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall"])
+    parser.add_argument("--target-node", default="orsa", help="params: the node whose parameters to use")
+    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall", "params"])
     args = parser.parse_args()
     node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",
-                                             "robot": "fixture_robot", "at-wall": "fixture_teleop"}[args.mode])
+                                             "robot": "fixture_robot", "at-wall": "fixture_teleop",
+                                             "params": "fixture_param_client"}[args.mode])
     try:
-        modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall}
+        modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall, "params": params}
         result = modes[args.mode](node, args)
     finally:
         node.close()

@@ -5,6 +5,8 @@
 
 use super::msg::Message;
 use byteorder::{BigEndian, LittleEndian};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
 
 /// The encapsulation header orsa writes: plain CDR, little-endian, no options.
 pub const CDR_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
@@ -41,10 +43,20 @@ pub enum CdrError {
 
 /// Encodes `msg` into `out` (cleared first): header and body.
 pub fn encode_into<T: Message>(msg: &T, out: &mut Vec<u8>) -> Result<(), CdrError> {
+    encode_named(msg, T::NAME, out)
+}
+
+/// Encodes `msg` (a message, or a service's request or response, named `type_name` in errors)
+/// into `out` (cleared first): header and body.
+pub(crate) fn encode_named<T: Serialize>(
+    msg: &T,
+    type_name: &'static str,
+    out: &mut Vec<u8>,
+) -> Result<(), CdrError> {
     out.clear();
     out.extend_from_slice(&CDR_LE);
     cdr_encoding::to_writer::<T, LittleEndian, _>(&mut *out, msg)
-        .map_err(|e| CdrError::Encode { type_name: T::NAME, reason: e.to_string() })
+        .map_err(|e| CdrError::Encode { type_name, reason: e.to_string() })
 }
 
 /// Encodes `msg`: header and body.
@@ -56,10 +68,18 @@ pub fn encode<T: Message>(msg: &T) -> Result<Vec<u8>, CdrError> {
 
 /// Decodes a payload (header and body) as a `T`. Bytes after the message (padding) are ignored.
 pub fn decode<T: Message>(payload: &[u8]) -> Result<T, CdrError> {
+    decode_named(payload, T::NAME)
+}
+
+/// Decodes a payload (header and body) as a `T` named `type_name` in errors.
+pub(crate) fn decode_named<T: DeserializeOwned>(
+    payload: &[u8],
+    type_name: &'static str,
+) -> Result<T, CdrError> {
     let Some((header, body)) = payload.split_first_chunk::<4>() else {
         return Err(CdrError::Short { len: payload.len() });
     };
-    let body_err = |e: cdr_encoding::Error| CdrError::Body { type_name: T::NAME, reason: e.to_string() };
+    let body_err = |e: cdr_encoding::Error| CdrError::Body { type_name, reason: e.to_string() };
     match u16::from_be_bytes([header[0], header[1]]) {
         0x0001 => cdr_encoding::from_bytes::<T, LittleEndian>(body).map(|(t, _)| t).map_err(body_err),
         0x0000 => cdr_encoding::from_bytes::<T, BigEndian>(body).map(|(t, _)| t).map_err(body_err),

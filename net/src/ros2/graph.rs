@@ -10,7 +10,7 @@
 //!   the UNIX epoch), source gid (16 bytes, after its length 16), little-endian, as zenoh-ext
 //!   serialises the three.
 
-use super::msg::Message;
+use super::msg::{Message, Service};
 
 /// A ROS name, as a liveliness token carries it: `/` written `%`, empty written `%`.
 pub(crate) fn mangle(name: &str) -> String {
@@ -76,6 +76,12 @@ pub fn data_key<T: Message>(domain: u32, topic: &str) -> String {
     format!("{domain}/{}/{}/{}", topic.trim_start_matches('/'), T::DDS_NAME, T::HASH)
 }
 
+/// The key a service's requests of type `S` are asked on (a topic's layout, with the service
+/// type: `<domain>/<service>/<pkg>::srv::dds_::<Type>_/<hash>`).
+pub fn service_key<S: Service>(domain: u32, service: &str) -> String {
+    format!("{domain}/{}/{}/{}", service.trim_start_matches('/'), S::DDS_NAME, S::HASH)
+}
+
 /// Every key a topic's messages travel on, whatever their type.
 pub(crate) fn any_type_key(domain: u32, topic: &str) -> String {
     format!("{domain}/{}/*/*", topic.trim_start_matches('/'))
@@ -94,6 +100,10 @@ pub enum Qos {
     Default,
     /// Best effort, volatile, keep last 5: ROS 2's sensor data profile (`/scan`).
     SensorData,
+    /// Reliable, volatile, keep last 1000: `/rosout` as orsa publishes it (rcl's profile
+    /// without its transient local durability and 10 s lifespan: orsa keeps no history for
+    /// late joiners).
+    Rosout,
 }
 
 impl Qos {
@@ -104,6 +114,7 @@ impl Qos {
         match self {
             Qos::Default => "::,10:,:,:,,",
             Qos::SensorData => "2::,5:,:,:,,",
+            Qos::Rosout => "::,1000:,:,:,,",
         }
     }
 }
@@ -114,6 +125,8 @@ pub(crate) enum Entity {
     Node,
     Publisher,
     Subscription,
+    /// A service server.
+    Service,
 }
 
 impl Entity {
@@ -122,6 +135,7 @@ impl Entity {
             Entity::Node => "NN",
             Entity::Publisher => "MP",
             Entity::Subscription => "MS",
+            Entity::Service => "SS",
         }
     }
 }
@@ -226,6 +240,10 @@ mod tests {
                 LaserScan::DDS_NAME,
                 LaserScan::HASH
             )
+        );
+        assert_eq!(
+            service_key::<crate::ros2::rcl::GetParameters>(0, "/orsa/get_parameters"),
+            "0/orsa/get_parameters/rcl_interfaces::srv::dds_::GetParameters_/RIHS01_f480322f7e422b77a0443ba06df1c1a19da1a05af3036ce99d7a49463e55e855"
         );
         let n = NodeId { namespace: "/r1".into(), ..n };
         assert!(n.token(Entity::Subscription, 4, None).contains("/MS/%/%r1/orsa"));

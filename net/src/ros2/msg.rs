@@ -20,15 +20,32 @@ pub trait Message: Serialize + for<'de> Deserialize<'de> + Send + 'static {
     const HASH: &'static str;
 }
 
+/// A ROS 2 service type: its name, its DDS name (what rmw_zenoh puts in key expressions and
+/// tokens: the response type's name without `Response_`) and its RIHS01 type hash (the
+/// service's own, over its request, response and event messages, REP-2011).
+pub trait Service: Send + Sync + 'static {
+    /// The request.
+    type Request: Serialize + for<'de> Deserialize<'de> + Send + 'static;
+    /// The response.
+    type Response: Serialize + for<'de> Deserialize<'de> + Send + 'static;
+    /// The ROS 2 type name, `package/srv/Type`.
+    const NAME: &'static str;
+    /// The DDS type name, `package::srv::dds_::Type_`.
+    const DDS_NAME: &'static str;
+    /// The RIHS01 type hash of the service type in ROS 2 Jazzy.
+    const HASH: &'static str;
+}
+
 macro_rules! message {
     ($t:ty, $pkg:literal, $name:literal, $hash:literal) => {
-        impl Message for $t {
+        impl $crate::ros2::msg::Message for $t {
             const NAME: &'static str = concat!($pkg, "/msg/", $name);
             const DDS_NAME: &'static str = concat!($pkg, "::msg::dds_::", $name, "_");
             const HASH: &'static str = concat!("RIHS01_", $hash);
         }
     };
 }
+pub(crate) use message;
 
 /// `builtin_interfaces/msg/Time`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]

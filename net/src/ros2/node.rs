@@ -49,22 +49,31 @@ pub struct Ros2Stats {
     pub wrong_type: u64,
     /// Messages that could not be encoded or put on the session.
     pub failed: u64,
+    /// Service requests answered.
+    #[serde(default)]
+    pub requests_answered: u64,
+    /// Service requests refused with an error reply (no rmw_zenoh attachment, not CDR of the
+    /// request type, another service type).
+    #[serde(default)]
+    pub requests_refused: u64,
 }
 
 #[derive(Default)]
-struct Counts {
+pub(super) struct Counts {
     published: AtomicU64,
     received: AtomicU64,
     undecodable: AtomicU64,
     wrong_type: AtomicU64,
-    failed: AtomicU64,
+    pub(super) failed: AtomicU64,
+    pub(super) requests_answered: AtomicU64,
+    pub(super) requests_refused: AtomicU64,
 }
 
-struct NodeInner {
-    session: zenoh::Session,
-    id: NodeId,
+pub(super) struct NodeInner {
+    pub(super) session: zenoh::Session,
+    pub(super) id: NodeId,
     next_entity: AtomicU32,
-    counts: Counts,
+    pub(super) counts: Counts,
     bad_log: orsa_actors::logbudget::LogBudget,
     _token: zenoh::liveliness::LivelinessToken,
 }
@@ -73,7 +82,7 @@ struct NodeInner {
 /// a node of rmw_zenoh would. Cheap to clone.
 #[derive(Clone)]
 pub struct Ros2Node {
-    inner: Arc<NodeInner>,
+    pub(super) inner: Arc<NodeInner>,
 }
 
 impl std::fmt::Debug for Ros2Node {
@@ -122,11 +131,13 @@ impl Ros2Node {
             undecodable: c.undecodable.load(Ordering::Relaxed),
             wrong_type: c.wrong_type.load(Ordering::Relaxed),
             failed: c.failed.load(Ordering::Relaxed),
+            requests_answered: c.requests_answered.load(Ordering::Relaxed),
+            requests_refused: c.requests_refused.load(Ordering::Relaxed),
         }
     }
 
     /// The topic's absolute name under the node's namespace, checked.
-    fn topic(&self, topic: &str) -> Result<String, NetError> {
+    pub(super) fn topic(&self, topic: &str) -> Result<String, NetError> {
         graph::qualified_topic(&self.inner.id.namespace, topic).map_err(|e| NetError::Config(e.to_string()))
     }
 
@@ -139,7 +150,7 @@ impl Ros2Node {
         self.token_of(entity, topic, T::DDS_NAME, T::HASH, qos).await
     }
 
-    async fn token_of(
+    pub(super) async fn token_of(
         &self,
         entity: Entity,
         topic: &str,
@@ -287,7 +298,7 @@ pub enum Either<A, B> {
 
 impl NodeInner {
     /// A line about bad input, within the budget for hostile input.
-    fn warn(&self, line: std::fmt::Arguments<'_>) {
+    pub(super) fn warn(&self, line: std::fmt::Arguments<'_>) {
         if let orsa_actors::logbudget::Verdict::Log { suppressed } =
             self.bad_log.judge(std::time::Instant::now())
         {

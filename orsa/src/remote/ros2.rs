@@ -15,6 +15,7 @@
 //! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as TwistStamped or Twist (`ros2.base.cmd_vel_type`).
 
 use crate::config::Ros2Params;
+use crate::system::live_params::ParamDirectory;
 use orsa_actors::push_timed::PushTimedClient;
 use orsa_actors::send::SendClient;
 use orsa_actors::service::PushTimedService;
@@ -27,10 +28,14 @@ use orsa_interfaces::nomad200::{
 };
 use orsa_net::ros2::Either;
 use orsa_net::ros2::msg::{self as m, Bool, LaserScan, Odometry, TfMessage, Twist, TwistStamped};
+use orsa_net::ros2::rcl::Log;
 use orsa_net::ros2::{Qos, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+
+mod params;
+pub use params::ParamServices;
 
 /// What the ROS 2 side of the robot did, for `orsa robot --report`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -74,6 +79,17 @@ impl RateGate {
     }
 }
 
+/// The robot a [`RobotRos2`] shows.
+#[derive(Debug, Clone, Copy)]
+pub struct FacedRobot<'a> {
+    /// Its name (its services' prefix).
+    pub name: &'a str,
+    /// Its geometry and limits.
+    pub params: &'a RobotParams,
+    /// Its odometry's drift model (the covariances of `/odom`).
+    pub drift: &'a OdometryConfig,
+}
+
 /// The robot's ROS 2 face; publishing and taking commands while it lives.
 pub struct RobotRos2 {
     node: Ros2Node,
@@ -81,6 +97,39 @@ pub struct RobotRos2 {
     rate_refused: Arc<AtomicU64>,
     _cmd_vel: Ros2Subscription,
     _clients: Vec<Box<dyn std::any::Any + Send>>,
+    _params: ParamServices,
+    _rosout: crate::logline::RouteGuard,
+}
+
+/// Publishes orsa's log lines ([`crate::logline`]) on `/rosout` as `rcl_interfaces/msg/Log`,
+/// logger `<node>.<who>` (`orsa.robot`, `orsa.remote.ros2.params`, `orsa.orsa_net.ros2.node`),
+/// while the guard lives.
+async fn rosout(
+    node: &Ros2Node,
+    name: &str,
+    registry: &Registry,
+) -> anyhow::Result<crate::logline::RouteGuard> {
+    let publisher: Ros2Publisher<Log> = node.publisher("/rosout", Qos::Rosout).await?;
+    let (node_name, reg) = (name.to_string(), registry.clone());
+    Ok(crate::logline::route(move |l| {
+        let level = match l.level {
+            tracing::Level::ERROR => Log::ERROR,
+            tracing::Level::WARN => Log::WARN,
+            tracing::Level::INFO => Log::INFO,
+            _ => Log::DEBUG,
+        };
+        let now = reg.now();
+        let log = Log {
+            stamp: time(now),
+            level,
+            name: format!("{node_name}.{}", l.logger.trim_start_matches("orsa::").replace("::", ".")),
+            msg: l.text.to_string(),
+            file: l.file.to_string(),
+            function: l.module.to_string(),
+            line: l.line,
+        };
+        publisher.publish(&log, now.0);
+    }))
 }
 
 /// The sink that publishes each scan of a ring (`ring` gives its geometry) as a
@@ -95,20 +144,24 @@ pub fn scan_sink(publisher: Ros2Publisher<LaserScan>, ring: RingParams) -> Sink<
 
 impl RobotRos2 {
     /// Starts publishing robot `robot`'s services (in this process's `registry`) as ROS 2
-    /// topics on `transport`'s session, in `domain`, and taking `/cmd_vel`.
+    /// topics on `transport`'s session, in `domain`, taking `/cmd_vel`, serving the
+    /// parameters of `params_of`'s components ([`ParamServices`]) and publishing orsa's log
+    /// lines on `/rosout`.
     ///
     /// Each update is published where the robot server pushes it (see [`scan_sink`]).
     pub async fn start(
         registry: &Registry,
         transport: &orsa_net::ZenohTransport,
-        robot: &str,
-        params: &RobotParams,
+        robot: &FacedRobot<'_>,
         ros2: &Ros2Params,
-        drift: &OdometryConfig,
         domain: u32,
+        params_of: ParamDirectory,
     ) -> anyhow::Result<Self> {
+        let FacedRobot { name: robot, params, drift } = *robot;
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
+        let param_services = ParamServices::serve(&node, params_of).await?;
+        let rosout = rosout(&node, &ros2.node, registry).await?;
         fn follow<T: orsa_actors::CommObject>(
             registry: &Registry,
             addr: orsa_actors::service::Addr<PushTimedService<T>>,
@@ -173,7 +226,15 @@ impl RobotRos2 {
                 }
             })
             .await?;
-        Ok(RobotRos2 { node, forwarded, rate_refused, _cmd_vel: cmd_vel, _clients: clients })
+        Ok(RobotRos2 {
+            node,
+            forwarded,
+            rate_refused,
+            _cmd_vel: cmd_vel,
+            _clients: clients,
+            _params: param_services,
+            _rosout: rosout,
+        })
     }
 
     /// What it did so far.

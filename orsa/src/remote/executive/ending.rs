@@ -25,9 +25,11 @@ pub(super) async fn ended(
         Ok(Stop::GaveUp(e)) => {
             // The master is gone: no behaviour may go on driving without it. The robot
             // stops its motors when this process leaves, and its watchdog stays armed.
-            eprintln!(
-                "executive: [{at_s:.3} s] supervisor '{}' gave up ({}): unwiring the behaviours",
-                e.supervisor, e.reason
+            crate::say!(
+                "executive",
+                "[{at_s:.3} s] supervisor '{}' gave up ({}): unwiring the behaviours",
+                e.supervisor,
+                e.reason
             );
             let unwired_all = unwire_all(registry, config).await;
             (crate::ending::ended(Stop::GaveUp(e), at_s, None), unwired_all)
@@ -49,7 +51,7 @@ async fn unwire_all(registry: &Registry, config: &Config) -> bool {
         .await;
         if !matches!(unwired, Ok(Ok(()))) {
             all_unwired = false;
-            eprintln!("executive: cannot unwire {b}: the robot stops when this process leaves");
+            crate::say!("executive", "cannot unwire {b}: the robot stops when this process leaves");
         }
     }
     all_unwired
@@ -61,8 +63,9 @@ pub(super) fn tell(ended: &Ended, unwired_all: bool) {
         Ended::Completed => {}
         // The executive stops no motors itself (its report's `stopped_in_s` stays empty):
         // the robot does, when it sees it go.
-        Ended::GaveUp { at_s, supervisor, child, reason, .. } => eprintln!(
-            "executive: gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed \
+        Ended::GaveUp { at_s, supervisor, child, reason, .. } => crate::say!(
+            "executive",
+            "gave up at {at_s:.1} s: supervisor '{supervisor}' stopped after '{child}' failed \
              once too often ({reason}); {}the robot stops as this process leaves",
             if unwired_all {
                 "the behaviours were unwired and "
@@ -70,7 +73,7 @@ pub(super) fn tell(ended: &Ended, unwired_all: bool) {
                 "not every behaviour could be unwired; "
             }
         ),
-        other => eprintln!("executive: {}", other.describe()),
+        other => crate::say!("executive", "{}", other.describe()),
     }
 }
 
@@ -119,7 +122,7 @@ pub(super) fn write_report(path: Option<&Path>, report: &ExecutiveReport) -> any
     let Some(p) = path else { return Ok(()) };
     std::fs::write(p, serde_json::to_string_pretty(report)?)
         .with_context(|| format!("{}: cannot write the report", p.display()))?;
-    eprintln!("executive: report: {}", p.display());
+    crate::say!("executive", "report: {}", p.display());
     Ok(())
 }
 
@@ -129,8 +132,9 @@ pub(super) fn finish_recording(recording: Recording) -> anyhow::Result<()> {
     match tap.finish() {
         Ok(Some(r)) => {
             let total: u64 = r.messages.values().sum();
-            eprintln!(
-                "executive: record: {} ({total} messages on {} topics)",
+            crate::say!(
+                "executive",
+                "record: {} ({total} messages on {} topics)",
                 r.path.display(),
                 r.messages.len()
             );

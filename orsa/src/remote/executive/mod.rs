@@ -108,7 +108,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
             .await
             .context("starting the executive")?;
         supervisor = Some(system.supervisor);
-        eprintln!("executive: up (zenoh id {}), driving {}", transport.zid(), config.robot_name());
+        crate::say!("executive", "up (zenoh id {}), driving {}", transport.zid(), config.robot_name());
         (plan_started_at, plan_task) =
             setup::start_plan(&registry, &checked, &recording, transport, &link_log, &boards);
         anyhow::Ok(crate::ending::until_end(Some(checked.duration), &top).await)
@@ -132,7 +132,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
     registry.set_tap(None);
     if let Some(live) = live {
         let s = live.finish();
-        eprintln!("executive: foxglove: {s}");
+        crate::say!("executive", "foxglove: {s}");
     }
     let link = transport.as_ref().map(|t| t.link_cut_stats()).unwrap_or_default();
     let links = transport.as_ref().map(|t| t.link_ledger()).unwrap_or_default();

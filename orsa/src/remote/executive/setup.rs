@@ -138,7 +138,7 @@ pub(super) fn start_plan(
         t.cut_link(role, cut);
         let at = r.clock().since_start(r.now()).as_secs_f64();
         let what = if cut { "link cut" } else { "link restored" };
-        eprintln!("executive: [{at:.3} s] fault: {what} to {role}");
+        crate::say!("executive", "[{at:.3} s] fault: {what} to {role}");
         log.lock().push((at, role.to_string(), what.to_string()));
     });
     let targets =

@@ -19,11 +19,11 @@ pub(super) async fn start_fallback_if(
     if let (Some(mode), None) = (mode, &*fallback) {
         match start_fallback(registry, config, mode).await {
             Ok(f) => {
-                eprintln!("robot: driving fallback mode '{mode}'");
+                crate::say!("robot", "driving fallback mode '{mode}'");
                 *fallback = Some(f);
                 return true;
             }
-            Err(e) => eprintln!("robot: cannot start the fallback: {e:#}"),
+            Err(e) => crate::say!("robot", "cannot start the fallback: {e:#}"),
         }
     }
     false

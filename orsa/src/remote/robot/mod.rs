@@ -129,7 +129,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let run = async {
         supervisor = Some(start_system.await.context("starting the robot")?.supervisor);
         let t = open(&registry, &args.net, "robot", None).await?;
-        eprintln!("robot: up as {} (zenoh id {})", robot, t.zid());
+        crate::say!("robot", "up as {} (zenoh id {})", robot, t.zid());
         let transport = &*transport.insert(t);
         faces.join(&registry, transport, &args, config, &drive).await?;
 
@@ -172,9 +172,11 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let ended = match run {
         Ok(crate::ending::Stop::GaveUp(e)) => {
             // The robot server is gone with its watchdog: the motors are stopped on the board.
-            eprintln!(
-                "robot: [{at_s:.3} s] supervisor '{}' gave up ({}): stopping the motors",
-                e.supervisor, e.reason
+            crate::say!(
+                "robot",
+                "[{at_s:.3} s] supervisor '{}' gave up ({}): stopping the motors",
+                e.supervisor,
+                e.reason
             );
             // Once every component has stopped: none may drive after the board's stop.
             if let Some(s) = &supervisor {
@@ -187,7 +189,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
         Err(e) => Ended::Failed { at_s, error: format!("{e:#}") },
     };
     if ended != Ended::Completed {
-        eprintln!("robot: {}", ended.describe());
+        crate::say!("robot", "{}", ended.describe());
     }
     let safety = if matches!(ended, Ended::GaveUp { .. }) || supervisor.is_none() {
         // Its server is gone (or never started): what it counted went with it.
@@ -210,7 +212,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     registry.set_tap(None);
     if let Some(live) = live {
         let s = live.finish();
-        eprintln!("robot: foxglove: {s}");
+        crate::say!("robot", "foxglove: {s}");
     }
     let recorded = recording.map(|r| {
         r.ended(ended_at, &ended.describe());
@@ -248,13 +250,14 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     if let Some(p) = &args.report {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)
             .with_context(|| format!("{}: cannot write the report", p.display()))?;
-        eprintln!("robot: report: {}", p.display());
+        crate::say!("robot", "report: {}", p.display());
     }
     match recorded {
         Some(Ok(Some(r))) => {
             let total: u64 = r.messages.values().sum();
-            eprintln!(
-                "robot: record: {} ({total} messages on {} topics)",
+            crate::say!(
+                "robot",
+                "record: {} ({total} messages on {} topics)",
                 r.path.display(),
                 r.messages.len()
             );

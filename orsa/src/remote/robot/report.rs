@@ -123,7 +123,7 @@ pub(super) async fn safety_counters(
         .await
     };
     counters.await.unwrap_or_else(|e: orsa_actors::PatternError| {
-        eprintln!("robot: cannot read the safety counters: {e}");
+        crate::say!("robot", "cannot read the safety counters: {e}");
         Default::default()
     })
 }

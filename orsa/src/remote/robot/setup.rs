@@ -128,27 +128,30 @@ impl Faces {
     ) -> anyhow::Result<()> {
         let name = &config.robot_name();
         if args.ros2 {
-            let drift = &config.sim.odometry;
+            let faced = ros2::FacedRobot { name, params: &robot.params, drift: &config.sim.odometry };
             let face = ros2::RobotRos2::start(
                 registry,
                 transport,
-                name,
-                &robot.params,
+                &faced,
                 &config.ros2,
-                drift,
                 args.domain,
+                crate::system::live_params::ParamDirectory::new(
+                    registry,
+                    config.system.components.iter().map(|c| c.name.clone()).collect(),
+                ),
             )
             .await
             .context("joining ROS 2 (--ros2)")?;
-            eprintln!("robot: on ROS 2 domain {} as node {}", args.domain, config.ros2.node);
+            crate::say!("robot", "on ROS 2 domain {} as node {}", args.domain, config.ros2.node);
             self.ros2_face = Some(face);
         }
         if let Some(base) = robot.handle::<Ros2Robot>() {
             let link = ros2::BaseLink::connect(registry, transport, &config.ros2, args.domain, base)
                 .await
                 .context("joining the ROS 2 base (--hardware ros2)")?;
-            eprintln!(
-                "robot: driving the ROS 2 robot on domain {} ({} and {} in, {} out)",
+            crate::say!(
+                "robot",
+                "driving the ROS 2 robot on domain {} ({} and {} in, {} out)",
                 args.domain,
                 config.ros2.base.scan_topic,
                 config.ros2.base.odom_topic,

@@ -180,7 +180,7 @@ impl<'a> Watchdog<'a> {
     /// No executive was heard within a lease of the start: the fallback drives.
     async fn never_heard(&mut self) {
         self.heard = true;
-        eprintln!("robot: no executive within {} ms of the start", self.lease.as_millis());
+        crate::say!("robot", "no executive within {} ms of the start", self.lease.as_millis());
         start_fallback_if(self.registry, self.config, self.fallback_mode, &mut self.watched.fallback).await;
     }
 
@@ -232,7 +232,7 @@ impl<'a> Watchdog<'a> {
         // A new executive takes over: the fallback master goes first (the
         // executive waits for its services to disappear before it starts).
         if let Some(f) = self.watched.fallback.take() {
-            eprintln!("robot: executive {zid} is back: stopping the fallback");
+            crate::say!("robot", "executive {zid} is back: stopping the fallback");
             f.stop().await;
         }
         let lease = self.lease;
@@ -314,8 +314,9 @@ impl<'a> Watchdog<'a> {
         e.deadline = tokio::time::Instant::now() + lease;
         if !e.warned && Duration::from_millis(period_ms.saturating_mul(2)) > lease {
             e.warned = true;
-            eprintln!(
-                "robot: executive {zid} beats every {period_ms} ms: too slow for the {} ms lease \
+            crate::say!(
+                "robot",
+                "executive {zid} beats every {period_ms} ms: too slow for the {} ms lease \
                  (link.heartbeat_period_s in its config)",
                 lease.as_millis()
             );
@@ -324,7 +325,7 @@ impl<'a> Watchdog<'a> {
             e.lost = false;
             let restore = e.restore.take();
             if let Some(f) = self.watched.fallback.take() {
-                eprintln!("robot: executive {zid} is heard again: stopping the fallback");
+                crate::say!("robot", "executive {zid} is heard again: stopping the fallback");
                 f.stop().await;
             }
             self.rejoined(&zid, restore).await;
@@ -337,7 +338,7 @@ impl<'a> Watchdog<'a> {
         let (links, link_log) = (&mut self.watched.links, &mut self.watched.link_log);
         let t = registry.clock().since_start(registry.now()).as_secs_f64();
         if cut {
-            eprintln!("robot: [{t:.3} s] fault: link to {role} cut");
+            crate::say!("robot", "[{t:.3} s] fault: link to {role} cut");
             links.push(crate::faults::LinkCutReport {
                 role: role.clone(),
                 cut_at_s: t,
@@ -345,7 +346,7 @@ impl<'a> Watchdog<'a> {
             });
             link_log.push((t, role, "link cut".into()));
         } else {
-            eprintln!("robot: [{t:.3} s] fault: link to {role} restored");
+            crate::say!("robot", "[{t:.3} s] fault: link to {role} restored");
             if let Some(l) = links.iter_mut().rev().find(|l| l.role == role && l.restored_at_s.is_none()) {
                 l.restored_at_s = Some(t);
             }
@@ -400,8 +401,9 @@ async fn lose_executive(
     }
     let commanded = registry.now();
     let t = registry.clock().since_start(detected).as_secs_f64();
-    eprintln!(
-        "robot: [{t:.3} s] executive {zid} lost ({why}): motors commanded to zero, unwiring the behaviours"
+    crate::say!(
+        "robot",
+        "[{t:.3} s] executive {zid} lost ({why}): motors commanded to zero, unwiring the behaviours"
     );
     let wiring = WiringMaster::new(registry);
     let unwire = |b: &str| {
@@ -494,12 +496,12 @@ async fn executive_back(
         }
         match wiring.connect(b, VEL, motors_addr).await {
             Ok(()) => {
-                eprintln!("robot: [{t:.3} s] executive {zid} is back: {b} drives again, as it had wired")
+                crate::say!("robot", "[{t:.3} s] executive {zid} is back: {b} drives again, as it had wired")
             }
-            Err(e) => eprintln!("robot: executive {zid} is back, but {b} cannot be wired again: {e}"),
+            Err(e) => crate::say!("robot", "executive {zid} is back, but {b} cannot be wired again: {e}"),
         }
     } else {
-        eprintln!("robot: [{t:.3} s] executive {zid} is back (it had nothing wired)");
+        crate::say!("robot", "[{t:.3} s] executive {zid} is back (it had nothing wired)");
     }
     if let Some(l) = links
         .iter_mut()

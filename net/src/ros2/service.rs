@@ -1,0 +1,129 @@
+//! ROS 2 services a node serves, as rmw_zenoh lays them out (`rmw_service_data.cpp`): a
+//! queryable, declared complete, on `<domain>/<service>/<pkg>::srv::dds_::<Type>_/<hash>`,
+//! and a liveliness token of kind `SS` with the services' QoS (ROS 2's default profile). A
+//! client's request is a query whose payload is the request in CDR and whose attachment is the
+//! client's sequence number, source timestamp and gid; the reply carries the response in CDR
+//! and an attachment with the client's sequence number and gid and the reply's own timestamp,
+//! which is how the client pairs it with its request.
+//!
+//! A request without that attachment, one that does not decode as the service's request, or
+//! one for another type of service on the same name, gets an error reply (zenoh's
+//! `reply_err`, which rmw_zenoh's client reports and drops) saying why, and is counted
+//! ([`Ros2Stats::requests_refused`](super::Ros2Stats)).
+
+use super::cdr;
+use super::graph::{self, Entity, Qos};
+use super::msg::Service;
+use super::node::Ros2Node;
+use crate::options::NetError;
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+
+/// A service's answer to one request, computed on the runtime the service was declared on.
+pub type Answer<R> = Pin<Box<dyn Future<Output = R> + Send + 'static>>;
+
+/// A service this node serves; announced while it lives, withdrawn when dropped.
+pub struct Ros2Service {
+    _queryable: zenoh::query::Queryable<()>,
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+impl std::fmt::Debug for Ros2Service {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Service").finish_non_exhaustive()
+    }
+}
+
+fn now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
+impl Ros2Node {
+    /// The node's fully qualified name (`/orsa`, `/r1/orsa`).
+    pub fn fully_qualified_name(&self) -> String {
+        let id = &self.inner.id;
+        let ns = id.namespace.trim_end_matches('/');
+        format!("{ns}/{}", id.name)
+    }
+
+    /// Serves service `S` as `name` (`~/x` is under the node's own name, as in rclcpp:
+    /// `/orsa/x`; other relative names are under its namespace): `answer` is called with each
+    /// request that decodes, and its response is sent back when it is ready (on the tokio
+    /// runtime this is called on).
+    pub async fn serve<S: Service>(
+        &self,
+        name: &str,
+        answer: impl Fn(S::Request) -> Answer<S::Response> + Send + Sync + 'static,
+    ) -> Result<Ros2Service, NetError> {
+        let name = match name.strip_prefix("~/") {
+            Some(rest) => format!("{}/{rest}", self.fully_qualified_name()),
+            None => name.to_string(),
+        };
+        let name = self.topic(&name)?;
+        let domain = self.inner.id.domain;
+        let runtime = tokio::runtime::Handle::try_current()
+            .map_err(|_| NetError::Open(format!("ROS 2 service {name}: not on a tokio runtime")))?;
+        let weak = Arc::downgrade(&self.inner);
+        let answer = Arc::new(answer);
+        let service = name.clone();
+        let queryable = self
+            .inner
+            .session
+            .declare_queryable(graph::any_type_key(domain, &name))
+            .complete(true)
+            .callback(move |query| {
+                let Some(node) = weak.upgrade() else { return };
+                let refuse = |why: String| {
+                    node.counts.requests_refused.fetch_add(1, Ordering::Relaxed);
+                    node.warn(format_args!("ROS 2 service {service}: refused a request: {why}"));
+                    use zenoh::Wait as _;
+                    let _ = query.reply_err(why).wait();
+                };
+                let key = query.key_expr().as_str();
+                if graph::type_of_key(key, domain, &service) != Some((S::DDS_NAME, S::HASH)) {
+                    return refuse(format!("{key}: this service is a {} ({})", S::NAME, S::HASH));
+                }
+                let Some((seq, _, gid)) =
+                    query.attachment().and_then(|a| graph::read_attachment(&a.to_bytes()))
+                else {
+                    return refuse("no rmw_zenoh attachment (sequence number, timestamp, gid)".into());
+                };
+                let payload = query.payload().map(|p| p.to_bytes()).unwrap_or_default();
+                let request = match cdr::decode_named::<S::Request>(&payload, S::NAME) {
+                    Ok(r) => r,
+                    Err(e) => return refuse(format!("the request does not decode: {e}")),
+                };
+                let pending = answer(request);
+                let node = Arc::clone(&node);
+                runtime.spawn(async move {
+                    let response = pending.await;
+                    let mut bytes = Vec::with_capacity(128);
+                    if let Err(e) = cdr::encode_named(&response, S::NAME, &mut bytes) {
+                        node.counts.failed.fetch_add(1, Ordering::Relaxed);
+                        node.warn(format_args!("ROS 2 service: cannot encode a response: {e}"));
+                        let _ = query.reply_err(format!("the response does not encode: {e}")).await;
+                        return;
+                    }
+                    let attachment = graph::attachment(seq, now_ns(), &gid);
+                    let key = query.key_expr().clone();
+                    match query.reply(key, bytes).attachment(attachment.to_vec()).await {
+                        Ok(()) => {
+                            node.counts.requests_answered.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Err(e) => {
+                            node.counts.failed.fetch_add(1, Ordering::Relaxed);
+                            node.warn(format_args!("ROS 2 service: cannot send a response: {e}"));
+                        }
+                    }
+                });
+            })
+            .await
+            .map_err(|e| NetError::Open(format!("ROS 2 service {name}: {e}")))?;
+        let (token, _) = self.token_of(Entity::Service, &name, S::DDS_NAME, S::HASH, Qos::Default).await?;
+        Ok(Ros2Service { _queryable: queryable, _token: token })
+    }
+}
