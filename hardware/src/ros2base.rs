@@ -10,8 +10,8 @@
 //!
 //! Each ring is 16 virtual sensors on a circle of radius `body_radius_m` around the base's
 //! centre, sensor `i` facing `i x 22.5` degrees as on the Nomad 200. Every ray of the scan is
-//! turned into a point in the base's frame (the laser sits `laser_x_m` ahead of the centre,
-//! facing forward); sensor `i` reads the nearest point whose bearing from the centre lies
+//! turned into a point in the base's frame (the laser where the robot's TF puts it, else where
+//! the config does: `laser_x_m`, `laser_y_m`, `laser_yaw_rad`); sensor `i` reads the nearest point whose bearing from the centre lies
 //! within half its beam (`beam_width_rad`) of its direction, as the distance from the circle to
 //! that point. A reading below the ring's `min_range_m` or with nothing within its
 //! `max_range_m` is invalid, as a real sensor's would be. The infrared ring keeps its short
@@ -58,8 +58,14 @@ pub enum CmdVelType {
 pub struct Ros2BaseParams {
     /// The base's radius, m: the virtual rings sit on it.
     pub body_radius_m: f64,
-    /// Where the laser is, m ahead of the base's centre (facing forward).
+    /// Where the laser is, m ahead of the base's centre, when the robot's TF does not say
+    /// (`/tf_static`, `/tf`: see [`Scan::laser`]).
     pub laser_x_m: f64,
+    /// Where the laser is, m to the left of the base's centre, when TF does not say.
+    pub laser_y_m: f64,
+    /// Which way the laser faces, rad counter-clockwise from the base's front, when TF does
+    /// not say.
+    pub laser_yaw_rad: f64,
     /// Translation velocity limit, m/s.
     pub max_v_m_s: f64,
     /// Turn rate limit, rad/s.
@@ -96,6 +102,8 @@ impl Default for Ros2BaseParams {
         Ros2BaseParams {
             body_radius_m: 0.25,
             laser_x_m: 0.0,
+            laser_y_m: 0.0,
+            laser_yaw_rad: 0.0,
             max_v_m_s: 0.5,
             max_omega_rad_s: 1.0,
             accel_m_s2: 0.5,
@@ -120,6 +128,8 @@ impl Ros2BaseParams {
         for (key, v, lo, hi) in [
             ("body_radius_m", self.body_radius_m, 0.01, 5.0),
             ("laser_x_m", self.laser_x_m.abs(), 0.0, 5.0),
+            ("laser_y_m", self.laser_y_m.abs(), 0.0, 5.0),
+            ("laser_yaw_rad", self.laser_yaw_rad.abs(), 0.0, std::f64::consts::PI),
             ("max_v_m_s", self.max_v_m_s, 0.001, 10.0),
             ("max_omega_rad_s", self.max_omega_rad_s, 0.001, 20.0),
             ("accel_m_s2", self.accel_m_s2, 0.001, 100.0),
@@ -148,6 +158,11 @@ impl Ros2BaseParams {
             }
         }
         Ok(())
+    }
+
+    /// The laser's pose the config gives.
+    pub fn laser_pose(&self) -> LaserPose {
+        LaserPose { x_m: self.laser_x_m, y_m: self.laser_y_m, yaw_rad: self.laser_yaw_rad }
     }
 
     fn ring(&self, min_m: f64, max_m: f64) -> RingParams {
@@ -200,6 +215,20 @@ pub struct Scan {
     pub range_max: f64,
     /// One range per ray, m (not finite: no reading).
     pub ranges: Vec<f32>,
+    /// Where the laser that took it is on the base, if the robot's TF said (else the config's
+    /// `laser_x_m`, `laser_y_m`, `laser_yaw_rad`).
+    pub laser: Option<LaserPose>,
+}
+
+/// Where a laser is on the base: its position in the base's frame and the way it faces.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct LaserPose {
+    /// m ahead of the base's centre.
+    pub x_m: f64,
+    /// m to its left.
+    pub y_m: f64,
+    /// rad counter-clockwise from the base's front.
+    pub yaw_rad: f64,
 }
 
 /// Odometry, as the base publishes it.
@@ -221,7 +250,12 @@ pub struct Odom {
 
 /// The nearest point of the scan within each of 16 sectors (see the module docs), as the
 /// distance from a circle of radius `radius_m`; `None` where no valid ray falls.
-pub fn resample(scan: &Scan, laser_x_m: f64, radius_m: f64, beam_width_rad: f64) -> [Option<f64>; RING_SIZE] {
+pub fn resample(
+    scan: &Scan,
+    laser: LaserPose,
+    radius_m: f64,
+    beam_width_rad: f64,
+) -> [Option<f64>; RING_SIZE] {
     let ring = RingParams {
         angles_rad: (0..RING_SIZE).map(ring_angle_rad).collect(),
         mount_radius_m: radius_m,
@@ -233,8 +267,8 @@ pub fn resample(scan: &Scan, laser_x_m: f64, radius_m: f64, beam_width_rad: f64)
     let points = scan.ranges.iter().enumerate().filter_map(|(j, r)| {
         let r = f64::from(*r);
         (r.is_finite() && r >= scan.range_min && r <= scan.range_max).then(|| {
-            let a = scan.angle_min + j as f64 * scan.angle_increment;
-            (laser_x_m + r * a.cos(), r * a.sin())
+            let a = laser.yaw_rad + scan.angle_min + j as f64 * scan.angle_increment;
+            (laser.x_m + r * a.cos(), laser.y_m + r * a.sin())
         })
     });
     project_onto_ring(points, &ring)
@@ -341,7 +375,10 @@ impl Ros2Base {
             Ring::Sonar => (p.sonar_min_range_m, p.sonar_max_range_m),
         };
         let (stamp, near) = match s.scan.as_ref().filter(|scan| self.fresh(scan.stamp)) {
-            Some(scan) => (scan.stamp, Some(resample(scan, p.laser_x_m, p.body_radius_m, p.beam_width_rad))),
+            Some(scan) => {
+                let laser = scan.laser.unwrap_or_else(|| p.laser_pose());
+                (scan.stamp, Some(resample(scan, laser, p.body_radius_m, p.beam_width_rad)))
+            }
             None => (self.clock.now(), None),
         };
         let readings = (0..RING_SIZE)
@@ -492,6 +529,7 @@ mod tests {
             range_min: 0.05,
             range_max: 8.0,
             ranges,
+            laser: None,
         }
     }
 
@@ -506,7 +544,7 @@ mod tests {
                 if a.sin() > 0.05 { (0.5 / a.sin()) as f32 } else { f32::INFINITY }
             })
             .collect();
-        let near = resample(&scan(ranges), 0.0, 0.2, 0.2);
+        let near = resample(&scan(ranges), LaserPose::default(), 0.2, 0.2);
         let left = near[4].expect("sensor 4 faces the wall");
         assert!((left - 0.3).abs() < 0.01, "{left}");
         let front_left = near[3].expect("sensor 3 sees the wall too");
@@ -520,13 +558,19 @@ mod tests {
     fn the_laser_offset_counts() {
         let mut ranges = vec![f32::INFINITY; 360];
         ranges[180] = 1.0; // straight ahead of the laser
-        let near = resample(&scan(ranges), 0.1, 0.2, 0.2);
+        let near = resample(&scan(ranges.clone()), LaserPose { x_m: 0.1, ..Default::default() }, 0.2, 0.2);
         assert!((near[0].expect("front") - 0.9).abs() < 1e-9);
+        // The same laser mounted backwards, 0.1 m behind the centre: its front ray is the
+        // base's back, 1.1 m from the centre.
+        let back = LaserPose { x_m: -0.1, y_m: 0.0, yaw_rad: std::f64::consts::PI };
+        let near = resample(&scan(ranges), back, 0.2, 0.2);
+        assert!((near[8].expect("back") - 0.9).abs() < 1e-9, "{near:?}");
+        assert_eq!(near[0], None);
     }
 
     #[test]
     fn nan_and_out_of_range_rays_are_ignored() {
-        let near = resample(&scan(vec![f32::NAN, -1.0, 0.01, 100.0]), 0.0, 0.2, 0.39);
+        let near = resample(&scan(vec![f32::NAN, -1.0, 0.01, 100.0]), LaserPose::default(), 0.2, 0.39);
         assert!(near.iter().all(Option::is_none), "{near:?}");
     }
 

@@ -29,6 +29,10 @@ pub struct NetOptions {
     /// `docs/wire-format.md`), so that a peer watching it notices a silent link sooner than
     /// zenoh's lease; `None`: no heartbeat.
     pub heartbeat: Option<std::time::Duration>,
+    /// Stamp every sample with the session's hybrid logical clock (zenoh's `timestamping`),
+    /// as rmw_zenoh's sessions do: what a transient local ROS 2 publisher (zenoh-ext's
+    /// advanced publisher and its cache) needs. Set by a process that joins ROS 2.
+    pub timestamping: bool,
 }
 
 impl Default for NetOptions {
@@ -39,6 +43,7 @@ impl Default for NetOptions {
             config_file: None,
             prefix: "orsa".into(),
             heartbeat: None,
+            timestamping: false,
         }
     }
 }
@@ -87,6 +92,9 @@ impl NetOptions {
             // tick's scans, a push to every-n-th streams) while a link that really cannot keep
             // up still drops, newest first kept.
             set(&mut config, "transport/link/tx/queue/size/data", "16".into())?;
+        }
+        if self.timestamping {
+            set(&mut config, "timestamping/enabled", "{ router: true, peer: true, client: true }".into())?;
         }
         if !self.listen.is_empty() {
             set(&mut config, "listen/endpoints", serde_json::to_string(&self.listen).unwrap_or_default())?;

@@ -46,6 +46,58 @@ async fn fixture(
     serde_json::from_str(line).unwrap_or_else(|e| panic!("ros2_node.py {mode} printed {stdout:?}: {e}"))
 }
 
+/// A fixture started ahead of orsa, its first line read.
+struct Started {
+    child: std::process::Child,
+    out: std::io::BufReader<std::process::ChildStdout>,
+}
+
+/// Starts the fixture in `mode` and waits for its first line, `first` (what it must have done
+/// before orsa starts); [`finish`] reads the rest.
+async fn start_fixture(sys: &System, mode: &str, extra: &[&str], first: &str) -> Started {
+    let connect = format!("tcp/127.0.0.1:{}", sys.port);
+    let mut args: Vec<String> = vec![SCRIPT.into(), "--connect".into(), connect];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    args.push(mode.into());
+    let first = first.to_string();
+    let started = tokio::task::spawn_blocking(move || {
+        use std::io::BufRead as _;
+        let mut child = Command::new("python3")
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("run python3");
+        let mut out = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+        let mut line = String::new();
+        out.read_line(&mut line).expect("the fixture's first line");
+        assert_eq!(line.trim(), first, "the fixture's first line");
+        Started { child, out }
+    });
+    tokio::time::timeout(Duration::from_secs(60), started)
+        .await
+        .expect("the fixture's first line within 60 s")
+        .expect("join")
+}
+
+/// Waits for a fixture [`start_fixture`] started, within `within`: its JSON line.
+async fn finish(started: Started, mode: &str, within: Duration, logs: &[&Proc]) -> serde_json::Value {
+    let done = tokio::task::spawn_blocking(move || {
+        use std::io::Read as _;
+        let Started { mut child, mut out } = started;
+        let mut text = String::new();
+        let _ = out.read_to_string(&mut text);
+        (child.wait().expect("wait"), text)
+    });
+    let (status, stdout) = tokio::time::timeout(within, done)
+        .await
+        .unwrap_or_else(|_| panic!("ros2_node.py {mode}: not done within {within:?}"))
+        .expect("join");
+    let logs: Vec<String> = logs.iter().map(|p| p.log_text()).collect();
+    assert!(status.success(), "ros2_node.py {mode}: {stdout}\norsa:\n{}", logs.join("\n---\n"));
+    let line = stdout.lines().last().unwrap_or_default();
+    serde_json::from_str(line).unwrap_or_else(|e| panic!("ros2_node.py {mode} printed {stdout:?}: {e}"))
+}
+
 /// Interrupts `p` (it writes its report) and reads the report at `path`.
 async fn interrupt_and_report(p: Proc, path: &std::path::Path) -> RobotReport {
     p.signal("-INT");
@@ -116,9 +168,16 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
     {
         assert!(p["bad"][what].as_str().expect("an error reply").contains(why), "{what}: {p}");
     }
-    // /rosout: the robot's warnings, as rqt_console reads them.
-    assert_eq!(p["rosout_qos"], "::,1000:,:,:,,", "{p}");
+    // /rosout: the robot's lines, as rqt_console reads them; transient local, so the client,
+    // which came after the robot said it joined ROS 2, still gets that line.
+    assert_eq!(p["rosout_qos"], ":1:,1000:,:,:,,", "{p}");
     let lines = p["rosout"].as_array().expect("rosout lines");
+    assert!(
+        lines.iter().any(|l| l["level"] == 20
+            && l["name"] == "orsa.robot"
+            && l["msg"].as_str().is_some_and(|m| m.contains("on ROS 2 domain 7 as node orsa"))),
+        "the robot's line from before the client came: {p}"
+    );
     assert!(
         lines.iter().any(|l| l["level"] == 30
             && l["name"].as_str().is_some_and(|n| n.starts_with("orsa."))
@@ -151,18 +210,23 @@ async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
     std::fs::write(&config, "[params.planner]\nmission = [{ mode = \"follow_left_wall\", for_s = 600 }]\n")
         .expect("write the config");
     let report = report_path("ros2base");
+    // The fixture's laser is mounted backwards, 0.064 m behind the centre (as on a TurtleBot 3),
+    // and it says so on /tf_static once, before orsa starts: orsa must fetch it as a late
+    // joiner (transient local) and place the laser by it, or it would see the wall on its
+    // left on its right.
+    let laser_yaw = std::f64::consts::PI.to_string();
+    let started = start_fixture(
+        &sys,
+        "robot",
+        &["--seconds", "12", "--wall-y", "0.5", "--laser-x", "-0.064", "--laser-yaw", &laser_yaw],
+        "tf_static published",
+    )
+    .await;
     let robot = sys.robot(&["--hardware", "ros2", "--report", report.to_str().expect("utf-8")]);
     let exec = sys.run("exec", "executive", &["--config", config.to_str().expect("utf-8")]);
     // The robot starts 0.5 m from the wall (centre to wall); wall following holds its edge
     // 0.20 m from it, its centre 0.45 m.
-    let run = fixture(
-        &sys,
-        "robot",
-        &["--seconds", "12", "--wall-y", "0.5"],
-        Duration::from_secs(60),
-        &[&robot, &exec],
-    )
-    .await;
+    let run = finish(started, "robot", Duration::from_secs(90), &[&robot, &exec]).await;
     eprintln!("ros2 robot: {run}");
     drop(exec);
     let r = interrupt_and_report(robot, &report).await;
@@ -185,6 +249,16 @@ async fn orsa_drives_a_ros2_robot_along_its_corridor_wall() {
     assert!(lo > 0.3 && hi < 0.7, "held near the wall in the second half: {run}");
     let ros2 = r.ros2.expect("a ros2 section in the report");
     assert!(ros2.node.received > 100 && ros2.node.undecodable == 0, "{ros2:?}");
+    let laser = ros2.laser.expect("where the laser was placed");
+    let pose = laser.from_tf.expect("placed by TF");
+    assert!(
+        (pose.x_m + 0.064).abs() < 1e-6
+            && pose.y_m.abs() < 1e-6
+            && (pose.yaw_rad.abs() - std::f64::consts::PI).abs() < 1e-6,
+        "{laser:?}"
+    );
+    // Scans that came before the transform are placed by the config; then every one by TF.
+    assert!(laser.by_tf > 100 && laser.by_tf > 10 * laser.by_config, "{laser:?}");
 }
 
 /// A ROS 2 teleop node (the fixture) turns the robot to face the corridor's wall and drives it

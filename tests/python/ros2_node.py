@@ -38,6 +38,7 @@ import time
 
 import xxhash
 import zenoh
+import zenoh.ext
 from rosbags.typesys import Stores, get_typestore
 
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -70,6 +71,8 @@ class Node:
         conf.insert_json5("mode", '"peer"')
         conf.insert_json5("connect/endpoints", json.dumps([connect]))
         conf.insert_json5("scouting/multicast/enabled", "false")
+        # As rmw_zenoh's sessions: samples stamped (what a transient local publisher's cache needs).
+        conf.insert_json5("timestamping/enabled", "{ router: true, peer: true, client: true }")
         self.session = zenoh.open(conf)
         self.zid = str(self.session.info.zid())
         self.domain = domain
@@ -371,8 +374,35 @@ def robot(node, args):
     right within the laser's range; /scan (360 rays) and /odom at 20 Hz, /cmd_vel in, and its own
     command timeout of 0.5 s."""
     wall_y, radius, range_max = args.wall_y, args.radius, 3.5
+    lx, lyaw = args.laser_x, args.laser_yaw
     scan_pub = node.publisher("/scan", "sensor_msgs/msg/LaserScan", QOS_SENSOR)
     odom_pub = node.publisher("/odom", "nav_msgs/msg/Odometry")
+    # Where the laser is, as robot_state_publisher says it: on /tf_static, transient local
+    # (zenoh-ext's advanced publisher with a cache, as rmw_zenoh makes one), published once,
+    # before anyone listens: base_footprint -> base_link -> base_scan, as on a TurtleBot 3.
+    TfS = TS.types["geometry_msgs/msg/TransformStamped"]
+    Tr = TS.types["geometry_msgs/msg/Transform"]
+    V3_ = TS.types["geometry_msgs/msg/Vector3"]
+    Q_ = TS.types["geometry_msgs/msg/Quaternion"]
+    H_ = TS.types["std_msgs/msg/Header"]
+    T_ = TS.types["builtin_interfaces/msg/Time"]
+
+    def tf(parent, child, x, yaw):
+        return TfS(header=H_(stamp=T_(sec=0, nanosec=0), frame_id=parent), child_frame_id=child,
+                   transform=Tr(translation=V3_(x=x, y=0.0, z=0.1),
+                                rotation=Q_(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))))
+
+    static_type = "tf2_msgs/msg/TFMessage"
+    static_key, static_token = node.token("MP", "/tf_static", static_type, ":1:,1:,:,:,,")
+    node.tokens.append(static_token)
+    static_pub = zenoh.ext.declare_advanced_publisher(
+        node.session, data_key(node.domain, "/tf_static", static_type),
+        cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True)
+    static_msg = TS.types[static_type](transforms=[tf("base_footprint", "base_link", 0.0, 0.0),
+                                                   tf("base_link", "base_scan", lx, lyaw)])
+    static_pub.put(bytes(TS.serialize_cdr(static_msg, static_type)),
+                   attachment=struct.pack("<qqB", 1, time.time_ns(), 16) + gid_of(static_key))
+    print("tf_static published", flush=True)
     state = {"x": 0.0, "y": 0.0, "yaw": 0.0, "v": 0.0, "w": 0.0, "cmd_at": None, "cmds": 0}
     lock = threading.Lock()
 
@@ -407,11 +437,19 @@ def robot(node, args):
         return T(sec=ns // 10**9, nanosec=ns % 10**9)
 
     dt = 0.05
-    start = time.monotonic()
+    # The run's clock starts at the first command (orsa may start after this fixture), within
+    # 60 s; the robot publishes its scan and odometry from now on.
+    waiting_since = time.monotonic()
+    start = None
     trace = []
     min_clear = float("inf")
-    next_t = start
-    while time.monotonic() - start < args.seconds:
+    next_t = waiting_since
+    while start is None or time.monotonic() - start < args.seconds:
+        with lock:
+            if start is None and state["cmds"] > 0:
+                start = time.monotonic()
+        if start is None and time.monotonic() - waiting_since > 60:
+            fail("no command on /cmd_vel within 60 s")
         next_t += dt
         with lock:
             if state["cmd_at"] is None or time.monotonic() - state["cmd_at"] > 0.5:
@@ -422,11 +460,14 @@ def robot(node, args):
             x, y, yaw, v, w = state["x"], state["y"], state["yaw"], state["v"], state["w"]
         clear = wall_y - y - radius
         min_clear = min(min_clear, clear)
-        trace.append((time.monotonic() - start, x, wall_y - y))
+        if start is not None:
+            trace.append((time.monotonic() - start, x, wall_y - y))
+        # The rays leave the laser (lx ahead of the centre, facing lyaw), in its own frame.
         angles = np.arange(360) * (2 * math.pi / 360) - math.pi
-        s = np.sin(angles + yaw)
+        s = np.sin(angles + lyaw + yaw)
+        laser_y = y + lx * math.sin(yaw)
         with np.errstate(divide="ignore"):
-            ranges = np.where(s > 1e-6, (wall_y - y) / np.where(s > 1e-6, s, 1.0), np.inf)
+            ranges = np.where(s > 1e-6, (wall_y - laser_y) / np.where(s > 1e-6, s, 1.0), np.inf)
         ranges = np.where(ranges <= range_max, ranges, np.inf).astype(np.float32)
         LaserScan = TS.types["sensor_msgs/msg/LaserScan"]
         scan_pub(LaserScan(header=H(stamp=stamp(), frame_id="base_scan"), angle_min=-math.pi,
@@ -695,9 +736,15 @@ def params(node, args):
         if found.get(f"{target}/{n}") != want:
             fail(f"{target}/{n} is announced as {found.get(f'{target}/{n}')}, not {want}")
 
-    # /rosout, as rqt_console reads it.
+    # /rosout, as rqt_console reads it: transient local, so a late joiner (this client) gets
+    # the lines said before it came (zenoh-ext's advanced subscriber, as rmw_zenoh makes one).
     logs = []
-    node.subscribe("/rosout", "rcl_interfaces/msg/Log", lambda m, a: logs.append(m))
+    rosout_type = "rcl_interfaces/msg/Log"
+    node.tokens.append(node.token("MS", "/rosout", rosout_type, ":1:,1000:,:,:,,")[1])
+    rosout_sub = zenoh.ext.declare_advanced_subscriber(
+        node.session, data_key(node.domain, "/rosout", rosout_type),
+        lambda sample: logs.append(TS.deserialize_cdr(sample.payload.to_bytes(), rosout_type)),
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1000))
     rosout_qos = subscribed_or_published(node, "/rosout", "MP")
 
     c = {n: ServiceClient(node, f"{target}/{n}", srv_of[n]) for n in names}
@@ -752,6 +799,7 @@ def params(node, args):
     # Put the speed back as it was.
     restored = c["set_parameters"].call(parameters=[param(speed, PARAM_TYPE["DOUBLE"], before)]).results[0]
     time.sleep(0.5)
+    rosout_sub.undeclare()
     return {
         "listed": len(listed.names),
         "prefixes": len(listed.prefixes),
@@ -795,6 +843,8 @@ def main():
     parser.add_argument("--wall-y", type=float, default=0.5)
     parser.add_argument("--radius", type=float, default=0.25)
     parser.add_argument("--speed", type=float, default=0.5, help="at-wall: the speed commanded, m/s")
+    parser.add_argument("--laser-x", type=float, default=0.0, help="robot: the laser, m ahead of the centre")
+    parser.add_argument("--laser-yaw", type=float, default=0.0, help="robot: the way the laser faces, rad")
     parser.add_argument("--cmd-type", default="geometry_msgs/msg/TwistStamped",
                         help="robot: the type it takes on /cmd_vel")
     parser.add_argument("--target-node", default="orsa", help="params: the node whose parameters to use")

@@ -100,10 +100,11 @@ pub enum Qos {
     Default,
     /// Best effort, volatile, keep last 5: ROS 2's sensor data profile (`/scan`).
     SensorData,
-    /// Reliable, volatile, keep last 1000: `/rosout` as orsa publishes it (rcl's profile
-    /// without its transient local durability and 10 s lifespan: orsa keeps no history for
-    /// late joiners).
+    /// Reliable, transient local, keep last 1000: `/rosout` (rcl's profile, without its 10 s
+    /// lifespan: a late joiner gets the last 1000 lines, however old).
     Rosout,
+    /// Reliable, transient local, keep last 100: `/tf_static` as tf2_ros listens to it.
+    StaticTf,
 }
 
 impl Qos {
@@ -114,7 +115,20 @@ impl Qos {
         match self {
             Qos::Default => "::,10:,:,:,,",
             Qos::SensorData => "2::,5:,:,:,,",
-            Qos::Rosout => "::,1000:,:,:,,",
+            Qos::Rosout => ":1:,1000:,:,:,,",
+            Qos::StaticTf => ":1:,100:,:,:,,",
+        }
+    }
+}
+
+impl Qos {
+    /// The history a transient local publisher keeps for late joiners, and a transient local
+    /// subscription asks for; `None` for a volatile profile.
+    pub fn history(self) -> Option<usize> {
+        match self {
+            Qos::Default | Qos::SensorData => None,
+            Qos::Rosout => Some(1000),
+            Qos::StaticTf => Some(100),
         }
     }
 }

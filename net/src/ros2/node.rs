@@ -14,6 +14,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU32, AtomicU64, Ordering};
 use zenoh::Wait as _;
 use zenoh::qos::CongestionControl;
+use zenoh_ext::{AdvancedPublisherBuilderExt as _, AdvancedSubscriberBuilderExt as _};
 
 /// Who the node is on the ROS 2 graph.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -174,13 +175,20 @@ impl Ros2Node {
     pub async fn publisher<T: Message>(&self, topic: &str, qos: Qos) -> Result<Ros2Publisher<T>, NetError> {
         let topic = self.topic(topic)?;
         let key = graph::data_key::<T>(self.inner.id.domain, &topic);
-        let publisher = self
-            .inner
-            .session
-            .declare_publisher(key)
-            .congestion_control(CongestionControl::Drop)
-            .await
-            .map_err(|e| NetError::Open(format!("ROS 2 publisher of {topic}: {e}")))?;
+        let open = |e: zenoh::Error| NetError::Open(format!("ROS 2 publisher of {topic}: {e}"));
+        let builder = self.inner.session.declare_publisher(key).congestion_control(CongestionControl::Drop);
+        // Transient local, as rmw_zenoh makes it: zenoh-ext's advanced publisher, keeping the
+        // last `depth` samples for late joiners and announcing itself to them.
+        let publisher = match qos.history() {
+            None => Put::Plain(builder.await.map_err(open)?),
+            Some(depth) => Put::Advanced(
+                builder
+                    .cache(zenoh_ext::CacheConfig::default().max_samples(depth))
+                    .publisher_detection()
+                    .await
+                    .map_err(open)?,
+            ),
+        };
         let (token, token_key) = self.token::<T>(Entity::Publisher, &topic, qos).await?;
         Ok(Ros2Publisher {
             node: Arc::clone(&self.inner),
@@ -248,37 +256,45 @@ impl Ros2Node {
         let weak = Arc::downgrade(&self.inner);
         let name = topic.clone();
         let accepted = types.to_vec();
-        let subscriber = self
-            .inner
-            .session
-            .declare_subscriber(graph::any_type_key(domain, &topic))
-            .callback(move |sample| {
-                let Some(node) = weak.upgrade() else { return };
-                let key = sample.key_expr().as_str();
-                let found = graph::type_of_key(key, domain, &name);
-                let Some(i) = accepted.iter().position(|&(_, dds, hash)| found == Some((dds, hash))) else {
-                    node.counts.wrong_type.fetch_add(1, Ordering::Relaxed);
-                    let names: Vec<String> = accepted.iter().map(|(n, _, h)| format!("{n} ({h})")).collect();
-                    node.warn(format_args!(
-                        "ROS 2 {name}: dropped a message on {key}: the topic takes {}",
-                        names.join(" or ")
-                    ));
-                    return;
-                };
-                let stamp =
-                    sample.attachment().and_then(|a| graph::read_attachment(&a.to_bytes()).map(|a| a.1));
-                match take(i, &sample.payload().to_bytes(), stamp) {
-                    Ok(()) => {
-                        node.counts.received.fetch_add(1, Ordering::Relaxed);
-                    }
-                    Err(e) => {
-                        node.counts.undecodable.fetch_add(1, Ordering::Relaxed);
-                        node.warn(format_args!("ROS 2 {name}: dropped a message that does not decode: {e}"));
-                    }
+        let on_sample = move |sample: zenoh::sample::Sample| {
+            let Some(node) = weak.upgrade() else { return };
+            let key = sample.key_expr().as_str();
+            let found = graph::type_of_key(key, domain, &name);
+            let Some(i) = accepted.iter().position(|&(_, dds, hash)| found == Some((dds, hash))) else {
+                node.counts.wrong_type.fetch_add(1, Ordering::Relaxed);
+                let names: Vec<String> = accepted.iter().map(|(n, _, h)| format!("{n} ({h})")).collect();
+                node.warn(format_args!(
+                    "ROS 2 {name}: dropped a message on {key}: the topic takes {}",
+                    names.join(" or ")
+                ));
+                return;
+            };
+            let stamp = sample.attachment().and_then(|a| graph::read_attachment(&a.to_bytes()).map(|a| a.1));
+            match take(i, &sample.payload().to_bytes(), stamp) {
+                Ok(()) => {
+                    node.counts.received.fetch_add(1, Ordering::Relaxed);
                 }
-            })
-            .await
-            .map_err(|e| NetError::Open(format!("ROS 2 subscription to {topic}: {e}")))?;
+                Err(e) => {
+                    node.counts.undecodable.fetch_add(1, Ordering::Relaxed);
+                    node.warn(format_args!("ROS 2 {name}: dropped a message that does not decode: {e}"));
+                }
+            }
+        };
+        let open = |e: zenoh::Error| NetError::Open(format!("ROS 2 subscription to {topic}: {e}"));
+        let builder = self.inner.session.declare_subscriber(graph::any_type_key(domain, &topic));
+        // Transient local, as rmw_zenoh makes it: zenoh-ext's advanced subscriber, which asks
+        // the caching publishers for their history, those that join later too.
+        let subscriber = match qos.history() {
+            None => Take::Plain(builder.callback(on_sample).await.map_err(open)?),
+            Some(depth) => Take::Advanced(
+                builder
+                    .history(zenoh_ext::HistoryConfig::default().detect_late_publishers().max_samples(depth))
+                    .subscriber_detection()
+                    .callback(on_sample)
+                    .await
+                    .map_err(open)?,
+            ),
+        };
         let mut tokens = Vec::new();
         for (_, dds, hash) in types {
             tokens.push(self.token_of(Entity::Subscription, &topic, dds, hash, qos).await?.0);
@@ -307,10 +323,32 @@ impl NodeInner {
     }
 }
 
+/// A volatile publisher, or a transient local one (zenoh-ext's, with its cache).
+enum Put {
+    Plain(zenoh::pubsub::Publisher<'static>),
+    Advanced(zenoh_ext::AdvancedPublisher<'static>),
+}
+
+impl Put {
+    fn key_expr(&self) -> &str {
+        match self {
+            Put::Plain(p) => p.key_expr().as_str(),
+            Put::Advanced(p) => p.key_expr().as_str(),
+        }
+    }
+
+    fn put(&self, bytes: Vec<u8>, attachment: Vec<u8>) -> zenoh::Result<()> {
+        match self {
+            Put::Plain(p) => p.put(bytes).attachment(attachment).wait(),
+            Put::Advanced(p) => p.put(bytes).attachment(attachment).wait(),
+        }
+    }
+}
+
 /// A publisher of ROS 2 messages of type `T` on one topic; announced while it lives.
 pub struct Ros2Publisher<T> {
     node: Arc<NodeInner>,
-    publisher: zenoh::pubsub::Publisher<'static>,
+    publisher: Put,
     gid: [u8; 16],
     seq: AtomicI64,
     /// The size of the last message encoded, to allocate the next one at once.
@@ -321,9 +359,7 @@ pub struct Ros2Publisher<T> {
 
 impl<T> std::fmt::Debug for Ros2Publisher<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Ros2Publisher")
-            .field("key", &self.publisher.key_expr().as_str())
-            .finish_non_exhaustive()
+        f.debug_struct("Ros2Publisher").field("key", &self.publisher.key_expr()).finish_non_exhaustive()
     }
 }
 
@@ -345,7 +381,7 @@ impl<T: Message> Ros2Publisher<T> {
         let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
         let stamp = i64::try_from(stamp_ns).unwrap_or(i64::MAX);
         let attachment = graph::attachment(seq, stamp, &self.gid);
-        self.publisher.put(bytes).attachment(attachment.to_vec()).wait().map_err(|e| e.to_string())?;
+        self.publisher.put(bytes, attachment.to_vec()).map_err(|e| e.to_string())?;
         self.node.counts.published.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
@@ -356,9 +392,15 @@ impl<T: Message> Ros2Publisher<T> {
     }
 }
 
+/// A volatile subscription, or a transient local one (zenoh-ext's, asking for history).
+enum Take {
+    Plain(#[allow(dead_code)] zenoh::pubsub::Subscriber<()>),
+    Advanced(#[allow(dead_code)] zenoh_ext::AdvancedSubscriber<()>),
+}
+
 /// A subscription to a ROS 2 topic; announced while it lives, ended when dropped.
 pub struct Ros2Subscription {
-    _subscriber: zenoh::pubsub::Subscriber<()>,
+    _subscriber: Take,
     /// One per type taken.
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
 }

@@ -62,6 +62,7 @@ impl NetworkOptions {
             config_file: self.zenoh_config.clone(),
             prefix: self.prefix.clone(),
             heartbeat,
+            timestamping: false,
         }
     }
 }

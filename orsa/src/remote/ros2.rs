@@ -21,7 +21,7 @@ use orsa_actors::send::SendClient;
 use orsa_actors::service::PushTimedService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
 use orsa_assembly::system::robots::CmdVelPublisher;
-use orsa_hardware::ros2base::{CmdVelType, Odom, Scan};
+use orsa_hardware::ros2base::{CmdVelType, LaserPose, Odom, Scan};
 use orsa_hardware::sim::OdometryConfig;
 use orsa_interfaces::nomad200::{
     self, BaseState, ContactScan, DistanceScan, NavigationVelocity, RingParams, RobotParams,
@@ -35,10 +35,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 mod params;
+mod tf;
 pub use params::ParamServices;
 
 /// What the ROS 2 side of the robot did, for `orsa robot --report`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Ros2Report {
     /// The node's messages: published, received, undecodable, wrong type.
     pub node: Ros2Stats,
@@ -47,6 +48,9 @@ pub struct Ros2Report {
     /// `/cmd_vel` messages refused for coming faster than `ros2.cmd_vel_rate_hz` allows
     /// (beyond a burst of `ros2.cmd_vel_burst`).
     pub cmd_vel_rate_refused: u64,
+    /// `--hardware ros2`: where the laser was placed on the base.
+    #[serde(default)]
+    pub laser: Option<LaserPlacement>,
 }
 
 /// A token bucket: at most `burst` at once, refilled at `rate_hz`.
@@ -243,6 +247,7 @@ impl RobotRos2 {
             node: self.node.stats(),
             cmd_vel_forwarded: self.forwarded.load(Ordering::Relaxed),
             cmd_vel_rate_refused: self.rate_refused.load(Ordering::Relaxed),
+            laser: None,
         }
     }
 }
@@ -251,6 +256,7 @@ impl RobotRos2 {
 /// odometry into the [`Ros2Base`](orsa_hardware::ros2base::Ros2Base) and publishes its velocity commands.
 pub struct BaseLink {
     node: Ros2Node,
+    placing: Arc<parking_lot::Mutex<Placing>>,
     _subscriptions: Vec<Ros2Subscription>,
 }
 
@@ -269,10 +275,21 @@ impl BaseLink {
         let p = &ros2.base;
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
-        let (b, reg) = (base.clone(), registry.clone());
+        // Where the laser is: from the robot's TF when it places the scan's frame under the
+        // odometry's base frame, else from the config.
+        let placing = Arc::new(parking_lot::Mutex::new(Placing::default()));
+        let mut subscriptions = Vec::new();
+        for (topic, qos) in [("/tf_static", Qos::StaticTf), ("/tf", Qos::Default)] {
+            let pl = Arc::clone(&placing);
+            subscriptions
+                .push(node.subscribe::<TfMessage>(topic, qos, move |m, _| pl.lock().tree.add(&m)).await?);
+        }
+        let (b, reg, pl) = (base.clone(), registry.clone(), Arc::clone(&placing));
         let scan = node
             .subscribe::<LaserScan>(&p.scan_topic, Qos::SensorData, move |s, _| {
+                let laser = pl.lock().place(&s.header.frame_id);
                 b.feed_scan(Scan {
+                    laser,
                     stamp: reg.now(),
                     angle_min: f64::from(s.angle_min),
                     angle_increment: f64::from(s.angle_increment),
@@ -282,9 +299,10 @@ impl BaseLink {
                 });
             })
             .await?;
-        let (b, reg) = (base.clone(), registry.clone());
+        let (b, reg, pl) = (base.clone(), registry.clone(), Arc::clone(&placing));
         let odom = node
             .subscribe::<Odometry>(&p.odom_topic, Qos::Default, move |o, _| {
+                pl.lock().base_frame(&o.child_frame_id);
                 let pose = &o.pose.pose;
                 b.feed_odometry(Odom {
                     stamp: reg.now(),
@@ -305,12 +323,61 @@ impl BaseLink {
             }
         };
         robot.connect_publisher(publisher).map_err(anyhow::Error::msg)?;
-        Ok(BaseLink { node, _subscriptions: vec![scan, odom] })
+        subscriptions.extend([scan, odom]);
+        Ok(BaseLink { node, placing, _subscriptions: subscriptions })
     }
 
-    /// What its node received and refused so far.
+    /// What its node received and refused so far, and where the laser was placed.
     pub fn report(&self) -> Ros2Report {
-        Ros2Report { node: self.node.stats(), ..Default::default() }
+        let p = self.placing.lock();
+        Ros2Report {
+            node: self.node.stats(),
+            laser: Some(LaserPlacement { from_tf: p.from_tf, by_tf: p.by_tf, by_config: p.by_config }),
+            ..Default::default()
+        }
+    }
+}
+
+/// Where the scans' laser was placed on the base (`orsa robot --hardware ros2`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct LaserPlacement {
+    /// The laser's pose on the base the robot's TF gave, last time it did.
+    pub from_tf: Option<LaserPose>,
+    /// Scans placed by TF.
+    pub by_tf: u64,
+    /// Scans placed by the config (TF did not link the scan's frame to the base frame).
+    pub by_config: u64,
+}
+
+/// The TF tree, the base frame (the odometry's child frame) and what was placed how.
+#[derive(Debug, Default)]
+struct Placing {
+    tree: tf::TfTree,
+    base_frame: Option<String>,
+    from_tf: Option<LaserPose>,
+    by_tf: u64,
+    by_config: u64,
+}
+
+impl Placing {
+    fn base_frame(&mut self, frame: &str) {
+        if !frame.is_empty() && self.base_frame.as_deref() != Some(frame) {
+            self.base_frame = Some(frame.to_string());
+        }
+    }
+
+    /// The pose of laser frame `frame` on the base, if TF says.
+    fn place(&mut self, frame: &str) -> Option<LaserPose> {
+        let base = self.base_frame.as_deref().unwrap_or("base_link");
+        let pose = self.tree.pose_in(frame, base);
+        match pose {
+            Some(p) => {
+                self.by_tf += 1;
+                self.from_tf = Some(p);
+            }
+            None => self.by_config += 1,
+        }
+        pose
     }
 }
 

@@ -12,12 +12,13 @@ mod watchdog;
 pub use fallback::FALLBACK;
 pub use report::RobotReport;
 
-use super::{NetworkOptions, open, runtime};
+use super::{NetworkOptions, runtime};
 use crate::mission::report::Ended;
 use crate::system::{Place, System};
 use anyhow::{Context as _, bail};
 use orsa_actors::{Clock, Registry};
 use orsa_hardware::faulty::BoardFaults;
+use orsa_net::{NetOptions, ZenohTransport};
 use setup::{Checked, Faces};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -128,7 +129,10 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let mut faces = Faces::default();
     let run = async {
         supervisor = Some(start_system.await.context("starting the robot")?.supervisor);
-        let t = open(&registry, &args.net, "robot", None).await?;
+        // A process on ROS 2 stamps its samples, as rmw_zenoh's do (transient local topics).
+        let on_ros2 = args.ros2 || drive.handle::<orsa_assembly::system::robots::Ros2Robot>().is_some();
+        let net = NetOptions { timestamping: on_ros2, ..args.net.options(None) };
+        let t = ZenohTransport::open(&registry, &net, "robot").await?;
         crate::say!("robot", "up as {} (zenoh id {})", robot, t.zid());
         let transport = &*transport.insert(t);
         faces.join(&registry, transport, &args, config, &drive).await?;
