@@ -101,8 +101,10 @@ mod tests {
     }
 
     fn close(a: Option<LaserPose>, x: f64, y: f64, yaw: f64) -> bool {
+        // Angles compare on the circle (pi and -pi are one heading).
+        let turn = |d: f64| (d + PI).rem_euclid(std::f64::consts::TAU) - PI;
         a.is_some_and(|a| {
-            (a.x_m - x).abs() < 1e-9 && (a.y_m - y).abs() < 1e-9 && (a.yaw_rad - yaw).abs() < 1e-9
+            (a.x_m - x).abs() < 1e-9 && (a.y_m - y).abs() < 1e-9 && turn(a.yaw_rad - yaw).abs() < 1e-9
         })
     }
 
@@ -116,7 +118,8 @@ mod tests {
                 t("/base_link", "base_scan", -0.064, 0.0, PI),
             ],
         });
-        assert!(close(tree.pose_in("base_scan", "base_footprint"), -0.064, 0.0, PI));
+        let p = tree.pose_in("base_scan", "base_footprint");
+        assert!(close(p, -0.064, 0.0, PI), "{p:?}");
         assert!(close(tree.pose_in("base_scan", "base_link"), -0.064, 0.0, PI));
         // A laser beside the base under a common parent, the base itself offset and turned.
         tree.add(&TfMessage {
