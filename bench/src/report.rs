@@ -448,4 +448,15 @@ pub struct Ros2Cost {
     pub ros2_received: u64,
     /// Scans the remote subscriber did not receive within 1 s (not counted in the latencies).
     pub lost: u64,
+    /// The same push with the ROS 2 publication while a ROS 2 client on the other session
+    /// calls the robot node's `get_parameters` back to back (the parameter services of
+    /// `orsa robot --ros2`, its own code).
+    pub with_services: Latency,
+    /// `with_services` p50 over `with_ros2` p50.
+    pub services_p50_ratio: Option<f64>,
+    /// The spread of `with_ros2` itself: the interquartile range of its blocks' p50s over their
+    /// median (what a ratio within the run's noise stays within).
+    pub with_ros2_spread: f64,
+    /// Calls answered while the services' blocks ran.
+    pub service_calls: u64,
 }

@@ -11,6 +11,10 @@
 //! remote subscriber's sink has it (p50); the ratio is with the ROS 2 path over without. The
 //! ROS 2 path's own time per scan (convert, encode, put) is given beside it.
 //!
+//! A third arm has the robot node's parameter services (the robot's own `ParamServices`) called
+//! back to back by a ROS 2 client on the other session while the push runs with the ROS 2
+//! publication: its p50 over the publication alone's, against the spread of the latter's blocks.
+//!
 //! Handing each scan to a task instead (what the robot did first) measured 1.09-1.21x with the
 //! ROS 2 subscriber first, as in the robot; publishing in the sink 1.08-1.15x, with no queue
 //! that could grow.
@@ -22,6 +26,7 @@ use orsa_actors::service::PushNewestService;
 use orsa_actors::{Registry, Sink, Timestamp, Update};
 use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, Ring, RingParams, ring_angle_rad};
 use orsa_net::ros2::msg::LaserScan;
+use orsa_net::ros2::rcl::{GetParameters, NamesRequest};
 use orsa_net::ros2::{Qos, Ros2Options};
 use orsa_net::{NetOptions, ZenohTransport};
 use std::sync::Arc;
@@ -100,6 +105,13 @@ async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
         orsa::remote::ros2::scan_sink(node.publisher::<LaserScan>("scan", Qos::SensorData).await?, ring());
     let ros2_on = Arc::new(AtomicBool::new(false));
     let publish_ns = Arc::new(parking_lot::Mutex::new(Vec::with_capacity(samples)));
+    // The node's parameter services (the robot's own code), over a directory of one
+    // component; a client on the other session calls them while the services' blocks run.
+    let _params = orsa::remote::ros2::ParamServices::serve(
+        &node,
+        orsa::system::live_params::ParamDirectory::new(&robot, vec!["nomad200".into()]),
+    )
+    .await?;
     let (on, times) = (Arc::clone(&ros2_on), Arc::clone(&publish_ns));
     let face = PushNewestClient::<DistanceScan>::connect_to(
         &robot,
@@ -134,8 +146,26 @@ async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
         })
         .await?;
 
+    let caller = listener.client::<GetParameters>("/orsa/get_parameters").await?;
+    let calling = Arc::new(AtomicBool::new(false));
+    let done = Arc::new(AtomicBool::new(false));
+    let calls = Arc::new(AtomicU64::new(0));
+    let (go, answered, end) = (Arc::clone(&calling), Arc::clone(&calls), Arc::clone(&done));
+    let request = NamesRequest { names: vec!["nomad200.max_v_m_s".into(), "nomad200.cmd_timeout_s".into()] };
+    // Back to back while the services' blocks run: the harshest a `ros2 param` user could be.
+    let client_task = tokio::spawn(async move {
+        while !end.load(Ordering::Relaxed) {
+            if !go.load(Ordering::Relaxed) {
+                tokio::time::sleep(Duration::from_millis(1)).await;
+            } else if caller.call(&request, Duration::from_secs(1)).await.is_ok() {
+                answered.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    });
+
     let mut seq = 0u64;
-    let (mut plain, mut with, mut lost) = (Vec::new(), Vec::new(), 0u64);
+    let (mut plain, mut with, mut services, mut lost) = (Vec::new(), Vec::new(), Vec::new(), 0u64);
+    let mut with_blocks = Vec::new();
     // The first push of all waits for the subscription to reach the robot.
     let deadline = Instant::now() + Duration::from_secs(10);
     while *got.borrow() == 0 {
@@ -147,32 +177,57 @@ async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     let blocks = samples.div_ceil(50);
-    for block in 0..blocks * 2 {
-        let with_ros2 = block % 2 == 1;
-        ros2_on.store(with_ros2, Ordering::Relaxed);
+    for block in 0..blocks * 3 {
+        // Plain, with the ROS 2 publication, and with it while the services are called, in turn.
+        let arm = block % 3;
+        ros2_on.store(arm > 0, Ordering::Relaxed);
+        calling.store(arm == 2, Ordering::Relaxed);
+        let mut this_block = Vec::with_capacity(50);
         for _ in 0..50 {
             seq += 1;
             let t = Instant::now();
             server.put(scan(seq));
             let arrived = tokio::time::timeout(Duration::from_secs(1), got.wait_for(|s| *s >= seq)).await;
             match arrived {
-                Ok(Ok(_)) => {
-                    (if with_ros2 { &mut with } else { &mut plain }).push(t.elapsed().as_nanos() as u64)
-                }
+                Ok(Ok(_)) => this_block.push(t.elapsed().as_nanos() as u64),
                 _ => lost += 1,
             }
         }
+        if arm == 1 {
+            let mut sorted = this_block.clone();
+            sorted.sort_unstable();
+            with_blocks.extend(stats::percentile(&sorted, 50.0));
+        }
+        [&mut plain, &mut with, &mut services][arm].extend(this_block);
     }
+    calling.store(false, Ordering::Relaxed);
+    // The last call ends (answered, or after its 1 s) before the sessions close.
+    done.store(true, Ordering::Relaxed);
+    let _ = client_task.await;
     drop(face);
-    let (plain, with_ros2) = (stats::summarize(plain), stats::summarize(with));
+    with_blocks.sort_unstable();
+    let spread = match (
+        stats::percentile(&with_blocks, 25.0),
+        stats::percentile(&with_blocks, 50.0),
+        stats::percentile(&with_blocks, 75.0),
+    ) {
+        (Some(q1), Some(m), Some(q3)) if m > 0 => (q3 - q1) as f64 / m as f64,
+        _ => f64::NAN,
+    };
+    let (plain, with_ros2, with_services) =
+        (stats::summarize(plain), stats::summarize(with), stats::summarize(services));
     let mut times = std::mem::take(&mut *publish_ns.lock());
     times.sort_unstable();
     let cost = Ros2Cost {
         p50_ratio: stats::ratio(with_ros2.p50_ns, plain.p50_ns),
         ros2_publish_p50_ns: stats::percentile(&times, 50.0).map_or(f64::NAN, |v| v as f64),
         ros2_received: received.load(Ordering::Relaxed),
+        services_p50_ratio: stats::ratio(with_services.p50_ns, with_ros2.p50_ns),
+        with_ros2_spread: spread,
+        service_calls: calls.load(Ordering::Relaxed),
         plain,
         with_ros2,
+        with_services,
         lost,
     };
     say(format!(
@@ -183,6 +238,13 @@ async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
         cost.ros2_publish_p50_ns / 1e3,
         cost.ros2_received,
         cost.lost
+    ));
+    say(format!(
+        "  ROS 2 parameter services called back to back: push p50 {:.1} us ({:.2}x the publication alone, whose spread is {:.2}); {} calls answered",
+        cost.with_services.p50_ns / 1e3,
+        cost.services_p50_ratio.unwrap_or(f64::NAN),
+        cost.with_ros2_spread,
+        cost.service_calls
     ));
     drop(remote);
     robot_net.close().await;

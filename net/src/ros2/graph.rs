@@ -141,6 +141,8 @@ pub(crate) enum Entity {
     Subscription,
     /// A service server.
     Service,
+    /// A service client.
+    Client,
 }
 
 impl Entity {
@@ -150,6 +152,7 @@ impl Entity {
             Entity::Publisher => "MP",
             Entity::Subscription => "MS",
             Entity::Service => "SS",
+            Entity::Client => "SC",
         }
     }
 }

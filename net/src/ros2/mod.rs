@@ -22,4 +22,4 @@ pub use cdr::{CDR_LE, CdrError, decode, encode, encode_into};
 pub use graph::{NameError, Qos, data_key, qualified_topic, read_attachment, service_key};
 pub use msg::{Message, Service};
 pub use node::{Either, Ros2Node, Ros2Options, Ros2Publisher, Ros2Stats, Ros2Subscription};
-pub use service::{Answer, Ros2Service};
+pub use service::{Answer, CallError, Ros2Client, Ros2Service};

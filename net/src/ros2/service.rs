@@ -127,3 +127,108 @@ impl Ros2Node {
         Ok(Ros2Service { _queryable: queryable, _token: token })
     }
 }
+
+/// Why a service call gave no response.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CallError {
+    /// No server answered within the time given.
+    #[error("{service}: no response within {within:?}")]
+    NoResponse {
+        /// The service.
+        service: String,
+        /// The time given.
+        within: std::time::Duration,
+    },
+    /// The server refused the request (zenoh's error reply), saying why.
+    #[error("{service}: refused: {why}")]
+    Refused {
+        /// The service.
+        service: String,
+        /// What it said.
+        why: String,
+    },
+    /// The response did not decode, or the request did not encode.
+    #[error("{service}: {why}")]
+    Bad {
+        /// The service.
+        service: String,
+        /// What was wrong.
+        why: String,
+    },
+}
+
+/// A client of a ROS 2 service, as rmw_zenoh's (`rmw_client_data.cpp`): announced by a token
+/// of kind `SC`; each call is a query on the service's key targeting every complete
+/// queryable, carrying the request in CDR and the client's attachment (its sequence number,
+/// the time, its gid).
+pub struct Ros2Client<S: Service> {
+    node: Arc<super::node::NodeInner>,
+    name: String,
+    key: String,
+    gid: [u8; 16],
+    seq: std::sync::atomic::AtomicI64,
+    _token: zenoh::liveliness::LivelinessToken,
+    _s: std::marker::PhantomData<fn(S)>,
+}
+
+impl<S: Service> std::fmt::Debug for Ros2Client<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Client").field("service", &self.name).finish_non_exhaustive()
+    }
+}
+
+impl Ros2Node {
+    /// A client of service `name` (named as in [`serve`](Self::serve)) of type `S`.
+    pub async fn client<S: Service>(&self, name: &str) -> Result<Ros2Client<S>, NetError> {
+        let name = self.topic(name)?;
+        let key = graph::service_key::<S>(self.inner.id.domain, &name);
+        let (token, token_key) =
+            self.token_of(Entity::Client, &name, S::DDS_NAME, S::HASH, Qos::Default).await?;
+        Ok(Ros2Client {
+            node: Arc::clone(&self.inner),
+            name,
+            key,
+            gid: graph::gid(&token_key),
+            seq: std::sync::atomic::AtomicI64::new(0),
+            _token: token,
+            _s: std::marker::PhantomData,
+        })
+    }
+}
+
+impl<S: Service> Ros2Client<S> {
+    /// Calls the service: the first response within `within`, or why there is none.
+    pub async fn call(
+        &self,
+        request: &S::Request,
+        within: std::time::Duration,
+    ) -> Result<S::Response, CallError> {
+        let bad = |why: String| CallError::Bad { service: self.name.clone(), why };
+        let mut bytes = Vec::with_capacity(64);
+        cdr::encode_named(request, S::NAME, &mut bytes).map_err(|e| bad(e.to_string()))?;
+        let seq = self.seq.fetch_add(1, Ordering::Relaxed) + 1;
+        let attachment = graph::attachment(seq, now_ns(), &self.gid);
+        let replies = self
+            .node
+            .session
+            .get(&self.key)
+            .payload(bytes)
+            .attachment(attachment.to_vec())
+            .target(zenoh::query::QueryTarget::AllComplete)
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(within)
+            .await
+            .map_err(|e| bad(format!("cannot ask: {e}")))?;
+        match replies.recv_async().await {
+            Ok(reply) => match reply.result() {
+                Ok(sample) => cdr::decode_named::<S::Response>(&sample.payload().to_bytes(), S::NAME)
+                    .map_err(|e| bad(format!("the response does not decode: {e}"))),
+                Err(e) => Err(CallError::Refused {
+                    service: self.name.clone(),
+                    why: String::from_utf8_lossy(&e.payload().to_bytes()).into_owned(),
+                }),
+            },
+            Err(_) => Err(CallError::NoResponse { service: self.name.clone(), within }),
+        }
+    }
+}
