@@ -42,6 +42,7 @@ mod render;
 mod report;
 mod ros2;
 mod sense;
+use sense::Arm;
 mod sim;
 mod stats;
 mod switch;
@@ -68,10 +69,10 @@ pub fn ros2_only(samples: usize) -> anyhow::Result<()> {
 /// this run; prints the figures, the cost and the spread.
 pub fn monitor_only(seconds: f64) -> anyhow::Result<()> {
     say("sense to act with the safety monitor");
-    let with = sense::run(seconds, false)?;
+    let with = sense::run(seconds, Arm::Plain)?;
     say("sense to act without the safety monitor, then with it again (the spread)");
-    let without = sense::run_with(seconds, false, false)?;
-    let again = sense::run(seconds, false)?;
+    let without = sense::run(seconds, Arm::NoMonitor)?;
+    let again = sense::run(seconds, Arm::Plain)?;
     let m = MonitorCost { without, again };
     println!("| sensor update published | n | p50 us | p99 us | max us |\n|---|---:|---:|---:|---:|");
     for (name, s) in [("with the monitor", &with), ("without it", &m.without), ("with it again", &m.again)] {
@@ -94,6 +95,34 @@ pub fn monitor_only(seconds: f64) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Measures only what a Foxglove client's publish and the ROS 2 parameter services cost sense
+/// to act (`orsa-bench --interop-only SECONDS`): a live client reading, reading and
+/// publishing, reading again; the stack on the robot's runtime alone, with the services
+/// called, alone again; `seconds` each, in this run; prints the figures, the costs and the
+/// spreads.
+pub fn interop_only(seconds: f64) -> anyhow::Result<()> {
+    say("sense to act with a live client reading");
+    let live = sense::run(seconds, Arm::Live)?;
+    let cost = interop(seconds)?;
+    print(&render::interop_table(&live, &cost));
+    Ok(())
+}
+
+/// The interop arms, each between two runs of its baseline, the first run of the live client
+/// reading being the caller's.
+fn interop(seconds: f64) -> anyhow::Result<InteropCost> {
+    say("sense to act with the live client reading and publishing on /cmd_vel, then reading again");
+    let publishing = sense::run(seconds, Arm::LivePublishing)?;
+    let live_again = sense::run(seconds, Arm::Live)?;
+    say(
+        "sense to act on the robot's runtime: alone, with its ROS 2 parameter services called back to back, alone again",
+    );
+    let robot = sense::run(seconds, Arm::RobotRuntime)?;
+    let services = sense::run(seconds, Arm::Ros2Services)?;
+    let robot_again = sense::run(seconds, Arm::RobotRuntime)?;
+    Ok(InteropCost { publishing, live_again, robot, services, robot_again })
 }
 
 /// Runs one simulation part of the bench in this process and prints its figures
@@ -283,13 +312,14 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let (budget, min) = (plan.fanout_budget, plan.fanout_min_rounds);
     let fanout = fanout::run(&plan.fanout, |n| fanout::rounds_for(n, budget, min))?;
     say("sense to act");
-    let sense = sense::run(plan.sense_s, false)?;
+    let sense = sense::run(plan.sense_s, Arm::Plain)?;
     say("sense to act without the safety monitor, then with it again (the spread)");
-    let without = sense::run_with(plan.sense_s, false, false)?;
-    let again = sense::run(plan.sense_s, false)?;
+    let without = sense::run(plan.sense_s, Arm::NoMonitor)?;
+    let again = sense::run(plan.sense_s, Arm::Plain)?;
     let monitor_cost = Some(MonitorCost { without, again });
     say("sense to act with a live server (--foxglove) and a client subscribed to everything");
-    let sense_live = sense::run(plan.sense_s, true)?;
+    let sense_live = sense::run(plan.sense_s, Arm::Live)?;
+    let interop_cost = Some(interop(plan.sense_s)?);
     say("mode switch");
     let switch_in_process = switch::in_process(plan.switch_rounds)?;
     say("across processes (zenoh on loopback)");
@@ -402,6 +432,7 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
         sense_to_act: sense,
         sense_to_act_live: sense_live,
         monitor_cost,
+        interop_cost,
         net,
         net_error,
         ros2,
@@ -597,6 +628,51 @@ fn judge(r: &BenchReport) -> Vec<TargetCheck> {
         met: (s.attributed > 0 && client.is_some_and(|c| c.messages > 0))
             .then_some(s.from_update.p99_ns < 200_000.0),
     });
+    match &r.interop_cost {
+        Some(ic) => {
+            for (name, pick) in MonitorCost::PERCENTILES {
+                let arms = [
+                    (
+                        "the ROS 2 parameter services called back to back",
+                        &ic.services,
+                        &ic.robot,
+                        &ic.robot_again,
+                        ic.services.ros2_calls.is_some_and(|c| c.answered > 0),
+                    ),
+                    (
+                        "a Foxglove client publishing on /cmd_vel at 20 Hz",
+                        &ic.publishing,
+                        &r.sense_to_act_live,
+                        &ic.live_again,
+                        ic.publishing.live_client.as_ref().is_some_and(|c| c.taken > 0)
+                            && ic.publishing.stale_refused > 0,
+                    ),
+                ];
+                for (what, arm, a, b, exercised) in arms {
+                    let (cost, spread) = InteropCost::cost_and_spread(arm, a, b, pick);
+                    t.push(TargetCheck {
+                        target: format!("{what}: cost on sense to act {name} within the run's spread"),
+                        measured: format!(
+                            "{:.1} us with it, {:.1} and {:.1} us without: costs {:+.1} us, spread {:.1} us",
+                            pick(&arm.from_update) / 1e3,
+                            pick(&a.from_update) / 1e3,
+                            pick(&b.from_update) / 1e3,
+                            cost / 1e3,
+                            spread / 1e3
+                        ),
+                        met: (exercised && arm.attributed > 0 && a.attributed > 0 && b.attributed > 0)
+                            .then_some(cost <= spread),
+                    });
+                }
+            }
+        }
+        None => t.push(TargetCheck {
+            target: "client publish and the ROS 2 parameter services: cost on sense to act within the run's spread"
+                .into(),
+            measured: "not measured".into(),
+            met: None,
+        }),
+    }
     t.push(TargetCheck {
         target: "one robot >= 300x real time".into(),
         measured: format!("{:.0}x", r.rtf_1_robot),

@@ -35,6 +35,11 @@ struct Args {
     /// and with it again, this many seconds each, and print it (the full run does it too).
     #[arg(long, value_name = "SECONDS", conflicts_with_all = ["quick", "peer", "sim_part", "ros2_only"])]
     monitor_only: Option<f64>,
+    /// Measure only what a Foxglove client publishing on /cmd_vel and a ROS 2 client calling
+    /// the parameter services cost sense to act, each beside its baseline run twice, this many
+    /// seconds a run, and print it (the full run does it too).
+    #[arg(long, value_name = "SECONDS", conflicts_with_all = ["quick", "peer", "sim_part", "ros2_only", "monitor_only"])]
+    interop_only: Option<f64>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -62,6 +67,13 @@ fn main() -> anyhow::Result<()> {
             "--monitor-only {seconds}: give a positive number of seconds"
         );
         return orsa_bench::monitor_only(seconds);
+    }
+    if let Some(seconds) = args.interop_only {
+        anyhow::ensure!(
+            seconds.is_finite() && seconds > 0.0,
+            "--interop-only {seconds}: give a positive number of seconds"
+        );
+        return orsa_bench::interop_only(seconds);
     }
     for p in [args.json.as_ref(), args.markdown.as_ref()].into_iter().flatten() {
         orsa::output::ensure_parent(p)?;

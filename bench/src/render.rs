@@ -1,6 +1,6 @@
 //! The report as Markdown tables.
 
-use super::{BenchReport, Latency, MonitorCost, SwitchPair};
+use super::{BenchReport, InteropCost, Latency, MonitorCost, SenseToAct, SwitchPair};
 use std::fmt::Write as _;
 
 /// A duration in nanoseconds, in the unit that reads best.
@@ -194,6 +194,9 @@ pub fn render_markdown(r: &BenchReport) -> String {
         );
         let _ = writeln!(s, "| from | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
         let _ = writeln!(s, "| sensor update published, live client | {} |", lat_cells(&lv.from_update));
+    }
+    if let Some(ic) = &r.interop_cost {
+        s.push_str(&interop_table(lv, ic));
     }
 
     render_net(&mut s, r);
@@ -394,4 +397,54 @@ fn render_net(s: &mut String, r: &BenchReport) {
             let _ = writeln!(s, "\nSense to act across processes: not measured in this run.");
         }
     }
+}
+
+/// The interop arms' section: each arm beside its baseline's two runs, its cost and the spread.
+pub(crate) fn interop_table(live: &SenseToAct, ic: &InteropCost) -> String {
+    let mut s = String::new();
+    let calls = ic.services.ros2_calls.unwrap_or_default();
+    let client = ic.publishing.live_client.as_ref();
+    let _ = writeln!(
+        s,
+        "\nWhat the interop costs sense to act, each arm between two runs of its baseline in this run. The ROS 2 \
+         parameter services: the robot's node (`orsa robot --ros2`'s own services over every component) with a \
+         ROS 2 client on a zenoh session of its own calling `get_parameters` back to back for a parameter of each \
+         behaviour and of the master ({} calls answered, {} incomplete, {} failed); baseline: the stack \
+         alone, on the robot's runtime (`orsa robot`'s: multi-thread, two workers; zenoh needs one). Client publish: the live client also publishing `TwistStamped` on `/cmd_vel` at 20 Hz, each \
+         stamped 10 s ago so that it takes the whole path and is refused by the robot as stale ({} published, {} \
+         handed to teleop, {} refused as stale); baseline: the live client only reading.\n",
+        calls.answered,
+        calls.incomplete,
+        calls.failed,
+        client.map_or(0, |c| c.published),
+        client.map_or(0, |c| c.taken),
+        ic.publishing.stale_refused
+    );
+    let _ = writeln!(s, "| sensor update published | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+    for (name, st) in [
+        ("live client reading", live),
+        ("reading and publishing", &ic.publishing),
+        ("reading again", &ic.live_again),
+        ("the stack alone, robot's runtime", &ic.robot),
+        ("parameter services called", &ic.services),
+        ("the stack alone again", &ic.robot_again),
+    ] {
+        let _ = writeln!(s, "| {name} | {} |", lat_cells(&st.from_update));
+    }
+    for (what, arm, a, b) in [
+        ("client publish", &ic.publishing, live, &ic.live_again),
+        ("the services", &ic.services, &ic.robot, &ic.robot_again),
+    ] {
+        for (name, pick) in MonitorCost::PERCENTILES {
+            let (cost, spread) = InteropCost::cost_and_spread(arm, a, b, pick);
+            let _ = writeln!(
+                s,
+                "\n{what}, {name}: {:+.1} us; the spread is {:.1} us: {}.",
+                cost / 1e3,
+                spread / 1e3,
+                if cost <= spread { "within it" } else { "outside it" }
+            );
+        }
+    }
+    s
 }

@@ -115,6 +115,41 @@ impl MonitorCost {
     }
 }
 
+/// What a Foxglove client publishing velocity commands and a ROS 2 client calling the
+/// parameter services cost sense to act, side by side with their baselines in one run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InteropCost {
+    /// A live server and a client subscribed to everything that also publishes velocity
+    /// commands on `/cmd_vel` at 20 Hz (each refused by the robot as stale after the whole
+    /// path). Its baseline is the same client only reading: `sense_to_act_live` before it and
+    /// `live_again` after.
+    pub publishing: SenseToAct,
+    /// The live client only reading, again, right after `publishing`.
+    pub live_again: SenseToAct,
+    /// The stack alone on the robot's runtime (`orsa robot`'s: multi-thread, two workers; zenoh
+    /// needs one): the services' baseline, before them.
+    pub robot: SenseToAct,
+    /// The robot's ROS 2 node serving its parameter services on that runtime,
+    /// `get_parameters` called back to back by a client with a session of its own.
+    pub services: SenseToAct,
+    /// The stack alone on the robot's runtime again, after the services.
+    pub robot_again: SenseToAct,
+}
+
+impl InteropCost {
+    /// For `pick` (a percentile of the figure from the update, ns): the cost of `arm` over its
+    /// baseline's two runs `a` and `b` (arm less their mean) and the spread (|a - b|), ns.
+    pub fn cost_and_spread(
+        arm: &SenseToAct,
+        a: &SenseToAct,
+        b: &SenseToAct,
+        pick: impl Fn(&Latency) -> f64,
+    ) -> (f64, f64) {
+        let (a, b) = (pick(&a.from_update), pick(&b.from_update));
+        (pick(&arm.from_update) - (a + b) / 2.0, (a - b).abs())
+    }
+}
+
 /// Sense to act in process, in real time.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SenseToAct {
@@ -146,6 +181,10 @@ pub struct SenseToAct {
     /// everything: what the client got.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub live_client: Option<LiveClient>,
+    /// With the robot's ROS 2 node serving its parameter services to a client calling them
+    /// back to back: what the client got.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ros2_calls: Option<ServiceCalls>,
 }
 
 /// A live server's client during a sense-to-act run.
@@ -159,6 +198,23 @@ pub struct LiveClient {
     pub handed: u64,
     /// Messages dropped because the views' queue was full.
     pub dropped: u64,
+    /// Velocity commands it published on `/cmd_vel` (client publish), each stamped long ago.
+    pub published: u64,
+    /// Of those, what the server handed to the robot's teleop service (which refuses them
+    /// as stale: the run's `stale_refused`).
+    pub taken: u64,
+}
+
+/// What a ROS 2 client calling the robot node's parameter services got during a sense-to-act
+/// run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct ServiceCalls {
+    /// Calls answered with a value for every parameter asked.
+    pub answered: u64,
+    /// Calls answered with some parameter missing.
+    pub incomplete: u64,
+    /// Calls that failed (before the services were discovered, or lost).
+    pub failed: u64,
 }
 
 /// One path's one-way latency across processes in one mode.
@@ -412,6 +468,8 @@ pub struct BenchReport {
     /// What the safety monitor costs sense to act: the same run without it, and again with
     /// it (the spread).
     pub monitor_cost: Option<MonitorCost>,
+    /// What client publish and the ROS 2 parameter services cost sense to act.
+    pub interop_cost: Option<InteropCost>,
     /// Across processes (`None` if that bench failed; see `net_error`).
     pub net: Option<NetReport>,
     /// Why the cross-process bench failed, if it did.

@@ -14,6 +14,9 @@
 //! A third arm has the robot node's parameter services (the robot's own `ParamServices`) called
 //! back to back by a ROS 2 client on the other session while the push runs with the ROS 2
 //! publication: its p50 over the publication alone's, against the spread of the latter's blocks.
+//! The bench's robot is a bare push server with no parameter service, so every call is answered
+//! with the parameters not set: this arm measures the service layer (query, CDR, reply); the
+//! round trip through the components is measured on sense to act (`sense::Arm::Ros2Services`).
 //!
 //! Handing each scan to a task instead (what the robot did first) measured 1.09-1.21x with the
 //! ROS 2 subscriber first, as in the robot; publishing in the sink 1.08-1.15x, with no queue
@@ -151,7 +154,8 @@ async fn bench(samples: usize) -> anyhow::Result<Ros2Cost> {
     let done = Arc::new(AtomicBool::new(false));
     let calls = Arc::new(AtomicU64::new(0));
     let (go, answered, end) = (Arc::clone(&calling), Arc::clone(&calls), Arc::clone(&done));
-    let request = NamesRequest { names: vec!["nomad200.max_v_m_s".into(), "nomad200.cmd_timeout_s".into()] };
+    let request =
+        NamesRequest { names: vec!["nomad200.cmd_timeout_s".into(), "nomad200.max_clock_skew_s".into()] };
     // Back to back while the services' blocks run: the harshest a `ros2 param` user could be.
     let client_task = tokio::spawn(async move {
         while !end.load(Ordering::Relaxed) {

@@ -332,24 +332,57 @@ pub(crate) fn attribute(acts: &[Act], steps: &[Step], max_v: f64, max_w: f64, ma
     m
 }
 
-/// Runs the instrumented stack in real time for `duration_s` and reports sense to act; with
-/// `live`, while a live server (`--foxglove`) serves its views to a client subscribed to
-/// everything ([`super::live::Client`]).
-/// Sense to act for `duration_s` s; with a live server and client if `live`; without the safety
-/// monitor between the robot server and the motor board if not `monitor` (`safety.enabled =
-/// false`: its cost is the difference).
-pub(crate) fn run(duration_s: f64, live: bool) -> anyhow::Result<SenseToAct> {
-    run_with(duration_s, live, true)
+/// What runs beside the stack while sense to act is measured: one thing at a time, each
+/// against the stack as `orsa run` starts it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Arm {
+    /// The stack alone.
+    Plain,
+    /// The stack without the safety monitor between the robot server and the motor board
+    /// (`safety.enabled = false`: the monitor's cost is the difference).
+    NoMonitor,
+    /// A live server (`--foxglove`) serving its views to a client subscribed to everything
+    /// ([`super::live::Client`]).
+    Live,
+    /// The same, the client also publishing velocity commands on `/cmd_vel` at 20 Hz as a
+    /// Teleop panel does, each taking the whole path and refused by the robot server as stale
+    /// (see [`super::live`]).
+    LivePublishing,
+    /// The stack alone on the robot's runtime (`orsa robot`'s: multi-thread, two workers), the
+    /// baseline of [`Arm::Ros2Services`].
+    RobotRuntime,
+    /// On the robot's runtime (zenoh needs a multi-thread one), the robot's ROS 2 node
+    /// (`orsa robot --ros2`'s own [`orsa::remote::ros2::ParamServices`] over every component
+    /// of the stack), its `get_parameters` called back to back by a ROS 2 client with a zenoh
+    /// session of its own, on a thread of its own ([`ServicesCaller`]).
+    Ros2Services,
 }
 
-/// [`run`], the safety monitor on or off.
-pub(crate) fn run_with(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<SenseToAct> {
+impl Arm {
+    /// The runtime the stack runs on: `orsa run`'s (current thread), or `orsa robot`'s.
+    fn runtime(self) -> super::inproc::RuntimeKind {
+        match self {
+            Arm::RobotRuntime | Arm::Ros2Services => super::inproc::RuntimeKind::MultiThread,
+            _ => super::inproc::RuntimeKind::CurrentThread,
+        }
+    }
+}
+
+/// Runs the instrumented stack in real time for `duration_s` with `arm` beside it and reports
+/// sense to act.
+pub(crate) fn run(duration_s: f64, arm: Arm) -> anyhow::Result<SenseToAct> {
     if !(duration_s.is_finite() && duration_s > 0.0) {
         anyhow::bail!("sense to act: the duration must be positive, not {duration_s}");
     }
-    let rt = super::inproc::RuntimeKind::CurrentThread.build()?;
+    let rt = match arm.runtime() {
+        // `orsa robot`'s runtime, I/O included, as zenoh's session needs.
+        super::inproc::RuntimeKind::MultiThread => {
+            tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?
+        }
+        kind => kind.build()?,
+    };
     let out = rt.block_on(async {
-        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s, live, monitor))
+        tokio::time::timeout(Duration::from_secs_f64(duration_s + 60.0), measure(duration_s, arm))
             .await
             .map_err(|_| anyhow!("sense to act did not finish in time"))?
     });
@@ -357,18 +390,142 @@ pub(crate) fn run_with(duration_s: f64, live: bool, monitor: bool) -> anyhow::Re
     out
 }
 
-async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<SenseToAct> {
+/// The parameters the ROS 2 client asks for: one of each behaviour and one of the master (the
+/// components with live parameters), each answered through the component's own mailbox, as
+/// `orsa param get` is.
+fn asked_parameters() -> Vec<String> {
+    ["centerfollow.v_max_m_s", "wallfollow.target_m", "master.switch_step_s"].map(String::from).to_vec()
+}
+
+/// The robot's side of [`Arm::Ros2Services`]: a zenoh session listening on loopback, the ROS 2
+/// node and its parameter services.
+struct Ros2Side {
+    net: orsa_net::ZenohTransport,
+    /// The node lives as long as its services.
+    _node: orsa_net::ros2::Ros2Node,
+    _services: orsa::remote::ros2::ParamServices,
+    caller: ServicesCaller,
+}
+
+impl Ros2Side {
+    async fn start(registry: &Registry, components: Vec<String>) -> anyhow::Result<Ros2Side> {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let prefix = format!("benchsense{port}");
+        let net = orsa_net::ZenohTransport::open(
+            registry,
+            &orsa_net::NetOptions {
+                listen: vec![endpoint.clone()],
+                prefix: prefix.clone(),
+                timestamping: true,
+                ..orsa_net::NetOptions::default()
+            },
+            "robot",
+        )
+        .await?;
+        let node = net.ros2_node(&ros2_options("orsa")).await?;
+        let services = orsa::remote::ros2::ParamServices::serve(
+            &node,
+            orsa::system::live_params::ParamDirectory::new(registry, components),
+        )
+        .await?;
+        let caller = ServicesCaller::start(endpoint, prefix, asked_parameters())?;
+        Ok(Ros2Side { net, _node: node, _services: services, caller })
+    }
+
+    async fn finish(self) -> anyhow::Result<crate::ServiceCalls> {
+        let calls = self.caller.stop()?;
+        self.net.close().await;
+        Ok(calls)
+    }
+}
+
+fn ros2_options(name: &str) -> orsa_net::ros2::Ros2Options {
+    orsa_net::ros2::Ros2Options { domain: 0, namespace: "/".into(), name: name.into() }
+}
+
+/// A ROS 2 client calling `/orsa/get_parameters` back to back (the harshest a `ros2 param`
+/// user could be), on a thread and runtime of its own with a zenoh session of its own, as a
+/// process beside the robot would.
+struct ServicesCaller {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<anyhow::Result<crate::ServiceCalls>>>,
+}
+
+impl ServicesCaller {
+    fn start(endpoint: String, prefix: String, names: Vec<String>) -> anyhow::Result<ServicesCaller> {
+        use orsa_net::ros2::rcl::{GetParameters, NamesRequest, parameter_type};
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let end = Arc::clone(&stop);
+        let thread = std::thread::Builder::new().name("bench-ros2-caller".into()).spawn(move || {
+            // zenoh needs a multi-thread runtime.
+            let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
+            rt.block_on(async move {
+                let registry = Registry::new();
+                let net = orsa_net::ZenohTransport::open(
+                    &registry,
+                    &orsa_net::NetOptions {
+                        connect: vec![endpoint],
+                        prefix,
+                        timestamping: true,
+                        ..orsa_net::NetOptions::default()
+                    },
+                    "tool",
+                )
+                .await?;
+                let node = net.ros2_node(&ros2_options("caller")).await?;
+                let caller = node.client::<GetParameters>("/orsa/get_parameters").await?;
+                let request = NamesRequest { names };
+                let mut calls = crate::ServiceCalls::default();
+                while !end.load(std::sync::atomic::Ordering::Relaxed) {
+                    match caller.call(&request, Duration::from_secs(1)).await {
+                        // Every asked parameter found: the call went through each
+                        // component.
+                        Ok(r) if r.values.iter().all(|v| v.kind != parameter_type::NOT_SET) => {
+                            calls.answered += 1
+                        }
+                        Ok(_) => calls.incomplete += 1,
+                        // Before the services are discovered, or a call lost.
+                        Err(e) => {
+                            if calls.failed == 0 {
+                                say(format!("  the ROS 2 client's first failed call: {e}"));
+                            }
+                            calls.failed += 1;
+                            tokio::time::sleep(Duration::from_millis(10)).await;
+                        }
+                    }
+                }
+                net.close().await;
+                Ok(calls)
+            })
+        })?;
+        Ok(ServicesCaller { stop, thread: Some(thread) })
+    }
+
+    fn stop(mut self) -> anyhow::Result<crate::ServiceCalls> {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        match self.thread.take() {
+            Some(t) => t.join().map_err(|_| anyhow!("the bench's ROS 2 caller panicked"))?,
+            None => Ok(crate::ServiceCalls::default()),
+        }
+    }
+}
+
+async fn measure(duration_s: f64, arm: Arm) -> anyhow::Result<SenseToAct> {
     let mut config = Config::default();
-    config.safety.enabled = monitor;
+    config.safety.enabled = arm != Arm::NoMonitor;
     let world = World::palazzina()?;
     let clock = Clock::start();
     let registry = Registry::with_clock(clock);
+    let live = matches!(arm, Arm::Live | Arm::LivePublishing);
     let server = if live {
         let setup = orsa::mission::recording::view_setup(&config, Some(world.clone()), false);
         let addr = std::net::SocketAddr::from(([127, 0, 0, 1], 0));
-        let server = orsa::live::LiveView::start(addr, setup, None, None)?;
+        // Client publish taken, as `orsa run --foxglove` takes it, to the robot's teleop.
+        let teleop = Arc::new(orsa::live::publish::Teleop::new(&registry, config.robot_name()));
+        let server = orsa::live::LiveView::start(addr, setup, None, Some(teleop))?;
         registry.set_tap(Some(server.tap() as Arc<dyn orsa_actors::tap::Tap>));
-        let client = super::live::Client::start(server.addr())?;
+        let client = super::live::Client::start(server.addr(), arm == Arm::LivePublishing)?;
         Some((server, client))
     } else {
         None
@@ -386,6 +543,12 @@ async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<S
         .await
         .context("starting the stack")?;
     let (max_v, max_w) = (stack.robot.params.max_v_m_s, stack.robot.params.max_omega_rad_s);
+    let ros2 = if arm == Arm::Ros2Services {
+        let components = [WallFollow::NAME, CenterFollow::NAME, "master"].map(String::from).to_vec();
+        Some(Ros2Side::start(&registry, components).await?)
+    } else {
+        None
+    };
 
     // The first second brings everything up and gets the robot moving; it is not measured.
     let settle = Duration::from_secs(1);
@@ -406,14 +569,33 @@ async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<S
     let live_client = match server {
         Some((server, client)) => {
             let subscribed = client.subscribed();
-            let messages = client.stop()?;
+            let (messages, published) = client.stop()?;
             registry.set_tap(None);
             let s = server.finish();
+            let taken = s.published.map_or(0, |p| p.taken);
             say(format!(
-                "  live view: {subscribed} channels subscribed, {messages} messages read, {} dropped",
-                s.dropped
+                "  live view: {subscribed} channels subscribed, {messages} messages read, {} dropped; {published} commands published, {taken} handed to teleop, {} refused by the robot as stale",
+                s.dropped, safety.stale_refused
             ));
-            Some(crate::LiveClient { subscribed, messages, handed: s.handed, dropped: s.dropped })
+            Some(crate::LiveClient {
+                subscribed,
+                messages,
+                handed: s.handed,
+                dropped: s.dropped,
+                published,
+                taken,
+            })
+        }
+        None => None,
+    };
+    let ros2_calls = match ros2 {
+        Some(side) => {
+            let calls = side.finish().await?;
+            say(format!(
+                "  ROS 2 parameter services: {} calls answered with every parameter, {} incomplete, {} failed",
+                calls.answered, calls.incomplete, calls.failed
+            ));
+            Some(calls)
         }
         None => None,
     };
@@ -433,6 +615,7 @@ async fn measure(duration_s: f64, live: bool, monitor: bool) -> anyhow::Result<S
         monitor: safety.monitor.is_some(),
         restarts: restarts.load(std::sync::atomic::Ordering::Relaxed),
         live_client,
+        ros2_calls,
     })
 }
 
@@ -615,6 +798,7 @@ pub(crate) async fn across(
             monitor: safety.monitor.is_some(),
             restarts: restarts.load(std::sync::atomic::Ordering::Relaxed) + peer_restarts,
             live_client: None,
+            ros2_calls: None,
         };
         Ok((sense, switch))
     }

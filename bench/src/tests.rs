@@ -69,8 +69,10 @@ fn sample_report() -> BenchReport {
             monitor: true,
             restarts: 0,
             live_client: None,
+            ros2_calls: None,
         },
         monitor_cost: None,
+        interop_cost: None,
         sense_to_act_live: SenseToAct {
             duration_s: 1.0,
             commands_received: 0,
@@ -84,6 +86,7 @@ fn sample_report() -> BenchReport {
             monitor: true,
             restarts: 0,
             live_client: None,
+            ros2_calls: None,
         },
         net: None,
         net_error: Some("not run in this test".into()),
@@ -259,22 +262,22 @@ fn both_skeletons_step_and_carry_commands_like_the_stack() {
 
 #[test]
 fn sense_to_act_attributes_commands_in_a_short_real_time_run() {
-    let s = sense::run(1.5, false).expect("sense to act");
+    let s = sense::run(1.5, Arm::Plain).expect("sense to act");
     assert!(s.commands_received > 0, "{s:?}");
     assert!(s.attributed > 0, "{s:?}");
     assert_eq!(s.attributed + s.unattributed, s.commands_received);
     assert_eq!(s.from_update.n as u64, s.attributed);
     assert!(s.live_client.is_none());
     assert!(s.monitor, "the stack as `orsa run` starts it has its safety monitor");
-    assert!(sense::run(-1.0, false).is_err());
+    assert!(sense::run(-1.0, Arm::Plain).is_err());
     // The baseline of the monitor's cost: the same stack without it, still measured.
-    let without = sense::run_with(1.5, false, false).expect("sense to act without the monitor");
+    let without = sense::run(1.5, Arm::NoMonitor).expect("sense to act without the monitor");
     assert!(!without.monitor && without.attributed > 0, "{without:?}");
 }
 
 #[test]
 fn sense_to_act_with_a_live_client_reads_the_views_and_still_attributes_commands() {
-    let s = sense::run(2.0, true).expect("sense to act with a live client");
+    let s = sense::run(2.0, Arm::Live).expect("sense to act with a live client");
     assert!(s.attributed > 0, "{s:?}");
     let c = s.live_client.expect("the live client's figures");
     // The robot, driving, events, world, both scans and /tf: the process simulates the world.
@@ -282,6 +285,30 @@ fn sense_to_act_with_a_live_client_reads_the_views_and_still_attributes_commands
     // Two seconds of scans at 25 and 15.6 Hz, and /tf at 10 Hz, at the least.
     assert!(c.messages >= 50, "{c:?}");
     assert_eq!(c.dropped, 0, "{c:?}");
+}
+
+#[test]
+fn a_publishing_live_client_takes_the_whole_path_and_leaves_the_behaviours_driving() {
+    let s = sense::run(2.0, Arm::LivePublishing).expect("sense to act with a publishing client");
+    let c = s.live_client.clone().expect("the live client's figures");
+    // 20 Hz for two seconds, less the start.
+    assert!(c.published >= 20, "{c:?}");
+    // Every command the server got was handed to teleop, and the robot refused each as stale:
+    // none drove (the behaviours' commands are all that reached the board).
+    assert!(c.taken > 0 && c.taken <= c.published, "{c:?}");
+    assert!(s.stale_refused >= c.taken, "{s:?}");
+    assert!(s.attributed > 0, "{s:?}");
+    assert!(s.ros2_calls.is_none());
+}
+
+#[test]
+fn the_ros2_services_arm_answers_calls_through_every_component() {
+    let s = sense::run(2.0, Arm::Ros2Services).expect("sense to act with the services called");
+    let calls = s.ros2_calls.expect("the ROS 2 client's figures");
+    assert!(calls.answered > 10, "{calls:?}");
+    assert_eq!(calls.incomplete, 0, "{calls:?}");
+    assert!(s.attributed > 0, "{s:?}");
+    assert!(s.live_client.is_none());
 }
 
 // ---- across processes ----------------------------------------------------------------------
@@ -453,6 +480,7 @@ fn sample_net() -> NetReport {
             monitor: true,
             restarts: 0,
             live_client: None,
+            ros2_calls: None,
         }),
         switch: Some(SwitchPair {
             rounds: 5,
