@@ -420,7 +420,10 @@ pub(crate) fn interop_table(live: &SenseToAct, ic: &InteropCost) -> String {
         client.map_or(0, |c| c.taken),
         ic.publishing.stale_refused
     );
-    let _ = writeln!(s, "| sensor update published | n | p50 | p99 | max |\n|---|---:|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "| sensor update published | n | p50 | p99 | max | the push (update published -> handler starts) p50 | p99 |\n|---|---:|---:|---:|---:|---:|---:|"
+    );
     for (name, st) in [
         ("live client reading", live),
         ("reading and publishing", &ic.publishing),
@@ -429,7 +432,11 @@ pub(crate) fn interop_table(live: &SenseToAct, ic: &InteropCost) -> String {
         ("parameter services called", &ic.services),
         ("the stack alone again", &ic.robot_again),
     ] {
-        let _ = writeln!(s, "| {name} | {} |", lat_cells(&st.from_update));
+        let push = st.legs.first().map_or_else(
+            || "- | -".to_string(),
+            |l| format!("{} | {}", dur(l.latency.p50_ns), dur(l.latency.p99_ns)),
+        );
+        let _ = writeln!(s, "| {name} | {} | {push} |", lat_cells(&st.from_update));
     }
     for (what, arm, a, b) in [
         ("client publish", &ic.publishing, live, &ic.live_again),

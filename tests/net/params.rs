@@ -75,21 +75,17 @@ async fn a_speed_set_from_another_process_slows_the_robot() {
     t.close().await;
 }
 
-/// A value set by `orsa param set` from another process is pushed to a Foxglove client of the
-/// robot's live view subscribed to it (a client written from the WebSocket protocol's
-/// specification, in Python): whoever changes a parameter, the subscribed panels show it.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_value_set_from_another_process_is_pushed_to_a_subscribed_foxglove_client() {
+/// Starts a Foxglove client (written from the WebSocket protocol's specification, in Python)
+/// on `addr` watching `name`; returns once it says it subscribed.
+fn watcher(
+    addr: &str,
+    name: &str,
+    robot: &Proc,
+) -> (std::process::Child, std::io::BufReader<std::process::ChildStdout>) {
     use std::io::BufRead as _;
-    let sys = System::new("parampush");
-    let port = free_port();
-    let addr = format!("127.0.0.1:{port}");
-    let robot = sys.robot(&["--foxglove", &addr]);
-    let (registry, t) = sys.observe().await;
-    let (_c, _base) = base_stream(&registry, &t).await;
     let mut client = Command::new("python3")
         .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/foxglove_client.py"))
-        .args([format!("ws://{addr}").as_str(), "--watch-param", "wallfollow.target_m", "--seconds", "20"])
+        .args([format!("ws://{addr}").as_str(), "--watch-param", name, "--seconds", "20"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -98,10 +94,14 @@ async fn a_value_set_from_another_process_is_pushed_to_a_subscribed_foxglove_cli
     let mut line = String::new();
     stdout.read_line(&mut line).expect("the client's first line");
     assert_eq!(line.trim(), "subscribed", "robot:\n{}", robot.log_text());
+    (client, stdout)
+}
 
-    let (ok, out, log) = param(&sys, "set", &["set", "wallfollow", "target_m", "0.22", "--wait", "30"]);
-    assert!(ok, "{log}");
-    assert!(out.starts_with("wallfollow.target_m = 0.22"), "{out}");
+/// What the watcher saw pushed.
+fn pushed(
+    mut client: std::process::Child,
+    mut stdout: std::io::BufReader<std::process::ChildStdout>,
+) -> serde_json::Value {
     let mut rest = String::new();
     stdout.read_to_string(&mut rest).expect("the client's output");
     let status = client.wait().expect("the client ends");
@@ -109,10 +109,46 @@ async fn a_value_set_from_another_process_is_pushed_to_a_subscribed_foxglove_cli
     client.stderr.take().expect("stderr").read_to_string(&mut err).expect("its stderr");
     assert!(status.success(), "{rest}\n{err}");
     let v: serde_json::Value = serde_json::from_str(&rest).expect("JSON");
+    v["pushed"].clone()
+}
+
+/// A value set by `orsa param set` from another process is pushed to a Foxglove client of the
+/// robot's live view subscribed to it (a client written from the WebSocket protocol's
+/// specification, in Python): whoever changes a parameter, the subscribed panels show it. That
+/// holds for a component of the robot's process (which reports its change) and for one in
+/// another process (the master, in the executive's: the live server reads the subscribed
+/// parameters again every second).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_value_set_from_another_process_is_pushed_to_a_subscribed_foxglove_client() {
+    let sys = System::new("parampush");
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let robot = sys.robot(&["--foxglove", &addr]);
+    let _exec = sys.run("exec", "executive", &[]);
+    let (registry, t) = sys.observe().await;
+    let (_c, _base) = base_stream(&registry, &t).await;
+
+    let (client, stdout) = watcher(&addr, "wallfollow.target_m", &robot);
+    let (ok, out, log) = param(&sys, "set", &["set", "wallfollow", "target_m", "0.22", "--wait", "30"]);
+    assert!(ok, "{log}");
+    assert!(out.starts_with("wallfollow.target_m = 0.22"), "{out}");
     assert_eq!(
-        v["pushed"],
+        pushed(client, stdout),
         serde_json::json!([{"name": "wallfollow.target_m", "type": "float64", "value": 0.22}]),
-        "{v}"
+    );
+
+    // The master runs in the executive's process: once it answers, a client watches one of its
+    // parameters on the robot's live view, and another process sets it.
+    let (ok, out, log) = param(&sys, "getmaster", &["get", "master", "switch_step_s", "--wait", "30"]);
+    assert!(ok && out.starts_with("master.switch_step_s = "), "{out}\n{log}");
+    let (client, stdout) = watcher(&addr, "master.switch_step_s", &robot);
+    let (ok, out, log) =
+        param(&sys, "setmaster", &["set", "master", "switch_step_s", "0.15", "--wait", "30"]);
+    assert!(ok, "{log}");
+    assert!(out.starts_with("master.switch_step_s = 0.15"), "{out}");
+    assert_eq!(
+        pushed(client, stdout),
+        serde_json::json!([{"name": "master.switch_step_s", "type": "float64", "value": 0.15}]),
     );
     t.close().await;
 }

@@ -163,9 +163,12 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
     assert_eq!(p["unchanged"].as_f64(), Some(after), "a refused atomic set changed nothing: {p}");
     assert_eq!(p["still"].as_f64(), Some(after), "{p}");
     assert_eq!(p["restored"], true, "{p}");
-    for (what, why) in
-        [("no_attachment", "attachment"), ("undecodable", "does not decode"), ("wrong_type", "GetParameters")]
-    {
+    for (what, why) in [
+        ("no_attachment", "attachment"),
+        ("undecodable", "does not decode"),
+        ("wrong_type", "GetParameters"),
+        ("huge", "more than this service takes"),
+    ] {
         assert!(p["bad"][what].as_str().expect("an error reply").contains(why), "{what}: {p}");
     }
     // /rosout: the robot's lines, as rqt_console reads them; transient local, so the client,
@@ -189,7 +192,7 @@ async fn a_ros2_node_sees_the_robot_drives_it_and_its_bad_commands_are_refused_a
     eprintln!("ros2: {ros2:?}\nsafety: {:?}", r.safety);
     assert_eq!(ros2.node.undecodable, 5, "{ros2:?}");
     assert_eq!(ros2.node.wrong_type, 3, "{ros2:?}");
-    assert_eq!(ros2.node.requests_refused, 3, "{ros2:?}");
+    assert_eq!(ros2.node.requests_refused, 4, "{ros2:?}");
     assert!(ros2.node.requests_answered >= 12, "{ros2:?}");
     // The 5000-message burst (some may be dropped on the way under congestion): at most the
     // burst and what the rate refills while it lasts pass, with the 40 driving commands before.

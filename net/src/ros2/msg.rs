@@ -34,6 +34,9 @@ pub trait Service: Send + Sync + 'static {
     const DDS_NAME: &'static str;
     /// The RIHS01 type hash of the service type in ROS 2 Jazzy.
     const HASH: &'static str;
+    /// The largest request served, bytes of CDR: a larger one is refused before it is
+    /// decoded (rmw_zenoh caps nothing). 64 KiB holds thousands of parameter names.
+    const MAX_REQUEST_BYTES: usize = 64 * 1024;
 }
 
 macro_rules! message {

@@ -92,6 +92,13 @@ impl Ros2Node {
                 else {
                     return refuse("no rmw_zenoh attachment (sequence number, timestamp, gid)".into());
                 };
+                let size = query.payload().map_or(0, |p| p.len());
+                if size > S::MAX_REQUEST_BYTES {
+                    return refuse(format!(
+                        "the request is {size} bytes, more than this service takes ({})",
+                        S::MAX_REQUEST_BYTES
+                    ));
+                }
                 let payload = query.payload().map(|p| p.to_bytes()).unwrap_or_default();
                 let request = match cdr::decode_named::<S::Request>(&payload, S::NAME) {
                     Ok(r) => r,

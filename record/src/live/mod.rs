@@ -25,6 +25,7 @@ pub mod tap;
 
 use crate::record::views::ViewSetup;
 use foxglove::websocket::{Capability, ChannelView, Client, ClientChannel, ServerListener, Status};
+use std::collections::BTreeMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -36,6 +37,12 @@ pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
 pub const BACKLOG: usize = 1024;
 /// How long the server may take to bind.
 pub const START_TIMEOUT: Duration = Duration::from_secs(5);
+/// How often the parameters clients subscribed to are read again, to push the changes no
+/// component of this process reported (those of components in other processes, changed by
+/// `orsa param set` or another process's clients). A component of another process has no
+/// way to tell this server of its changes (the changes are control events of its own
+/// process's tap); reading again costs one query per subscribed component a second.
+pub const PARAM_POLL: Duration = Duration::from_secs(1);
 
 /// Why the live server could not start.
 #[derive(Debug, thiserror::Error)]
@@ -75,6 +82,66 @@ pub(crate) struct Shared {
     /// The server, once it runs: what pushes parameter updates to the clients subscribed to
     /// them (taken out when it stops).
     pub(crate) server: ServerSlot,
+    /// The parameters some client subscribed to, each with the value last pushed or read
+    /// (none until first read).
+    pub(crate) watched: parking_lot::Mutex<BTreeMap<String, Option<foxglove::websocket::Parameter>>>,
+    /// Wakes the poller when a client subscribes to parameters, so that it reads them now.
+    pub(crate) poll_now: tokio::sync::Notify,
+}
+
+impl Shared {
+    /// Pushes `parameters`' values to the clients subscribed to them, and notes them as the
+    /// values last pushed (so that the poller does not push them again).
+    pub(crate) fn publish_parameters(&self, parameters: Vec<foxglove::websocket::Parameter>) {
+        {
+            let mut watched = self.watched.lock();
+            for p in &parameters {
+                if let Some(last) = watched.get_mut(&p.name) {
+                    *last = Some(p.clone());
+                }
+            }
+        }
+        self.server.publish_parameters(parameters);
+    }
+
+    /// Reads the watched parameters every [`PARAM_POLL`] (and when a client subscribes) and
+    /// pushes those whose value changed since last pushed or read; the first read of a name
+    /// only notes its value (the client read it when it subscribed).
+    async fn poll_parameters(self: Arc<Self>, params: Arc<dyn params::LiveParams>) {
+        loop {
+            tokio::select! {
+                _ = tokio::time::sleep(PARAM_POLL) => {}
+                _ = self.poll_now.notified() => {}
+            }
+            let names: Vec<String> = self.watched.lock().keys().cloned().collect();
+            if names.is_empty() {
+                continue;
+            }
+            let read = params::ParamBridge::get_values(&*params, names).await;
+            let changed: Vec<_> = {
+                let mut watched = self.watched.lock();
+                read.into_iter()
+                    .filter(|p| match watched.get_mut(&p.name) {
+                        // Unsubscribed meanwhile.
+                        None => false,
+                        Some(last @ None) => {
+                            *last = Some(p.clone());
+                            false
+                        }
+                        Some(Some(last)) if last == p => false,
+                        Some(last) => {
+                            *last = Some(p.clone());
+                            true
+                        }
+                    })
+                    .collect()
+            };
+            if !changed.is_empty() {
+                tracing::debug!("foxglove: {} subscribed parameters changed elsewhere", changed.len());
+                self.server.publish_parameters(changed);
+            }
+        }
+    }
 }
 
 /// The live server's handle, shared by [`LiveView`], the tap and the parameter bridge.
@@ -134,6 +201,22 @@ impl ServerListener for Listener {
     fn on_unsubscribe(&self, client: Client, channel: ChannelView<'_>) {
         tracing::debug!("foxglove: client {:?} unsubscribed from {}", client.id(), channel.topic());
         let _ = self.0.subscriptions.fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
+    }
+
+    fn on_parameters_subscribe(&self, names: Vec<String>) {
+        let mut watched = self.0.watched.lock();
+        for name in names {
+            watched.entry(name).or_insert(None);
+        }
+        drop(watched);
+        self.0.poll_now.notify_one();
+    }
+
+    fn on_parameters_unsubscribe(&self, names: Vec<String>) {
+        let mut watched = self.0.watched.lock();
+        for name in names {
+            watched.remove(&name);
+        }
     }
 
     fn on_client_connect(&self) {
@@ -218,6 +301,7 @@ impl LiveView {
                 server.capabilities([Capability::ClientPublish]).supported_encodings([publish::ENCODING]);
         }
         if let Some(params) = params {
+            runtime.spawn(Arc::clone(&shared).poll_parameters(Arc::clone(&params)));
             let bridge =
                 params::ParamBridge::new(params, runtime.handle().clone()).publishing(Arc::clone(&shared));
             server = server.parameter_handler(Arc::new(bridge));

@@ -184,7 +184,7 @@ impl ParameterHandler for ParamBridge {
             if let Some(updates) = updates
                 && !applied.is_empty()
             {
-                updates.server.publish_parameters(applied.clone());
+                updates.publish_parameters(applied.clone());
             }
             responder.respond(applied);
         });

@@ -162,7 +162,7 @@ impl LiveTap {
         match serde_json::from_slice::<orsa_actors::param::ParamChange>(json) {
             Ok(change) => {
                 let name = format!("{component}.{}", change.name);
-                self.shared.server.publish_parameters(vec![super::params::to_parameter(name, &change.new)]);
+                self.shared.publish_parameters(vec![super::params::to_parameter(name, &change.new)]);
             }
             Err(e) => tracing::warn!("live view: a parameter change on {topic} does not read: {e}"),
         }
