@@ -1,6 +1,7 @@
 //! How a run ends when it cannot run its whole duration: the top supervisor giving up, or a
 //! signal. Either way the run stops the robot, and reports and records what happened up to then;
-//! `orsa run` exits with a code that says which (0 completed, 3 gave up, 130 interrupted).
+//! `orsa run` exits with a code that says which (0 completed, 3 gave up, 130 interrupted, 4 a
+//! mission of places that did not reach them all).
 
 use orsa::config::Config;
 use orsa::faults::{FaultPlan, PlanTargets};
@@ -172,4 +173,37 @@ fn orsa_run_interrupted_by_sigterm_writes_its_report_and_recording() {
     assert!(read.status.success(), "the recording does not read: {}", String::from_utf8_lossy(&read.stderr));
     let summary: serde_json::Value = serde_json::from_slice(&read.stdout).expect("summary JSON");
     assert!(summary["counts"]["nomad200/navigationvelocity"].as_u64().is_some_and(|n| n > 0), "{summary}");
+}
+
+/// `orsa run --goto` as a script runs it: a mission that did not reach every place exits with
+/// 4, not 0, and its report says which step was given up and why; one that reached them all
+/// exits with 0 (a place rejected at once keeps both runs short).
+#[test]
+fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
+    let d = std::env::temp_dir().join(format!("orsa-goto-exit-{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    let world = concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml");
+    let run = |name: &str, places: &[&str]| {
+        let report = d.join(format!("{name}.json"));
+        let mut c = Command::new(env!("CARGO_BIN_EXE_orsa"));
+        c.args(["run", "--quiet", "--world", world, "--duration", "600"])
+            .args(["--report", &report.display().to_string()])
+            .args(["--plot", &d.join(format!("{name}.svg")).display().to_string()]);
+        for p in places {
+            c.args(["--goto", p]);
+        }
+        let out = c.output().expect("orsa runs");
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).expect("report written")).expect("JSON");
+        (out.status.code(), report, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, report, err) = run("missed", &["kitchen", "room-1"]);
+    assert_eq!(code, Some(4), "{err}");
+    assert_eq!(report["ended"]["how"], "mission_ended", "{}", report["ended"]);
+    let result = report["ended"]["result"].as_str().expect("the mission's result");
+    assert!(result.starts_with("completed with 1 of 2 steps skipped: step 0 rejected: "), "{result}");
+    assert!(result.contains("no place 'kitchen'"), "{result}");
+    let (code, report, err) = run("reached", &["room-1"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(report["ended"]["result"], "completed", "{}", report["ended"]);
 }

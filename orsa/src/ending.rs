@@ -122,6 +122,10 @@ pub enum Outcome {
     GaveUp,
     /// Ctrl-C or SIGTERM ended it early; the report was written (exit code 130).
     Interrupted,
+    /// The run ended with its mission (`orsa run --goto`), and the mission did not do all it
+    /// was asked: a step was skipped (a place rejected, a goal aborted) or the mission was
+    /// aborted; the report says which and why (exit code 4).
+    MissionFailed,
 }
 
 impl Outcome {
@@ -129,7 +133,10 @@ impl Outcome {
     /// command's error (exit code 1).
     pub fn of(ended: &Ended) -> anyhow::Result<Outcome> {
         match ended {
-            Ended::Completed | Ended::MissionEnded { .. } => Ok(Outcome::Completed),
+            Ended::Completed => Ok(Outcome::Completed),
+            // The planner's result is `completed` only when every step was done.
+            Ended::MissionEnded { result, .. } if result == "completed" => Ok(Outcome::Completed),
+            Ended::MissionEnded { .. } => Ok(Outcome::MissionFailed),
             Ended::GaveUp { .. } => Ok(Outcome::GaveUp),
             Ended::Interrupted { .. } => Ok(Outcome::Interrupted),
             Ended::Failed { at_s, error } => Err(anyhow::anyhow!("failed at {at_s:.1} s: {error}")),
@@ -142,6 +149,7 @@ impl Outcome {
             Outcome::Completed => 0,
             Outcome::GaveUp => 3,
             Outcome::Interrupted => 130,
+            Outcome::MissionFailed => 4,
         }
     }
 }

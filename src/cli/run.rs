@@ -48,7 +48,8 @@ pub(crate) struct RunArgs {
     /// Go to this place (a name from the world's [[places]], or X,Y[,HEADING_DEG] in metres
     /// and degrees); repeat for a mission of places, in order. Adds the navigation components
     /// (localizer, path follower, the master's mode `navigate`) and a `navigation` section to
-    /// the report.
+    /// the report. The run ends with the mission: exit code 0 if every place was reached, 4
+    /// if one was not (rejected, or given up), the report saying which and why.
     #[arg(long, value_name = "PLACE")]
     pub(crate) goto: Vec<String>,
     /// The config file and the report (default out/report.json).
