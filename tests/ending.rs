@@ -183,10 +183,10 @@ fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
     let d = std::env::temp_dir().join(format!("orsa-goto-exit-{}", std::process::id()));
     std::fs::create_dir_all(&d).expect("temp dir");
     let world = concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml");
-    let run = |name: &str, places: &[&str]| {
+    let run_for = |name: &str, places: &[&str], duration: &str| {
         let report = d.join(format!("{name}.json"));
         let mut c = Command::new(env!("CARGO_BIN_EXE_orsa"));
-        c.args(["run", "--quiet", "--world", world, "--duration", "600"])
+        c.args(["run", "--quiet", "--world", world, "--duration", duration])
             .args(["--report", &report.display().to_string()])
             .args(["--plot", &d.join(format!("{name}.svg")).display().to_string()]);
         for p in places {
@@ -195,8 +195,10 @@ fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
         let out = c.output().expect("orsa runs");
         let report: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).expect("report written")).expect("JSON");
-        (out.status.code(), report, String::from_utf8_lossy(&out.stderr).into_owned())
+        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        (out.status.code(), report, said)
     };
+    let run = |name: &str, places: &[&str]| run_for(name, places, "600");
     let (code, report, err) = run("missed", &["kitchen", "room-1"]);
     assert_eq!(code, Some(4), "{err}");
     assert_eq!(report["ended"]["how"], "mission_ended", "{}", report["ended"]);
@@ -206,4 +208,9 @@ fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
     let (code, report, err) = run("reached", &["room-1"]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(report["ended"]["result"], "completed", "{}", report["ended"]);
+    // Out of time before the place: the run ends with its time, and the place was not reached.
+    let (code, report, err) = run_for("short", &["room-5"], "5");
+    assert_eq!(code, Some(4), "{err}");
+    assert_eq!(report["ended"]["how"], "completed", "{}", report["ended"]);
+    assert!(err.contains("did not end within --duration 5 s"), "{err}");
 }

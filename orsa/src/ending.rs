@@ -122,9 +122,9 @@ pub enum Outcome {
     GaveUp,
     /// Ctrl-C or SIGTERM ended it early; the report was written (exit code 130).
     Interrupted,
-    /// The run ended with its mission (`orsa run --goto`), and the mission did not do all it
-    /// was asked: a step was skipped (a place rejected, a goal aborted) or the mission was
-    /// aborted; the report says which and why (exit code 4).
+    /// A run of a mission of places (`orsa run --goto`) that did not reach them all: a step
+    /// was skipped (a place rejected, a goal aborted), the mission was aborted, or its time ran
+    /// out first; the report says which and why (exit code 4).
     MissionFailed,
 }
 
