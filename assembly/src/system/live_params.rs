@@ -67,6 +67,12 @@ impl ParamDirectory {
         ParamDirectory { registry: registry.clone(), components }
     }
 
+    /// Whether `component` runs in this process (its parameter changes are control events of
+    /// this process's tap, seen as they happen).
+    pub fn is_local(&self, component: &str) -> bool {
+        self.registry.has_component(component)
+    }
+
     /// The components whose parameters it serves.
     pub fn components(&self) -> &[String] {
         &self.components

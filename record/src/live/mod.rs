@@ -104,16 +104,20 @@ impl Shared {
         self.server.publish_parameters(parameters);
     }
 
-    /// Reads the watched parameters every [`PARAM_POLL`] (and when a client subscribes) and
-    /// pushes those whose value changed since last pushed or read; the first read of a name
-    /// only notes its value (the client read it when it subscribed).
+    /// Reads the watched parameters of components in other processes every [`PARAM_POLL`]
+    /// (and when a client subscribes) and pushes those whose value changed since last pushed
+    /// or read; the first read of a name only notes its value (the client read it when it
+    /// subscribed). Those of this process's components are pushed by the tap as they change.
     async fn poll_parameters(self: Arc<Self>, params: Arc<dyn params::LiveParams>) {
         loop {
             tokio::select! {
                 _ = tokio::time::sleep(PARAM_POLL) => {}
                 _ = self.poll_now.notified() => {}
             }
-            let names: Vec<String> = self.watched.lock().keys().cloned().collect();
+            // Only those no component reports as it changes them: the components of other
+            // processes.
+            let names: Vec<String> =
+                self.watched.lock().keys().filter(|n| !params.reports_changes(n)).cloned().collect();
             if names.is_empty() {
                 continue;
             }

@@ -24,6 +24,13 @@ pub trait LiveParams: Send + Sync {
     /// Sets parameter `name` to `value`: the value now in force, or why it was refused
     /// (unknown name, wrong type, out of range), in words for the user.
     fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>>;
+
+    /// Whether a change to parameter `name` reaches the live server as it happens (a
+    /// component of this process, whose changes its tap sees), so that the server need not
+    /// read it again to see it change.
+    fn reports_changes(&self, _name: &str) -> bool {
+        false
+    }
 }
 
 /// Why a [`LiveParams`] refused a set: whatever error its backend gives (a component's
@@ -37,27 +44,35 @@ impl LiveParams for ParamDirectory {
     fn get(&self, names: Vec<String>) -> BoxFuture<'static, Vec<(String, Value)>> {
         let directory = self.clone();
         Box::pin(async move {
-            let params = if names.is_empty() {
-                directory.get_all().await.0
-            } else {
-                // Asked all at once: an unreachable component costs one timeout.
-                let answers = futures::future::join_all(names.iter().map(|n| directory.get(n))).await;
-                names
-                    .iter()
-                    .zip(answers)
-                    .filter_map(|(name, answer)| {
-                        Some(answer.ok()?.into_iter().filter(move |p| p.name == *name))
-                    })
-                    .flatten()
-                    .collect()
-            };
-            params.into_iter().map(|p| (p.name, p.value)).collect()
+            if names.is_empty() {
+                return directory.get_all().await.0.into_iter().map(|p| (p.name, p.value)).collect();
+            }
+            // Each component asked once, for all its parameters, and all at once: an
+            // unreachable component costs one timeout, a panel that asks for sixty parameters
+            // three queries.
+            let mut components: Vec<&str> =
+                names.iter().map(|n| crate::system::live_params::split_name(n).0).collect();
+            components.sort_unstable();
+            components.dedup();
+            let answers = futures::future::join_all(components.iter().map(|c| directory.get(c))).await;
+            let found: std::collections::HashMap<String, Value> = answers
+                .into_iter()
+                .filter_map(Result::ok)
+                .flatten()
+                .map(|p| (p.name, p.value))
+                .collect();
+            // In the order asked; a name that is no parameter (a table, a typo) is left out.
+            names.into_iter().filter_map(|n| found.get(&n).cloned().map(|v| (n, v))).collect()
         })
     }
 
     fn set(&self, name: String, value: Value) -> BoxFuture<'static, Result<Value, SetError>> {
         let directory = self.clone();
         Box::pin(async move { directory.set(&name, value).await.map(|p| p.value).map_err(SetError::from) })
+    }
+
+    fn reports_changes(&self, name: &str) -> bool {
+        self.is_local(crate::system::live_params::split_name(name).0)
     }
 }
 
@@ -86,6 +101,10 @@ impl LiveParams for Pending {
             Some(d) => LiveParams::set(d, name, value),
             None => Box::pin(async { Err(SetError::from("the system is not up yet")) }),
         }
+    }
+
+    fn reports_changes(&self, name: &str) -> bool {
+        self.0.get().is_some_and(|d| LiveParams::reports_changes(d, name))
     }
 }
 
