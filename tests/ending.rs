@@ -195,7 +195,8 @@ fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
         let out = c.output().expect("orsa runs");
         let report: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).expect("report written")).expect("JSON");
-        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        let said =
+            format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
         (out.status.code(), report, said)
     };
     let run = |name: &str, places: &[&str]| run_for(name, places, "600");

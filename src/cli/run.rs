@@ -189,7 +189,9 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     }
     match Outcome::of(&report.ended)? {
         // A mission of places whose time ran out before it ended did not reach them all.
-        Outcome::Completed if !args.goto.is_empty() && matches!(report.ended, orsa::mission::report::Ended::Completed) => {
+        Outcome::Completed
+            if !args.goto.is_empty() && matches!(report.ended, orsa::mission::report::Ended::Completed) =>
+        {
             say(&format!("the mission of places did not end within --duration {} s", args.duration));
             Ok(Outcome::MissionFailed)
         }

@@ -55,12 +55,8 @@ impl LiveParams for ParamDirectory {
             components.sort_unstable();
             components.dedup();
             let answers = futures::future::join_all(components.iter().map(|c| directory.get(c))).await;
-            let found: std::collections::HashMap<String, Value> = answers
-                .into_iter()
-                .filter_map(Result::ok)
-                .flatten()
-                .map(|p| (p.name, p.value))
-                .collect();
+            let found: std::collections::HashMap<String, Value> =
+                answers.into_iter().filter_map(Result::ok).flatten().map(|p| (p.name, p.value)).collect();
             // In the order asked; a name that is no parameter (a table, a typo) is left out.
             names.into_iter().filter_map(|n| found.get(&n).cloned().map(|v| (n, v))).collect()
         })
