@@ -791,7 +791,7 @@ def params(node, args):
         "undecodable": gp.call_raw(b"\x00\x01\x00\x00\xff\xff\xff\x7f"),
         "wrong_type": gp.call_raw(b"\x00\x01\x00\x00\x00\x00\x00\x00",
                                   key=service_key(node.domain, f"{target}/get_parameters", "SetParameters")),
-        # 20000 names (about 400 KB): refused by its size before it is decoded or asked.
+        # 20000 names (about 640 KB of CDR): refused by its size before it is decoded or asked.
         "huge": gp.call_raw(bytes(TS.serialize_cdr(
             TS.types["rcl_interfaces/srv/GetParameters_Request"](names=[f"centerfollow.p{i:012d}" for i in range(20000)]),
             "rcl_interfaces/srv/GetParameters_Request"))),
