@@ -407,7 +407,7 @@ pub(crate) fn interop_table(live: &SenseToAct, ic: &InteropCost) -> String {
     let _ = writeln!(
         s,
         "\nWhat the interop costs sense to act, each arm between two runs of its baseline in this run. The ROS 2 \
-         parameter services: the robot's node (`orsa robot --ros2`'s own services over every component) with a \
+         parameter services: the robot's node (`orsa robot --ros2`'s own services over the components with live parameters) with a \
          ROS 2 client on a zenoh session of its own calling `get_parameters` back to back for a parameter of each \
          behaviour and of the master ({} calls answered, {} incomplete, {} failed); baseline: the stack \
          alone, on the robot's runtime (`orsa robot`'s: multi-thread, two workers; zenoh needs one). Client publish: the live client also publishing `TwistStamped` on `/cmd_vel` at 20 Hz, each \
