@@ -570,7 +570,8 @@ impl Config {
     }
 
     /// This configuration with the navigation components (what `orsa run --goto` adds, and
-    /// what `config/navigation.toml` spells out): a `localizer` after the robot server, a
+    /// what `config/navigation.toml` spells out): a `map` (the known map and its places, for
+    /// the planner wherever it runs) and a `localizer` after the robot server, a
     /// `pathfollow` behaviour with the other behaviours (in their supervision subtree), and the
     /// master's mode `navigate`, which wires the path follower to the motors. What the system
     /// already has is kept.
@@ -580,8 +581,15 @@ impl Config {
         let after = |c: &Config, kinds: &[&str]| {
             c.system.components.iter().rposition(|s| kinds.contains(&s.kind())).map_or(0, |i| i + 1)
         };
-        if c.of_kind(&["localizer"]).is_none() {
+        if c.of_kind(&[orsa_interfaces::map::NAME]).is_none() {
             let at = after(&c, &ROBOT_KINDS);
+            c.system.components.insert(at, crate::system::ComponentSpec::named(orsa_interfaces::map::NAME));
+            if let Some(t) = c.supervision.subtrees.get_mut("navigation") {
+                t.members.insert(0, orsa_interfaces::map::NAME.into());
+            }
+        }
+        if c.of_kind(&["localizer"]).is_none() {
+            let at = after(&c, &[&ROBOT_KINDS[..], &[orsa_interfaces::map::NAME]].concat());
             c.system.components.insert(at, crate::system::ComponentSpec::named("localizer"));
         }
         if c.of_kind(&["pathfollow"]).is_none() {

@@ -3,15 +3,16 @@
 //! | service | pattern | object |
 //! |---|---|---|
 //! | [`MAP`] | Push newest | [`OccupancyGrid`]: the map, at every change |
+//! | [`KNOWN`] | Query | [`Empty`] -> [`KnownMap`]: the map as it stands and the places it names, for whoever joins late |
 //!
 //! The grid is laid out as ROS 2's `nav_msgs/msg/OccupancyGrid` lays one out, so that it
 //! crosses to ROS 2 and to Foxglove's `foxglove.Grid` cell for cell: row-major from the cell at
 //! the origin, x along a row, each cell `-1` (unknown) or an occupancy from `0` (free) to `100`
 //! (occupied). The map component is called [`NAME`] in the default configuration.
 
-use orsa_actors::Timestamp;
 use orsa_actors::comm_object;
-use orsa_actors::service::PushNewestService;
+use orsa_actors::service::{PushNewestService, QueryService};
+use orsa_actors::{Empty, Timestamp};
 use serde::{Deserialize, Serialize};
 
 /// The map component's name in the default configuration.
@@ -19,6 +20,10 @@ pub const NAME: &str = "map";
 
 /// The map, pushed at every change.
 pub const MAP: PushNewestService<OccupancyGrid> = PushNewestService::new("map");
+
+/// The map as it stands and its places: what a planner needs to send the robot to places,
+/// wherever it runs (a Push newest subscriber only gets the next change; this is the map now).
+pub const KNOWN: QueryService<Empty, KnownMap> = QueryService::new("known");
 
 /// The frame the map is drawn in: the world file's coordinates.
 pub const MAP_FRAME: &str = "map";
@@ -148,6 +153,51 @@ impl OccupancyGrid {
     }
 }
 
+/// A place the map names (the world file's `[[places]]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapPlace {
+    /// Its name.
+    pub name: String,
+    /// x in the map, m.
+    pub x_m: f64,
+    /// y in the map, m.
+    pub y_m: f64,
+    /// The heading to end with there, degrees counter-clockwise from +x, if any.
+    pub heading_deg: Option<f64>,
+}
+
+/// The map as it stands and the places it names (service [`KNOWN`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnownMap {
+    /// The grid.
+    pub grid: OccupancyGrid,
+    /// The places, in the world file's order.
+    pub places: Vec<MapPlace>,
+}
+comm_object!(KnownMap, "orsa.map.KnownMap/1");
+
+impl KnownMap {
+    /// Checks a map that came from outside: the grid, and places with names, unique, at finite
+    /// coordinates.
+    pub fn validate(&self) -> Result<(), String> {
+        self.grid.validate().map_err(|e| format!("the grid: {e}"))?;
+        for (i, p) in self.places.iter().enumerate() {
+            if p.name.is_empty() {
+                return Err(format!("places[{i}] has no name"));
+            }
+            if self.places[..i].iter().any(|q| q.name == p.name) {
+                return Err(format!("places[{i}]: '{}' is named twice", p.name));
+            }
+            if !(p.x_m.is_finite() && p.y_m.is_finite() && p.heading_deg.is_none_or(f64::is_finite)) {
+                return Err(format!("places[{i}] ('{}'): its coordinates are not finite numbers", p.name));
+            }
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,5 +254,23 @@ mod tests {
         let mut g = grid();
         g.origin_y_m = f64::INFINITY;
         assert!(matches!(g.validate(), Err(GridError::Origin(..))));
+    }
+
+    #[test]
+    fn known_maps_from_outside_are_checked() {
+        let place = |name: &str, x_m: f64| MapPlace { name: name.into(), x_m, y_m: 1.0, heading_deg: None };
+        let ok = KnownMap { grid: grid(), places: vec![place("a", 0.0), place("b", 0.0)] };
+        assert_eq!(ok.validate(), Ok(()));
+        let json = serde_json::to_string(&ok).expect("serialise");
+        assert_eq!(serde_json::from_str::<KnownMap>(&json).expect("deserialise"), ok);
+        let twice = KnownMap { places: vec![place("a", 0.0), place("a", 1.0)], ..ok.clone() };
+        assert_eq!(twice.validate(), Err("places[1]: 'a' is named twice".into()));
+        let nan = KnownMap { places: vec![place("a", f64::NAN)], ..ok.clone() };
+        assert!(nan.validate().expect_err("NaN").contains("not finite"));
+        let unnamed = KnownMap { places: vec![place("", 0.0)], ..ok.clone() };
+        assert_eq!(unnamed.validate(), Err("places[0] has no name".into()));
+        let mut bad = ok;
+        bad.grid.cells.pop();
+        assert!(bad.validate().expect_err("short").starts_with("the grid: "));
     }
 }

@@ -16,6 +16,8 @@
 //!   walls where there is room.
 //! - [`localizer`]: the localizer component: [`mcl`] on a robot's odometry and range views,
 //!   publishing the pose in the map (`orsa_interfaces::navigation::POSE`).
+//! - [`mapserver`]: the map component: the known map and its places, pushed on `map` and
+//!   answered on `known` to a planner in any process.
 //! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
 //!   the odometry motion model and the likelihood-field sensor model, and recovery from being
 //!   lost or kidnapped by particles injected at random free places while readings fit badly.
@@ -23,5 +25,6 @@
 pub mod field;
 pub mod layer;
 pub mod localizer;
+pub mod mapserver;
 pub mod mcl;
 pub mod plan;

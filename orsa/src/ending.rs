@@ -124,7 +124,8 @@ pub enum Outcome {
     Interrupted,
     /// A run of a mission of places (`orsa run --goto`) that did not reach them all: a step
     /// was skipped (a place rejected, a goal aborted), the mission was aborted, or its time ran
-    /// out first; the report says which and why (exit code 4).
+    /// out first; the report says which and why. Or a goal of `orsa goto` that was not reached:
+    /// rejected, aborted, canceled or preempted, or its `--timeout` ran out (exit code 4).
     MissionFailed,
 }
 

@@ -54,6 +54,7 @@ use orsa_actors::send::SendClient;
 use orsa_actors::switch::Phase;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Stamped, Update};
 use orsa_interfaces::executive::{self, Goal, GoalEvent, GoalFilter, GoalReply, GoalStatus, MAX_GOAL_S};
+use orsa_interfaces::map::{self, KnownMap};
 use orsa_interfaces::navigation::{
     self, CANCEL, FollowPath, NAVIGATE, NAVIGATION, NavCancel, NavFeedback, NavGoal, NavReply, NavState,
     NavTarget, PoseEstimate,
@@ -281,8 +282,9 @@ impl PlannerParams {
 /// What the planner needs to send the robot to places.
 #[derive(Debug, Clone)]
 pub struct NavSetup {
-    /// The known map and its places.
-    pub map: NavMap,
+    /// The map component: the known map and its places come from it (`known`), wherever the
+    /// planner runs.
+    pub map: String,
     /// The robot server (its odometry says when it has stopped; its geometry sizes paths).
     pub robot: String,
     /// How goals are judged.
@@ -352,6 +354,8 @@ struct Active {
 
 /// What the planner keeps for navigation.
 struct NavState_ {
+    /// The known map and its places, as the map component gave them.
+    map: NavMap,
     path: SendClient<FollowPath>,
     feedback: PushNewestServer<NavFeedback>,
     plan: PlanParams,
@@ -444,7 +448,7 @@ impl Planner {
         target: NavTarget,
         from_mission: bool,
     ) -> Result<u64, String> {
-        let (Some(setup), Some(nav)) = (&self.nav, st.nav.as_mut()) else {
+        let Some(nav) = st.nav.as_mut() else {
             return Err("this planner has no map: it cannot send the robot to places".into());
         };
         nav.next_id += 1;
@@ -463,13 +467,13 @@ impl Planner {
             });
             why
         };
-        let goal = setup.map.resolve(&target).map_err(|why| refuse(nav, why, None))?;
+        let goal = nav.map.resolve(&target).map_err(|why| refuse(nav, why, None))?;
         let pose =
             nav.pose.ok_or_else(|| refuse(nav, "no estimate of the robot's pose yet".into(), Some(goal)))?;
         // Rejected at once if the known map has no way there; around what the sensors see if
         // there is one.
         let known =
-            setup.map.route((pose.0, pose.1), goal, &nav.plan).map_err(|why| refuse(nav, why, Some(goal)))?;
+            nav.map.route((pose.0, pose.1), goal, &nav.plan).map_err(|why| refuse(nav, why, Some(goal)))?;
         let path = if nav.layer.marks() > 0 {
             nav.layer.clear_near(pose.0, pose.1, nav.plan.robot_radius_m + 0.05);
             route(&nav.layer.grid(), (pose.0, pose.1), goal, &nav.plan).unwrap_or(known)
@@ -743,6 +747,13 @@ impl Component for Planner {
                     clearance_m: setup.clearance_m,
                     ..PlanParams::default()
                 };
+                let known: KnownMap = ctx
+                    .query_client(map::KNOWN.on(&setup.map))?
+                    .query(Empty {}, Some(Duration::from_secs(5)))
+                    .await
+                    .map_err(|e| format!("planner: cannot get the map from {}/known: {e}", setup.map))?;
+                known.validate().map_err(|e| format!("planner: the map from {}/known: {e}", setup.map))?;
+                let map = NavMap::from(known);
                 let feedback = ctx.push_newest_server(NAVIGATION)?;
                 ctx.query_server(NAVIGATE, PlannerMsg::Navigate)?;
                 ctx.send_server(CANCEL, PlannerMsg::Cancel)?;
@@ -750,10 +761,11 @@ impl Component for Planner {
                 ctx.subscribe_newest(navigation::POSE.on(navigation::LOCALIZER), PlannerMsg::Pose)?;
                 ctx.subscribe_timed(nomad200::BASESTATE.on(&setup.robot), 1, PlannerMsg::Base)?;
                 ctx.subscribe_timed(nomad200::DISTANCEIR.on(&setup.robot), 1, PlannerMsg::Ir)?;
-                let layer = ObstacleLayer::new((*setup.map.grid).clone(), robot.infrared.max_range_m, 0.05)
+                let layer = ObstacleLayer::new((*map.grid).clone(), robot.infrared.max_range_m, 0.05)
                     .map_err(|e| format!("planner: the map: {e}"))?
                     .explaining(EXPLAINED_M);
                 Some(NavState_ {
+                    map,
                     path,
                     feedback,
                     plan,

@@ -6,7 +6,7 @@
 //! [`Progress`] follows a goal while it runs: the distance left along its path, whether the
 //! robot has come closer lately (or needs a recovery), and whether it has arrived.
 
-use orsa_interfaces::map::OccupancyGrid;
+use orsa_interfaces::map::{KnownMap, OccupancyGrid};
 use orsa_interfaces::navigation::NavTarget;
 use orsa_navigation::layer::ObstacleLayer;
 use orsa_navigation::plan::{PlanError, PlanParams, plan};
@@ -32,6 +32,20 @@ pub struct NavMap {
     pub grid: Arc<OccupancyGrid>,
     /// The places named in it.
     pub places: Vec<NamedPlace>,
+}
+
+impl From<KnownMap> for NavMap {
+    /// The map the map component serves.
+    fn from(known: KnownMap) -> Self {
+        NavMap {
+            grid: Arc::new(known.grid),
+            places: known
+                .places
+                .into_iter()
+                .map(|p| NamedPlace { name: p.name, x_m: p.x_m, y_m: p.y_m, heading_deg: p.heading_deg })
+                .collect(),
+        }
+    }
 }
 
 /// Where a goal goes: a position in the map and, maybe, a heading there.

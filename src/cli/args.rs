@@ -169,6 +169,47 @@ impl From<TeleopArgs> for orsa::remote::TeleopOptions {
     }
 }
 
+/// Arguments of `orsa goto`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct GotoArgs {
+    /// Where to go: a place named in the robot's world (`room-3`), or `X,Y[,HEADING_DEG]` in
+    /// the map, metres and degrees.
+    #[arg(value_name = "PLACE | X,Y[,HEADING_DEG]", value_parser = parse_target, allow_hyphen_values = true)]
+    pub(crate) target: orsa::interfaces::navigation::NavTarget,
+    /// The planner that takes the goal.
+    #[arg(long, default_value = "planner")]
+    pub(crate) planner: String,
+    /// Cancel the goal if it has not ended after this many seconds (exit code 4).
+    #[arg(long, value_name = "SECS")]
+    pub(crate) timeout: Option<f64>,
+    /// One JSON object per line: every feedback of the goal, its result last.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// How long to wait for the planner.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    pub(crate) wait: f64,
+    /// Network.
+    #[command(flatten)]
+    pub(crate) net: Network,
+}
+
+fn parse_target(text: &str) -> Result<orsa::interfaces::navigation::NavTarget, String> {
+    orsa::interfaces::navigation::NavTarget::parse(text)
+}
+
+impl From<GotoArgs> for orsa::remote::GotoOptions {
+    fn from(a: GotoArgs) -> Self {
+        orsa::remote::GotoOptions {
+            target: a.target,
+            planner: a.planner,
+            timeout: a.timeout,
+            json: a.json,
+            wait: a.wait,
+            net: a.net.into(),
+        }
+    }
+}
+
 /// Arguments of `orsa list`.
 #[derive(Debug, clap::Args)]
 pub(crate) struct ListArgs {

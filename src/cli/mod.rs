@@ -53,6 +53,9 @@ pub(crate) enum Command {
     Switch(args::SwitchArgs),
     /// Show or set a running component's parameters (gains, targets, speeds, the master's rules).
     Param(args::ParamArgs),
+    /// Send the robot to a place through the planner: shows the goal's feedback, exits with
+    /// 0 when it is reached, 4 when it is rejected, aborted or canceled (the reason is printed).
+    Goto(args::GotoArgs),
     /// Run a recording's deciding components again on its recorded inputs: bit for bit, or
     /// with another configuration (--config, --set) to see what would have changed.
     Replay(replay::ReplayArgs),
@@ -72,6 +75,7 @@ pub(crate) fn run(cli: Cli) -> anyhow::Result<Outcome> {
         Command::State(args) => done(orsa::remote::state(args.into())),
         Command::Switch(args) => done(orsa::remote::switch(args.into())),
         Command::Param(args) => done(orsa::remote::param(args.into())),
+        Command::Goto(args) => orsa::remote::goto(args.into()),
         Command::Replay(args) => done(replay::run(args)),
     }
 }

@@ -19,6 +19,7 @@ use orsa_hardware::safety::Guarded;
 use orsa_hardware::server::{Nomad200, ServerParams};
 use orsa_interfaces::nomad200::RobotParams;
 use orsa_navigation::localizer::Localization;
+use orsa_navigation::mapserver::MapServer;
 use orsa_navigation::mcl::Pose2;
 use orsa_planner::Planner;
 use orsa_reactive::{CenterFollow, PathFollow, WallFollow};
@@ -29,8 +30,10 @@ use std::time::Duration;
 /// The navigation components' grid, m per cell.
 pub const MAP_RESOLUTION_M: f64 = 0.05;
 
-const NO_MAP: &str = "no map: the navigation components need the world (this process was given none, \
-                      or the system lacks its localizer and pathfollow components)";
+const NO_MAP: &str = "no map: the map and the localizer need the world, and this process was given none";
+
+const NO_NAV: &str = "the mission goes to places, and the system lacks the navigation components it needs \
+                      (map, localizer and pathfollow; `orsa run --goto` and config/navigation.toml add them)";
 
 /// The simulator's robot kind, the one `orsa run` and the whole-stack tests drive.
 pub const SIM: &str = "sim";
@@ -193,35 +196,40 @@ impl Catalog {
                 start: Pose2::new(r.x, r.y, r.heading_rad()),
             })
         });
+        // The known map and its places, served to the planner wherever it runs.
+        c.register(orsa_interfaces::map::NAME, Place::Robot, |parts, _spec| {
+            let world = parts.world.ok_or(NO_MAP)?;
+            let places = world
+                .places
+                .iter()
+                .map(|p| orsa_interfaces::map::MapPlace {
+                    name: p.name.clone(),
+                    x_m: p.x,
+                    y_m: p.y,
+                    heading_deg: p.heading_deg,
+                })
+                .collect();
+            let grid = world.occupancy_grid(MAP_RESOLUTION_M)?;
+            Ok(MapServer { map: Arc::new(orsa_interfaces::map::KnownMap { grid, places }) })
+        });
         // The planner waits up to 5 s for the master's answer to a goal: no handler timeout.
+        // It needs no world: the map component gives it the map, from whichever process.
         c.register_untimed("planner", Place::Executive, |parts, spec| {
             let p: orsa_planner::PlannerParams = parts.params(spec)?;
             // It sends the robot to places where the system has the navigation components.
-            let navigates = ["localizer", "pathfollow"]
-                .iter()
-                .all(|k| parts.config.system.components.iter().any(|c| c.kind() == *k));
-            let nav = match parts.world {
-                Some(world) if navigates => Some(orsa_planner::NavSetup {
-                    map: orsa_planner::navigate::NavMap {
-                        grid: Arc::new(world.occupancy_grid(MAP_RESOLUTION_M)?),
-                        places: world
-                            .places
-                            .iter()
-                            .map(|p| orsa_planner::navigate::NamedPlace {
-                                name: p.name.clone(),
-                                x_m: p.x,
-                                y_m: p.y,
-                                heading_deg: p.heading_deg,
-                            })
-                            .collect(),
-                    },
-                    robot: parts.robot_name().into(),
-                    judge: p.judge(),
-                    recoveries: p.recoveries,
-                    cruise_m_s: p.cruise_m_s,
-                    clearance_m: p.clearance_m,
-                }),
-                _ if p.navigates() => return Err(NO_MAP.into()),
+            let kind = |k: &str| parts.config.system.components.iter().find(|c| c.kind() == k);
+            let nav = match kind(orsa_interfaces::map::NAME) {
+                Some(map) if kind("localizer").is_some() && kind("pathfollow").is_some() => {
+                    Some(orsa_planner::NavSetup {
+                        map: map.name.clone(),
+                        robot: parts.robot_name().into(),
+                        judge: p.judge(),
+                        recoveries: p.recoveries,
+                        cruise_m_s: p.cruise_m_s,
+                        clearance_m: p.clearance_m,
+                    })
+                }
+                _ if p.navigates() => return Err(NO_NAV.into()),
                 _ => None,
             };
             Ok(Planner {

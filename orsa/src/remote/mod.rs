@@ -1,6 +1,6 @@
 //! The processes of a distributed orsa system and the tools to look inside it, over zenoh:
 //! `orsa robot`, `orsa executive`, `orsa teleop`, `orsa list`, `orsa echo`, `orsa wire`,
-//! `orsa state`, `orsa param`.
+//! `orsa state`, `orsa param`, `orsa goto`.
 //!
 //! ```text
 //!   orsa robot                        orsa executive             orsa teleop
@@ -19,12 +19,14 @@
 /// What a process exchanged across processes, recorded: in the recording crate.
 pub use orsa_record::exchange;
 mod executive;
+mod goto;
 mod param;
 mod robot;
 pub mod ros2;
 mod tools;
 
 pub use executive::{EXECUTIVE_TOP, ExecutiveOptions, ExecutiveReport, executive};
+pub use goto::{GotoOptions, goto};
 pub use param::{ParamAction, ParamOptions, param};
 pub use robot::{FALLBACK, ROBOT_TOP, RobotOptions, RobotReport, robot};
 pub use tools::{

@@ -86,7 +86,9 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
     let robot_boards = drive.boards(&boards, &config.safety)?;
     let supervisor_events = Arc::new(parking_lot::Mutex::new(Vec::new()));
     let sink = Arc::clone(&supervisor_events);
-    let builder = System::builder(config).catalog(args.catalog.clone()).only(Place::Robot);
+    // The world is the robot's map too: the map and the localizer serve it to the navigation.
+    let builder =
+        System::builder(config).catalog(args.catalog.clone()).only(Place::Robot).world(checked.world.clone());
     let recording = setup::start_recording(&registry, &args, &checked, &builder)?;
     let live = crate::live::serve_process(
         &registry,
