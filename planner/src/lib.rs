@@ -365,6 +365,9 @@ struct NavState_ {
     active: Option<Active>,
     /// A mission step waits for the first estimate.
     waiting: bool,
+    /// A goal from outside, accepted before the first estimate, waits for it: its id and
+    /// target.
+    pending: Option<(u64, NavTarget)>,
     /// What the near range view saw that the map does not hold.
     layer: ObstacleLayer,
     /// The newest near range view.
@@ -388,6 +391,30 @@ pub struct PlannerState {
     /// The steps given up and skipped (the skip policy), each `step N why`: the mission's
     /// end says so.
     skipped: Vec<String>,
+}
+
+/// Publishes how goal `id` to `target` stands, for a goal with no path (rejected, waiting,
+/// canceled before it started).
+fn tell(
+    ctx: &Ctx<PlannerMsg>,
+    nav: &NavState_,
+    id: u64,
+    target: &NavTarget,
+    goal: Option<GoalPose>,
+    state: NavState,
+    reason: &str,
+) {
+    nav.feedback.put(NavFeedback {
+        stamp: ctx.now(),
+        id,
+        target: target.clone(),
+        goal: goal.map(|g| [g.x_m, g.y_m]),
+        state,
+        reason: reason.into(),
+        distance_left_m: 0.0,
+        eta_s: 0.0,
+        path: Vec::new(),
+    });
 }
 
 fn secs(ctx: &Ctx<PlannerMsg>) -> f64 {
@@ -440,31 +467,25 @@ impl Planner {
         });
     }
 
-    /// Starts driving to `target`; its id, or why it is rejected.
+    /// Starts driving to `target` (as goal `id` if it was accepted already, else under a new
+    /// id); its id, or why it is rejected.
     async fn start_goal(
         &self,
         ctx: &Ctx<PlannerMsg>,
         st: &mut PlannerState,
         target: NavTarget,
         from_mission: bool,
+        id: Option<u64>,
     ) -> Result<u64, String> {
         let Some(nav) = st.nav.as_mut() else {
             return Err("this planner has no map: it cannot send the robot to places".into());
         };
-        nav.next_id += 1;
-        let id = nav.next_id;
+        let id = id.unwrap_or_else(|| {
+            nav.next_id += 1;
+            nav.next_id
+        });
         let refuse = |nav: &NavState_, why: String, goal: Option<GoalPose>| {
-            nav.feedback.put(NavFeedback {
-                stamp: ctx.now(),
-                id,
-                target: target.clone(),
-                goal: goal.map(|g| [g.x_m, g.y_m]),
-                state: NavState::Rejected,
-                reason: why.clone(),
-                distance_left_m: 0.0,
-                eta_s: 0.0,
-                path: Vec::new(),
-            });
+            tell(ctx, nav, id, &target, goal, NavState::Rejected, &why);
             why
         };
         let goal = nav.map.resolve(&target).map_err(|why| refuse(nav, why, None))?;
@@ -774,6 +795,7 @@ impl Component for Planner {
                     next_id: 0,
                     active: None,
                     waiting: false,
+                    pending: None,
                     layer,
                     ir: None,
                     ring: robot.infrared.clone(),
@@ -817,7 +839,7 @@ impl Component for Planner {
                             return Ok(());
                         }
                         self.publish(st, None);
-                        if let Err(why) = self.start_goal(ctx, st, target.clone(), true).await {
+                        if let Err(why) = self.start_goal(ctx, st, target.clone(), true, None).await {
                             tracing::warn!("planner: step {} (goto {target}) rejected: {why}", st.step);
                             if st.nav.as_ref().is_some_and(|n| n.active.is_none()) {
                                 self.step_ended(ctx, st, false, &format!("rejected: {why}"))?;
@@ -905,6 +927,11 @@ impl Component for Planner {
                 if std::mem::take(&mut nav.waiting) {
                     Self::next(ctx)?;
                 }
+                if let Some((id, target)) = nav.pending.take()
+                    && let Err(why) = self.start_goal(ctx, st, target.clone(), false, Some(id)).await
+                {
+                    tracing::warn!("planner: goal {id} to {target} rejected: {why}");
+                }
                 self.on_pose(ctx, st)?;
             }
             PlannerMsg::Ir(s) => {
@@ -919,7 +946,23 @@ impl Component for Planner {
             }
             PlannerMsg::Navigate(q) => {
                 let target = q.request.value.target.clone();
-                let reply = match self.start_goal(ctx, st, target.clone(), false).await {
+                // Before the localizer's first estimate (a goal given as the system comes up),
+                // a goal to a place the map has is accepted and waits for it.
+                if let Some(nav) = st.nav.as_mut().filter(|n| n.pose.is_none())
+                    && let Ok(goal) = nav.map.resolve(&target)
+                {
+                    nav.next_id += 1;
+                    let id = nav.next_id;
+                    let waiting = "waiting for the first estimate of the robot's pose";
+                    tell(ctx, nav, id, &target, Some(goal), NavState::Active, waiting);
+                    if let Some((old, old_target)) = nav.pending.replace((id, target)) {
+                        let why = format!("preempted by goal {id}");
+                        tell(ctx, nav, old, &old_target, None, NavState::Canceled, &why);
+                    }
+                    let _ = q.answer(NavReply::Accepted { id });
+                    return Ok(());
+                }
+                let reply = match self.start_goal(ctx, st, target.clone(), false, None).await {
                     Ok(id) => NavReply::Accepted { id },
                     Err(reason) => {
                         tracing::warn!("planner: goal to {target} rejected: {reason}");
@@ -929,6 +972,12 @@ impl Component for Planner {
                 let _ = q.answer(reply);
             }
             PlannerMsg::Cancel(c) => {
+                if let Some(nav) = st.nav.as_mut()
+                    && let Some((id, target)) =
+                        nav.pending.take_if(|(id, _)| c.value.id.is_none_or(|c| c == *id))
+                {
+                    tell(ctx, nav, id, &target, None, NavState::Canceled, "canceled");
+                }
                 let active = st.nav.as_ref().and_then(|n| n.active.as_ref()).map(|a| a.id);
                 if active.is_some() && c.value.id.is_none_or(|id| Some(id) == active) {
                     self.end_goal(ctx, st, NavState::Canceled, "canceled")?;

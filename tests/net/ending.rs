@@ -8,7 +8,7 @@ use orsa::mission::report::Ended;
 use orsa::remote::{ExecutiveReport, RobotReport};
 
 /// Waits (at most `within`) for `p` to exit by itself: its exit code.
-async fn exit_code(p: Proc, within: Duration) -> (i32, Proc) {
+pub(crate) async fn exit_code(p: Proc, within: Duration) -> (i32, Proc) {
     let mut p = p;
     let waited = tokio::task::spawn_blocking(move || {
         let end = std::time::Instant::now() + within;

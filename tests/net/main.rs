@@ -14,6 +14,7 @@ mod links;
 mod lossy;
 #[cfg(target_os = "linux")]
 mod memory;
+mod navigation;
 mod params;
 mod processes;
 mod replay;

@@ -1,0 +1,142 @@
+//! Navigation across processes, as a user runs it: the map and the localizer in the robot's
+//! process (which has the world), the planner in the executive's (which has none), goals from
+//! `orsa goto` in a third, on live clocks.
+
+use super::ending::exit_code;
+use super::*;
+use orsa::interfaces::navigation::{NavFeedback, NavState};
+use orsa::interfaces::nomad200::ContactScan;
+use orsa::interfaces::planner::{MISSION, MissionStatus};
+use orsa_actors::push_newest::PushNewestClient;
+use std::io::Read as _;
+
+const WORLD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml");
+const NAVIGATION: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/navigation.toml");
+
+/// The shipped navigation config with the planner's mission replaced by `mission`, written for
+/// the executive of `sys`.
+fn executive_config(sys: &System, mission: &str) -> PathBuf {
+    let text = std::fs::read_to_string(NAVIGATION).expect("config/navigation.toml");
+    let line = text.lines().find(|l| l.starts_with("mission = ")).expect("the shipped config has a mission");
+    let path = std::env::temp_dir().join(format!("{}-executive.toml", sys.prefix));
+    std::fs::write(&path, text.replace(line, &format!("mission = {mission}"))).expect("write the config");
+    path
+}
+
+/// Runs `orsa goto ARGS` in `sys` until it exits (at most `within`): its exit code, what it
+/// printed, and the process. Its stdout is read as it comes (a pipe left unread fills and
+/// blocks the writer: every feedback carries its path).
+async fn goto(sys: &System, name: &str, args: &[&str], within: Duration) -> (i32, String, Proc) {
+    let mut p = sys.run(name, "goto", args);
+    let mut pipe = p.child.stdout.take().expect("stdout is piped");
+    let reader = std::thread::spawn(move || {
+        let mut out = String::new();
+        pipe.read_to_string(&mut out).map(|_| out)
+    });
+    let (code, p) = exit_code(p, within).await;
+    let out = reader.join().expect("the reader").expect("read stdout");
+    (code, out, p)
+}
+
+/// Bumper readings with something pressed, counted from now on.
+fn pressed(
+    registry: &Registry,
+) -> (PushTimedClient<ContactScan>, mpsc::UnboundedReceiver<Update<ContactScan>>) {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let c = PushTimedClient::<ContactScan>::connect_to(
+        registry,
+        nomad200::BUMPERS.on(nomad200::NAME),
+        Sink::channel(tx),
+    )
+    .expect("bumpers client");
+    c.subscribe(1).expect("subscribe");
+    (c, rx)
+}
+
+fn bumps(rx: &mut mpsc::UnboundedReceiver<Update<ContactScan>>) -> (usize, usize) {
+    let (mut readings, mut pressed) = (0, 0);
+    while let Ok(u) = rx.try_recv() {
+        readings += 1;
+        pressed += usize::from(u.value.pressed.iter().any(|p| *p));
+    }
+    (readings, pressed)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn orsa_goto_reaches_a_place_through_a_planner_in_the_executives_process_and_names_why_it_rejects() {
+    let sys = System::new("goto");
+    let mut robot = sys.robot(&["--world", WORLD, "--config", NAVIGATION]);
+    let config = executive_config(&sys, r#"[{ mode = "stop" }]"#);
+    let executive = sys.run("executive", "executive", &["--config", config.to_str().expect("utf-8")]);
+    let (registry, t) = sys.observe().await;
+    let bumpers: orsa_actors::ServiceAddr = "nomad200/bumpers".parse().expect("addr");
+    t.wait_for(&[bumpers], STARTUP).await.expect("the robot is up");
+    let (_c, mut contacts) = pressed(&registry);
+
+    // A place the world does not name: rejected at once, naming the places there are.
+    let (code, out, p) = goto(&sys, "nowhere", &["nowhere", "--wait", "60"], STARTUP * 3).await;
+    assert_eq!(code, 4, "{out}\n{}", p.log_text());
+    assert!(out.contains("no place 'nowhere' in the map (places: dock, room-1, room-2"), "{out}");
+
+    // A place: driven to, with feedback, and reached.
+    let args = ["room-1", "--json", "--timeout", "90", "--wait", "60"];
+    let (code, out, p) = goto(&sys, "room-1", &args, Duration::from_secs(150)).await;
+    assert_eq!(code, 0, "{out}\n{}\n{}", p.log_text(), executive.log_text());
+    let feedback: Vec<NavFeedback> =
+        out.lines().map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}"))).collect();
+    let last = feedback.last().expect("feedback");
+    assert_eq!(last.state, NavState::Succeeded, "{out}");
+    assert!(feedback.iter().all(|f| f.id == last.id), "one goal: {out}");
+    assert_eq!(feedback[0].state, NavState::Active, "{out}");
+    // The first with a path (a goal given before the localizer's first estimate waits for it).
+    let first = feedback.iter().find(|f| !f.path.is_empty()).expect("a path");
+    // room-1 is at (5.0, 2.5), some 5 m from the dock the robot starts at.
+    assert_eq!(first.goal, Some([5.0, 2.5]), "{out}");
+    assert!(first.distance_left_m > 4.0, "{out}");
+    let active: Vec<f64> =
+        feedback.iter().filter(|f| f.state == NavState::Active).map(|f| f.distance_left_m).collect();
+    assert!(active.len() >= 5, "feedback about every second while it drives: {out}");
+    assert!(active.last().expect("active") < &1.0, "it came close: {out}");
+    let (readings, pressed) = bumps(&mut contacts);
+    assert!(readings > 100, "bumper readings came: {readings}");
+    assert_eq!(pressed, 0, "no bump on the way");
+    robot.signal("-INT");
+    let _ = robot.child.wait();
+    t.close().await;
+}
+
+/// The issue's target for a planner in another process: a mission of five places in the office
+/// world, run by the executive's planner, reaches them all without a bump (about three minutes
+/// of real time: in the long tests).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[ignore = "long: run by .ci/long"]
+async fn long_a_planner_in_the_executives_process_takes_the_robot_to_five_places() {
+    let sys = System::new("five");
+    let _robot = sys.robot(&["--world", WORLD, "--config", NAVIGATION]);
+    let mission = r#"[{ goto = "room-1" }, { goto = "room-4" }, { goto = "room-2" }, { goto = "room-5" }, { goto = "dock" }]"#;
+    let config = executive_config(&sys, mission);
+    let executive = sys.run("executive", "executive", &["--config", config.to_str().expect("utf-8")]);
+    let (registry, t) = sys.observe().await;
+    let services: Vec<orsa_actors::ServiceAddr> =
+        ["nomad200/bumpers", "planner/mission"].iter().map(|s| s.parse().expect("addr")).collect();
+    t.wait_for(&services, STARTUP * 2).await.expect("the robot and the executive are up");
+    let (_c, mut contacts) = pressed(&registry);
+    let status =
+        PushNewestClient::<MissionStatus>::connect(&registry, MISSION.on("planner")).expect("mission");
+    status.subscribe().expect("subscribe");
+    let finished = tokio::time::timeout(Duration::from_secs(420), async {
+        loop {
+            let s = status.get_update_wait().await.expect("mission status");
+            if let Some(f) = &s.value.finished {
+                return (f.clone(), s.value.steps);
+            }
+        }
+    })
+    .await
+    .unwrap_or_else(|_| panic!("the mission did not end within 7 minutes\n{}", executive.log_text()));
+    assert_eq!(finished, ("completed".to_string(), 5), "{}", executive.log_text());
+    let (readings, pressed) = bumps(&mut contacts);
+    assert!(readings > 1000, "bumper readings came: {readings}");
+    assert_eq!(pressed, 0, "no bump on the way");
+    t.close().await;
+}
