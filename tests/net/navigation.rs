@@ -63,9 +63,13 @@ fn bumps(rx: &mut mpsc::UnboundedReceiver<Update<ContactScan>>) -> (usize, usize
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn orsa_goto_reaches_a_place_through_a_planner_in_the_executives_process_and_names_why_it_rejects() {
+async fn orsa_goto_and_ros2_goal_pose_reach_places_through_a_planner_in_the_executives_process() {
     let sys = System::new("goto");
-    let mut robot = sys.robot(&["--world", WORLD, "--config", NAVIGATION]);
+    let report = super::links::report_path("goto-robot");
+    let report_arg = report.to_str().expect("utf-8");
+    let mut robot = sys.robot(&[
+        "--world", WORLD, "--config", NAVIGATION, "--ros2", "--domain", "23", "--report", report_arg,
+    ]);
     let config = executive_config(&sys, r#"[{ mode = "stop" }]"#);
     let executive = sys.run("executive", "executive", &["--config", config.to_str().expect("utf-8")]);
     let (registry, t) = sys.observe().await;
@@ -97,11 +101,53 @@ async fn orsa_goto_reaches_a_place_through_a_planner_in_the_executives_process_a
         feedback.iter().filter(|f| f.state == NavState::Active).map(|f| f.distance_left_m).collect();
     assert!(active.len() >= 5, "feedback about every second while it drives: {out}");
     assert!(active.last().expect("active") < &1.0, "it came close: {out}");
+
+    // From ROS 2, as RViz's "2D Goal Pose" sends one: room-2, at (12.0, 3.0), facing +y. The
+    // fixture sends one in the odom frame first, which is refused.
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let nav = PushNewestClient::<NavFeedback>::connect_to(
+        &registry,
+        orsa::interfaces::navigation::NAVIGATION.on("planner"),
+        Sink::channel(tx),
+    )
+    .expect("navigation client");
+    nav.subscribe().expect("subscribe");
+    let sent = super::ros2::fixture(
+        &sys,
+        "goal",
+        &["--domain", "23", "--x", "12", "--y", "3", "--yaw", "1.5708"],
+        Duration::from_secs(60),
+        &[&robot],
+    )
+    .await;
+    assert_eq!(sent["sent"], 2, "{sent}");
+    let done = tokio::time::timeout(Duration::from_secs(120), async {
+        loop {
+            let f = rx.recv().await.expect("navigation feedback").value.clone();
+            if f.state.is_final() {
+                return f;
+            }
+        }
+    })
+    .await
+    .unwrap_or_else(|_| panic!("the ROS 2 goal did not end within 120 s\n{}", executive.log_text()));
+    assert_eq!(done.state, NavState::Succeeded, "{done:?}");
+    assert_eq!(done.goal, Some([12.0, 3.0]), "{done:?}");
+    assert_eq!(
+        done.id,
+        last.id + 1,
+        "the goal after room-1's: the one in the odom frame never reached the planner"
+    );
+
     let (readings, pressed) = bumps(&mut contacts);
     assert!(readings > 100, "bumper readings came: {readings}");
     assert_eq!(pressed, 0, "no bump on the way");
     robot.signal("-INT");
     let _ = robot.child.wait();
+    let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{}: {e}", report.display()));
+    let r: orsa::remote::RobotReport = serde_json::from_str(&text).expect("the robot's report");
+    let ros2 = r.ros2.expect("the ROS 2 face's report");
+    assert_eq!((ros2.goal_pose_accepted, ros2.goal_pose_refused), (Some(1), Some(1)), "{text}");
     t.close().await;
 }
 

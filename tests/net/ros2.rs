@@ -17,7 +17,7 @@ use orsa::remote::RobotReport;
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/ros2_node.py");
 
 /// Runs the fixture in `mode` against the system, within `within`: its JSON line.
-async fn fixture(
+pub(crate) async fn fixture(
     sys: &System,
     mode: &str,
     extra: &[&str],

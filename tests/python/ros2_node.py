@@ -8,6 +8,7 @@ message definitions, CDR codec and RIHS01 type hashes are rosbags' (its ROS 2 Ja
     ros2_node.py --connect tcp/127.0.0.1:7447 robot       # be a ROS 2 robot in a corridor
     ros2_node.py --connect tcp/127.0.0.1:7447 at-wall     # drive a robot at a wall at top speed
     ros2_node.py --connect tcp/127.0.0.1:7447 params      # ros2 param list/get/set on its node
+    ros2_node.py --connect tcp/127.0.0.1:7447 goal --x 12 --y 3 --yaw 1.57  # RViz's 2D Goal Pose
 
 Each mode prints one line of JSON (its findings) and exits 0, or exits non-zero saying what did
 not hold.
@@ -822,6 +823,35 @@ def params(node, args):
     }
 
 
+def goal(node, args):
+    """Sends a goal as RViz's "2D Goal Pose" tool does: one geometry_msgs/msg/PoseStamped in the
+    map frame on /goal_pose, once the robot's node announces its subscription there (with
+    Jazzy's type hash). Also sends one in the odom frame first, which must be refused."""
+    ros_type = "geometry_msgs/msg/PoseStamped"
+    want = (dds_name(ros_type), TS.hash_rihs01(ros_type))
+    types = subscribed_types(node, "/goal_pose", 1, within=30)
+    if want not in types:
+        fail(f"/goal_pose subscriptions announced {sorted(types)}, not {want}")
+    pub = node.publisher("/goal_pose", ros_type)
+    # Let the robot's subscriber see the publisher's token before the first message.
+    time.sleep(0.5)
+    T = TS.types
+    now = time.time_ns()
+
+    def pose(frame):
+        stamp = T["builtin_interfaces/msg/Time"](sec=now // 10**9, nanosec=now % 10**9)
+        header = T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+        position = T["geometry_msgs/msg/Point"](x=args.x, y=args.y, z=0.0)
+        q = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(args.yaw / 2), w=math.cos(args.yaw / 2))
+        return T[ros_type](header=header, pose=T["geometry_msgs/msg/Pose"](position=position, orientation=q))
+
+    pub(pose("odom"))
+    time.sleep(0.2)
+    pub(pose("map"))
+    time.sleep(0.5)
+    return {"sent": 2, "subscribed": list(want)}
+
+
 def subscribed_or_published(node, topic, kind, within=10):
     """The QoS of the first `kind` (MP, MS) token on `topic`, once one is seen."""
     found = []
@@ -852,13 +882,17 @@ def main():
     parser.add_argument("--cmd-type", default="geometry_msgs/msg/TwistStamped",
                         help="robot: the type it takes on /cmd_vel")
     parser.add_argument("--target-node", default="orsa", help="params: the node whose parameters to use")
-    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall", "params"])
+    parser.add_argument("--x", type=float, default=0.0, help="goal: x in the map, m")
+    parser.add_argument("--y", type=float, default=0.0, help="goal: y in the map, m")
+    parser.add_argument("--yaw", type=float, default=0.0, help="goal: the heading, rad")
+    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall", "params", "goal"])
     args = parser.parse_args()
     node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",
                                              "robot": "fixture_robot", "at-wall": "fixture_teleop",
-                                             "params": "fixture_param_client"}[args.mode])
+                                             "params": "fixture_param_client", "goal": "fixture_rviz"}[args.mode])
     try:
-        modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall, "params": params}
+        modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall, "params": params,
+                 "goal": goal}
         result = modes[args.mode](node, args)
     finally:
         node.close()

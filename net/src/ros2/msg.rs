@@ -177,6 +177,22 @@ pub struct Pose {
     pub orientation: Quaternion,
 }
 
+/// `geometry_msgs/msg/PoseStamped`: a pose in a frame, what RViz's "2D Goal Pose" publishes on
+/// `/goal_pose`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Header.
+    pub header: Header,
+    /// The pose.
+    pub pose: Pose,
+}
+message!(
+    PoseStamped,
+    "geometry_msgs",
+    "PoseStamped",
+    "10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8"
+);
+
 /// A 6x6 covariance, row major (`float64[36]`): a fixed-size array, which CDR writes without a
 /// length.
 #[derive(Debug, Clone, Copy, PartialEq)]

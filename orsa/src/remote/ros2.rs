@@ -34,6 +34,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+pub mod goal;
 mod params;
 mod tf;
 pub use params::ParamServices;
@@ -48,6 +49,13 @@ pub struct Ros2Report {
     /// `/cmd_vel` messages refused for coming faster than `ros2.cmd_vel_rate_hz` allows
     /// (beyond a burst of `ros2.cmd_vel_burst`).
     pub cmd_vel_rate_refused: u64,
+    /// `/goal_pose` goals the planner accepted (where the system navigates).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal_pose_accepted: Option<u64>,
+    /// `/goal_pose` goals refused: in another frame than `map`, not finite, rejected by the
+    /// planner (its reason is logged), or the planner could not be reached.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal_pose_refused: Option<u64>,
     /// `--hardware ros2`: where the laser was placed on the base.
     #[serde(default)]
     pub laser: Option<LaserPlacement>,
@@ -92,6 +100,8 @@ pub struct FacedRobot<'a> {
     pub params: &'a RobotParams,
     /// Its odometry's drift model (the covariances of `/odom`).
     pub drift: &'a OdometryConfig,
+    /// The planner that takes navigation goals (`/goal_pose`), if the system navigates.
+    pub planner: Option<&'a str>,
 }
 
 /// The robot's ROS 2 face; publishing and taking commands while it lives.
@@ -103,6 +113,8 @@ pub struct RobotRos2 {
     _clients: Vec<Box<dyn std::any::Any + Send>>,
     _params: ParamServices,
     _rosout: crate::logline::RouteGuard,
+    /// `/goal_pose`, where the system has a planner that navigates.
+    goals: Option<(Ros2Subscription, Arc<goal::GoalCounts>)>,
 }
 
 /// Publishes orsa's log lines ([`crate::logline`]) on `/rosout` as `rcl_interfaces/msg/Log`,
@@ -161,7 +173,7 @@ impl RobotRos2 {
         domain: u32,
         params_of: ParamDirectory,
     ) -> anyhow::Result<Self> {
-        let FacedRobot { name: robot, params, drift } = *robot;
+        let FacedRobot { name: robot, params, drift, planner } = *robot;
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
         let param_services = ParamServices::serve(&node, params_of).await?;
@@ -230,8 +242,13 @@ impl RobotRos2 {
                 }
             })
             .await?;
+        let goals = match planner {
+            Some(p) => Some(goal::take_goals(&node, registry, p).await?),
+            None => None,
+        };
         Ok(RobotRos2 {
             node,
+            goals,
             forwarded,
             rate_refused,
             _cmd_vel: cmd_vel,
@@ -247,6 +264,8 @@ impl RobotRos2 {
             node: self.node.stats(),
             cmd_vel_forwarded: self.forwarded.load(Ordering::Relaxed),
             cmd_vel_rate_refused: self.rate_refused.load(Ordering::Relaxed),
+            goal_pose_accepted: self.goals.as_ref().map(|(_, c)| c.accepted.load(Ordering::Relaxed)),
+            goal_pose_refused: self.goals.as_ref().map(|(_, c)| c.refused.load(Ordering::Relaxed)),
             laser: None,
         }
     }
