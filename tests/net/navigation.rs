@@ -70,8 +70,9 @@ async fn orsa_goto_and_ros2_goal_pose_reach_places_through_a_planner_in_the_exec
     let mut robot = sys.robot(&[
         "--world", WORLD, "--config", NAVIGATION, "--ros2", "--domain", "23", "--report", report_arg,
     ]);
-    let config = executive_config(&sys, r#"[{ mode = "stop" }]"#);
-    let executive = sys.run("executive", "executive", &["--config", config.to_str().expect("utf-8")]);
+    // The shipped config of a planner that waits for goals.
+    let goals = concat!(env!("CARGO_MANIFEST_DIR"), "/config/goals.toml");
+    let executive = sys.run("executive", "executive", &["--config", goals]);
     let (registry, t) = sys.observe().await;
     let bumpers: orsa_actors::ServiceAddr = "nomad200/bumpers".parse().expect("addr");
     t.wait_for(&[bumpers], STARTUP).await.expect("the robot is up");
