@@ -222,3 +222,53 @@ fn a_mission_of_places_needs_the_navigation_components_and_names_the_key() {
     let e = orsa::config::Config::from_toml(bad, "both.toml").expect_err("two kinds in a step").to_string();
     assert!(e.contains("params.planner.mission[0]") && e.contains("exactly one"), "{e}");
 }
+
+/// A goal from outside (as `orsa goto` gives one) on the shipped `config/goals.toml`, given as
+/// the system comes up, before the localizer's first estimate: accepted, it waits for the
+/// estimate, then drives there and ends `succeeded` with the true pose at the place.
+#[tokio::test(start_paused = true)]
+async fn a_goal_given_before_the_first_estimate_waits_for_it_and_is_reached() {
+    use orsa::interfaces::navigation::{NAVIGATE, NAVIGATION, NavGoal, NavReply, NavState, NavTarget};
+    use orsa_actors::push_newest::PushNewestClient;
+    use orsa_actors::query::QueryClient;
+    let root = env!("CARGO_MANIFEST_DIR");
+    let world = World::from_path(&format!("{root}/worlds/office.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let config = orsa::config::Config::load(std::path::Path::new(&format!("{root}/config/goals.toml")))
+        .expect("config/goals.toml");
+    let stack =
+        orsa::mission::stack::Stack::builder(&config, world).seed(3).start().await.expect("the stack");
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let feedback = PushNewestClient::connect_to(
+        &stack.registry,
+        NAVIGATION.on("planner"),
+        orsa_actors::Sink::channel(tx),
+    )
+    .expect("navigation");
+    feedback.subscribe().expect("subscribe");
+    let goal = NavGoal { target: NavTarget::Place { name: "room-1".into() } };
+    let reply = QueryClient::connect(&stack.registry, NAVIGATE.on("planner"))
+        .expect("navigate")
+        .query(goal, Some(Duration::from_secs(5)))
+        .await
+        .expect("an answer");
+    let NavReply::Accepted { id } = reply else { panic!("{reply:?}") };
+    let first = rx.recv().await.expect("feedback").value.clone();
+    assert_eq!((first.id, first.state), (id, NavState::Active), "{first:?}");
+    assert_eq!(first.reason, "waiting for the first estimate of the robot's pose", "{first:?}");
+    let end = tokio::time::timeout(Duration::from_secs(120), async {
+        loop {
+            let f = rx.recv().await.expect("feedback").value.clone();
+            if f.state.is_final() {
+                return f;
+            }
+        }
+    })
+    .await
+    .expect("the goal ends within 120 s");
+    assert_eq!((end.id, end.state), (id, NavState::Succeeded), "{end:?}");
+    let t = stack.truth().expect("simulated").truth();
+    // room-1 is at (5.0, 2.5).
+    let off = (t.x_m - 5.0).hypot(t.y_m - 2.5);
+    assert!(off < 0.25, "the true pose is {off:.2} m from room-1");
+    stack.shutdown().await;
+}
