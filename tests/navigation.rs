@@ -232,7 +232,7 @@ async fn a_goal_given_before_the_first_estimate_waits_for_it_and_is_reached() {
     use orsa_actors::push_newest::PushNewestClient;
     use orsa_actors::query::QueryClient;
     let root = env!("CARGO_MANIFEST_DIR");
-    let world = World::from_path(&format!("{root}/worlds/office.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let world = World::from_path(format!("{root}/worlds/office.toml")).unwrap_or_else(|e| panic!("{e}"));
     let config = orsa::config::Config::load(std::path::Path::new(&format!("{root}/config/goals.toml")))
         .expect("config/goals.toml");
     let stack =

@@ -654,6 +654,13 @@ impl Config {
         Ok(c)
     }
 
+    /// The planner that takes navigation goals (`orsa goto`, ROS 2's and Foxglove's
+    /// `/goal_pose`), if the system has one and the map it plans on.
+    pub fn navigating_planner(&self) -> Option<&str> {
+        self.of_kind(&[orsa_interfaces::map::NAME])?;
+        self.of_kind(&["planner"]).map(|c| c.name.as_str())
+    }
+
     /// The first component of the system of one of `kinds`.
     fn of_kind(&self, kinds: &[&str]) -> Option<&crate::system::ComponentSpec> {
         self.system.components.iter().find(|c| kinds.contains(&c.kind()))

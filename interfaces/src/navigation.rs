@@ -119,6 +119,30 @@ impl NavTarget {
     }
 }
 
+impl NavTarget {
+    /// The goal a stamped pose names (ROS's `geometry_msgs/PoseStamped`, as RViz's and
+    /// Foxglove's pose tools publish one): a position in `frame`, which must be the map's (or
+    /// empty, taken as the map's), and the heading of the rotation `[x, y, z, w]` (any length
+    /// but zero); or why it names none.
+    pub fn from_pose(frame: &str, x_m: f64, y_m: f64, rotation: [f64; 4]) -> Result<NavTarget, String> {
+        let map = crate::map::MAP_FRAME;
+        if !(frame.trim_start_matches('/').is_empty() || frame.trim_start_matches('/') == map) {
+            return Err(format!("frame '{frame}': goals are taken in '{map}'"));
+        }
+        if !(x_m.is_finite() && y_m.is_finite()) {
+            return Err(format!("position ({x_m}, {y_m}) is not finite"));
+        }
+        let [qx, qy, qz, qw] = rotation;
+        let norm = (qx * qx + qy * qy + qz * qz + qw * qw).sqrt();
+        if !(norm.is_finite() && norm > 1e-6) {
+            return Err(format!("orientation ({qx}, {qy}, {qz}, {qw}) is not a rotation"));
+        }
+        let (qx, qy, qz, qw) = (qx / norm, qy / norm, qz / norm, qw / norm);
+        let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+        Ok(NavTarget::Pose { x_m, y_m, heading_deg: Some(yaw.to_degrees()) })
+    }
+}
+
 impl std::fmt::Display for NavTarget {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -239,6 +263,30 @@ mod tests {
         for bad in ["", "1", "1,2,3,4", "1,x", "1,NaN", "1,inf"] {
             assert!(NavTarget::parse(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn stamped_poses_in_the_map_are_goals_with_their_heading_and_the_rest_is_refused_naming_why() {
+        let half = std::f64::consts::FRAC_PI_4;
+        let t = NavTarget::from_pose("map", 1.5, 2.0, [0.0, 0.0, half.sin(), half.cos()]).expect("a goal");
+        let NavTarget::Pose { x_m, y_m, heading_deg: Some(h) } = t else { panic!("{t:?}") };
+        assert_eq!((x_m, y_m), (1.5, 2.0));
+        assert!((h - 90.0).abs() < 1e-9, "{h}");
+        assert!(NavTarget::from_pose("/map", 1.0, 0.0, [0.0, 0.0, 0.0, 1.0]).is_ok());
+        assert!(NavTarget::from_pose("", 1.0, 0.0, [0.0, 0.0, 0.0, 1.0]).is_ok(), "no frame: the map");
+        // A rotation not of unit length is the same rotation.
+        let Ok(NavTarget::Pose { heading_deg: Some(h), .. }) =
+            NavTarget::from_pose("map", 1.0, 0.0, [0.0, 0.0, 2.0, 0.0])
+        else {
+            panic!()
+        };
+        assert!((h.abs() - 180.0).abs() < 1e-9, "{h}");
+        let e = NavTarget::from_pose("odom", 1.0, 0.0, [0.0, 0.0, 0.0, 1.0]).expect_err("odom");
+        assert_eq!(e, "frame 'odom': goals are taken in 'map'");
+        let e = NavTarget::from_pose("map", f64::NAN, 0.0, [0.0, 0.0, 0.0, 1.0]).expect_err("NaN");
+        assert!(e.contains("not finite"), "{e}");
+        let e = NavTarget::from_pose("map", 1.0, 0.0, [0.0; 4]).expect_err("zero");
+        assert!(e.contains("not a rotation"), "{e}");
     }
 
     #[test]

@@ -94,7 +94,9 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     }
     // The live server starts before the run; its parameters are the run's once it is up.
     let params = orsa::live::params::Pending::default();
-    let teleop = Arc::new(orsa::live::publish::Teleop::pending(config.robot_name()));
+    let teleop = Arc::new(
+        orsa::live::publish::Teleop::pending(config.robot_name()).with_planner(config.navigating_planner()),
+    );
     let live = match args.foxglove {
         Some(addr) => {
             let setup = mission::recording::view_setup(&config, Some(world.clone()), true);

@@ -566,6 +566,38 @@ async def teleop(url):
     }
 
 
+async def goal(url, x, y, yaw):
+    """Sends a navigation goal as the 3D panel's pose tool does, set to publish on /goal_pose: a
+    JSON geometry_msgs/msg/PoseStamped in the map frame (the spec's client publish). Then the same
+    goal in the odom frame, which must be refused with a status."""
+    ws, info, channels = await handshake(url, {"/tf"})
+    if "clientPublish" not in info.get("capabilities", []):
+        fail(f"the server does not take client messages: {info.get('capabilities')}")
+    await ws.send(json.dumps({"op": "advertise", "channels": [
+        {"id": 1, "topic": "/goal_pose", "encoding": "json", "schemaName": "geometry_msgs/msg/PoseStamped"},
+    ]}))
+    now = time.time()
+
+    def pose(frame):
+        return {"header": {"stamp": {"sec": int(now), "nanosec": int((now % 1) * 1e9)}, "frame_id": frame},
+                "pose": {"position": {"x": x, "y": y, "z": 0.0},
+                         "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}}
+
+    statuses = []
+    for frame in ["map", "odom"]:
+        await ws.send(struct.pack("<BI", 0x01, 1) + json.dumps(pose(frame)).encode())  # client "Message Data"
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            try:
+                m = await recv_json(ws, max(0.01, end - time.monotonic()))
+            except Exception:
+                break
+            if m is not None and m.get("op") == "status":
+                statuses.append({"level": m.get("level"), "message": m.get("message")})
+    await ws.close()
+    return {"sent": 2, "statuses": statuses}
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("url")
@@ -574,8 +606,12 @@ def main():
     p.add_argument("--time-base", action="store_true", help="check every message's stamps only")
     p.add_argument("--watch-param", metavar="NAME", help="print the first update of NAME pushed")
     p.add_argument("--teleop", action="store_true", help="drive the robot by client publish")
+    p.add_argument("--goal", metavar="X,Y,YAW", help="send a navigation goal on /goal_pose (yaw in rad)")
     a = p.parse_args()
-    if a.teleop:
+    if a.goal:
+        x, y, yaw = (float(v) for v in a.goal.split(","))
+        out = asyncio.run(goal(a.url, x, y, yaw))
+    elif a.teleop:
         out = asyncio.run(teleop(a.url))
     elif a.watch_param:
         out = asyncio.run(watch_param(a.url, a.watch_param, a.seconds))

@@ -371,6 +371,7 @@ impl Drop for LiveView {
 
 /// For `orsa robot` and `orsa executive` (process `who`): if `addr` is given, starts a live
 /// view of `setup` there and installs its tap on `registry`, beside `recording`'s if any.
+/// Clients may publish velocity commands, and goals for `planner` if it is given.
 pub fn serve_process(
     registry: &orsa_actors::Registry,
     addr: Option<SocketAddr>,
@@ -378,10 +379,11 @@ pub fn serve_process(
     setup: ViewSetup,
     recording: Option<Arc<dyn orsa_actors::tap::Tap>>,
     components: Vec<String>,
+    planner: Option<&str>,
 ) -> Result<Option<LiveView>, LiveError> {
     let Some(addr) = addr else { return Ok(None) };
     let params = crate::system::live_params::ParamDirectory::new(registry, components);
-    let teleop = Arc::new(publish::Teleop::new(registry, &setup.robot));
+    let teleop = Arc::new(publish::Teleop::new(registry, &setup.robot).with_planner(planner));
     let live = LiveView::start(addr, setup, Some(Arc::new(params)), Some(teleop))?;
     registry.set_tap(tap::both(recording, Some(live.tap() as Arc<dyn orsa_actors::tap::Tap>)));
     eprintln!("{who}: foxglove: serving this process's views on ws://{}", live.addr());

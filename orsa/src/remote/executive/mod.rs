@@ -85,6 +85,7 @@ async fn run(args: ExecutiveOptions, checked: Checked) -> anyhow::Result<crate::
         crate::mission::recording::view_setup(config, None, false),
         recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
         config.system.components.iter().map(|c| c.name.clone()).collect(),
+        config.navigating_planner(),
     )?;
     let top = crate::ending::TopWatch::new(EXECUTIVE_TOP);
     let events = Arc::new(parking_lot::Mutex::new(Vec::new()));

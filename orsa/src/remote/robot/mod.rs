@@ -97,6 +97,7 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
         crate::mission::recording::view_setup(config, Some(checked.world.clone()), false),
         recording.clone().map(|r| r as Arc<dyn orsa_actors::tap::Tap>),
         config.system.components.iter().map(|c| c.name.clone()).collect(),
+        config.navigating_planner(),
     )?;
     let events_live = live.as_ref().map(crate::live::LiveView::tap);
     if let Some(tap) = &recording {

@@ -128,14 +128,12 @@ impl Faces {
     ) -> anyhow::Result<()> {
         let name = &config.robot_name();
         if args.ros2 {
-            let kind = |k: &str| config.system.components.iter().find(|c| c.kind() == k);
-            // Goals on /goal_pose where the system has a planner and the map it plans on.
-            let planner = kind("planner").filter(|_| kind(orsa_interfaces::map::NAME).is_some());
             let faced = ros2::FacedRobot {
                 name,
                 params: &robot.params,
                 drift: &config.sim.odometry,
-                planner: planner.map(|p| p.name.as_str()),
+                // Goals on /goal_pose where the system has a planner and the map it plans on.
+                planner: config.navigating_planner(),
             };
             let face = ros2::RobotRos2::start(
                 registry,
