@@ -439,13 +439,6 @@ async fn measure(duration_s: f64, arm: Arm) -> anyhow::Result<SenseToAct> {
     acts.lock().clear();
     say(format!("  sense to act: the stack in real time for {duration_s:.0} s"));
     tokio::time::sleep(Duration::from_secs_f64(duration_s)).await;
-    let safety = QueryClient::<Empty, SafetyCounters>::connect(
-        &registry,
-        orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
-    )?
-    .query(Empty {}, Some(Duration::from_secs(1)))
-    .await
-    .context("the robot server's safety counters")?;
     let acts: Vec<Act> = std::mem::take(&mut *acts.lock());
     let steps: Vec<Step> = std::mem::take(&mut *steps.lock());
     let live_client = match server {
@@ -456,8 +449,8 @@ async fn measure(duration_s: f64, arm: Arm) -> anyhow::Result<SenseToAct> {
             let s = server.finish();
             let taken = s.published.map_or(0, |p| p.taken);
             say(format!(
-                "  live view: {subscribed} channels subscribed, {messages} messages read, {} dropped; {published} commands published, {taken} handed to teleop, {} refused by the robot as stale",
-                s.dropped, safety.stale_refused
+                "  live view: {subscribed} channels subscribed, {messages} messages read, {} dropped; {published} commands published, {taken} handed to teleop",
+                s.dropped
             ));
             Some(crate::LiveClient {
                 subscribed,
@@ -470,6 +463,18 @@ async fn measure(duration_s: f64, arm: Arm) -> anyhow::Result<SenseToAct> {
         }
         None => None,
     };
+    // Asked once the client has stopped and the server has finished: every command handed to
+    // teleop is in the robot server's mailbox ahead of this query, so its counters hold them.
+    let safety = QueryClient::<Empty, SafetyCounters>::connect(
+        &registry,
+        orsa_interfaces::nomad200::SAFETY.on(robot.as_str()),
+    )?
+    .query(Empty {}, Some(Duration::from_secs(1)))
+    .await
+    .context("the robot server's safety counters")?;
+    if live_client.is_some() {
+        say(format!("  live view: {} commands refused by the robot as stale", safety.stale_refused));
+    }
     let ros2_calls = match ros2 {
         Some(side) => {
             let calls = side.finish().await?;
