@@ -84,7 +84,7 @@ fn the_nomad_is_localized_on_the_corridor_and_the_office_floor() {
 
 #[test]
 fn paths_from_the_start_reach_every_place_of_every_shipped_world_clear_of_everything() {
-    for file in ["office", "loop", "lshape", "narrow", "hall"] {
+    for file in ["office", "suite", "loop", "lshape", "narrow", "hall"] {
         let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
         let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
         assert!(world.places.len() >= 3, "{file}: {} places", world.places.len());
@@ -271,4 +271,75 @@ async fn a_goal_given_before_the_first_estimate_waits_for_it_and_is_reached() {
     let off = (t.x_m - 5.0).hypot(t.y_m - 2.5);
     assert!(off < 0.25, "the true pose is {off:.2} m from room-1");
     stack.shutdown().await;
+}
+
+/// Room 3's corridor door, x 19.5-20.5 in the wall at y 5, and a box that fills it.
+const DOOR_BOX: ([f64; 2], [f64; 2]) = ([19.45, 4.75], [20.55, 5.25]);
+
+/// Runs a mission of places on `worlds/FILE.toml` with a box put down in room 3's corridor door
+/// as the run starts (it is not on the map): the report, and when the robot's body first came
+/// within its infrared's reach of the box (s, from the true trajectory).
+async fn mission_with_door_box(
+    file: &str,
+    targets: &[&str],
+    seed: u64,
+) -> (orsa::mission::report::Report, f64) {
+    let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let targets: Vec<String> = targets.iter().map(|t| t.to_string()).collect();
+    let config = orsa::config::Config::default().with_goto(&targets).expect("a config with the places");
+    let (min, max) = DOOR_BOX;
+    let plan = format!(
+        "[[fault]]\nat = 0.5\nkind = \"box_placed\"\ntarget = \"world\"\nmin = {min:?}\nmax = {max:?}\n"
+    );
+    let plan =
+        orsa::faults::FaultPlan::parse(&plan, "door.toml", &orsa::faults::PlanTargets::for_stack(&config))
+            .expect("the plan");
+    let reach = SimConfig::default().infrared.max_range_m;
+    let mut o = orsa::mission::RunOptions::new(world, file, config, seed, 600.0);
+    o.until_mission_ends = true;
+    o.faults = Some(plan);
+    let out = orsa::mission::run(o).await.expect("a report");
+    let near = |x: f64, y: f64| {
+        let dx = (min[0] - x).max(x - max[0]).max(0.0);
+        let dy = (min[1] - y).max(y - max[1]).max(0.0);
+        dx.hypot(dy) <= 0.25 + reach
+    };
+    let seen = out.metrics.trajectory.iter().find(|(_, x, y, _)| near(*x, *y)).map(|s| s.0);
+    (out.report, seen.expect("the robot came within reach of the box"))
+}
+
+/// With room 3's only door blocked, the goal there is aborted with "no path" within 30 s of
+/// the robot first coming within its sensors' reach of the box, and the mission goes on.
+#[tokio::test(start_paused = true)]
+async fn a_goal_behind_a_blocked_door_with_no_other_way_is_aborted_no_path() {
+    let (r, seen_s) = mission_with_door_box("office", &["room-3", "room-2"], 1).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}\nbox within reach at {seen_s:.1} s", nav.table());
+    let g = &nav.goals[0];
+    assert_eq!((g.target.as_str(), g.status.as_str()), ("room-3", "aborted"), "{g:?}");
+    assert!(g.reason.starts_with("no path"), "{g:?}");
+    // The goal started as the run did (the first estimate comes within a second).
+    assert!(g.time_s - seen_s <= 30.0, "aborted {:.1} s after the box came within reach", g.time_s - seen_s);
+    assert_eq!(nav.goals[1].status, "succeeded", "{:?}", nav.goals[1]);
+    assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+    let faults = r.faults.as_ref().expect("a faults section");
+    assert_eq!(faults.injected.get("box_placed"), Some(&1), "{faults:?}");
+}
+
+/// With room 3's corridor door blocked and a second way in through room 2, the goal is reached
+/// that way: from room 5 the corridor door is the short way (about 9 m, through room 2 about
+/// 14 m), and the robot drove farther than the shortest way on the map without the box.
+#[tokio::test(start_paused = true)]
+async fn a_goal_behind_a_blocked_door_is_reached_by_another_way() {
+    let (r, seen_s) = mission_with_door_box("suite", &["room-5", "room-3"], 1).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}\nbox within reach at {seen_s:.1} s", nav.table());
+    assert_eq!(nav.goals[0].status, "succeeded", "{:?}", nav.goals[0]);
+    let g = &nav.goals[1];
+    assert_eq!(g.status, "succeeded", "{g:?}");
+    assert!(g.final_error_m.is_some_and(|e| e < 0.25), "{g:?}");
+    let shortest = g.shortest_m.expect("a shortest path");
+    assert!(g.path_m > shortest + 3.0, "{g:?}: went through room 2, not the blocked door");
+    assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
 }

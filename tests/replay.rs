@@ -91,6 +91,9 @@ fn one_fault_plan(kind: &str, target: &str) -> String {
         "drop" | "duplicate" | "sensor_stuck" | "sensor_dropout" | "motor_stall" => "duration = 1.5\n",
         "delay" => "duration = 1.5\ndelay_s = 0.25\n",
         "sensor_noise" => "duration = 1.5\nsigma_m = 0.05\n",
+        // In the corridor's middle, 3-4 m ahead of the robot, clear of the people's paths.
+        "box_placed" => "duration = 1.5\nmin = [7.0, 1.0]\nmax = [7.4, 1.4]\n",
+        "kidnap" => "to = [10.0, 1.2, 0.0]\n",
         _ => "",
     };
     [8.0, 13.337]
@@ -101,8 +104,9 @@ fn one_fault_plan(kind: &str, target: &str) -> String {
 
 /// Every fault kind a single-process plan accepts, on every target it accepts (each component
 /// killed, panicked, hung; each Send and push service dropped, delayed, duplicated; each sensor
-/// ring stuck, dead, noisy; the motors stalled), at an instant the periodic services share and
-/// at one they do not: every recording replays bit for bit. (A kill of the master used to make
+/// ring stuck, dead, noisy; the motors stalled; a box put down, the robot carried elsewhere), at
+/// an instant the periodic services share and at one they do not: every recording replays bit
+/// for bit. (A kill of the master used to make
 /// the replay part at the kill's instant: the restarted master's unwiring raced with the
 /// behaviours' commands of that instant, and the race went the other way in the replay.)
 #[tokio::test(start_paused = true)]
@@ -121,6 +125,8 @@ async fn a_replay_is_bit_exact_under_every_fault_kind_on_every_target() {
         cells.extend(["sensor_stuck", "sensor_dropout", "sensor_noise"].map(|k| (k, ring.to_string())));
     }
     cells.push(("motor_stall", "motors".into()));
+    cells.push(("box_placed", "world".into()));
+    cells.push(("kidnap", "robot".into()));
     let kinds: std::collections::BTreeSet<&str> = cells.iter().map(|(k, _)| *k).collect();
     let single_process: Vec<&str> =
         orsa::faults::KINDS.iter().copied().filter(|k| *k != "link_cut").collect();

@@ -135,6 +135,12 @@ impl Faults {
         self.inner.log.lock().push(FaultEvent { at: self.clock.now(), target: target.to_string(), what });
     }
 
+    /// Writes `what` happened to `target` into the log: for faults injected outside the
+    /// framework (the simulated world's events), so the log holds every fault of a plan.
+    pub fn note(&self, target: &str, what: FaultEventKind) {
+        self.log(target, what);
+    }
+
     /// Makes `component`'s next handler fail this way (once).
     pub fn arm(&self, component: &str, fault: HandlerFault) {
         {

@@ -57,6 +57,7 @@ mod odometry;
 mod rings;
 mod scene;
 mod sensor_board;
+mod stage;
 mod truth;
 
 pub use config::{
@@ -65,6 +66,7 @@ pub use config::{
 };
 pub use driver::{SimMotorBoard, SimRobot, SimSensorBoard, SimTruth};
 pub use movers::MoverTruth;
+pub use stage::{SimStage, StageError};
 pub use truth::{Side, Truth};
 
 use bumpers::Bumpers;

@@ -22,6 +22,8 @@
 //! | `sensor_stuck`, `sensor_dropout`, `sensor_noise` | a ring: `sonar`, `infrared`, `bumpers` | yes | `sigma_m` for `sensor_noise` |
 //! | `motor_stall` | `motors` | yes | |
 //! | `link_cut` | a process role: `executive`, `teleop`, `tool` from the robot; `robot`, `teleop`, `tool` from the executive | yes | only in `orsa robot --faults` and `orsa executive --faults` |
+//! | `box_placed` | `world` | optional (taken away at its end) | `min = [x, y]`, `max = [x, y]`; a simulated robot's process only |
+//! | `kidnap` | `robot` | no | `to = [x, y, heading_deg]`; a simulated robot's process only |
 //!
 //! Every error names the fault (its number and line in the file) and what is wrong with it,
 //! and lists what would have been accepted.
@@ -30,6 +32,6 @@ mod plan;
 mod report;
 mod run;
 
-pub use plan::{Action, FaultPlan, KINDS, PlanError, PlanTargets, PlannedFault};
+pub use plan::{Action, FaultPlan, KINDS, PlanError, PlanTargets, PlannedFault, WORLD_EVENTS};
 pub use report::{FaultSafety, FaultsReport, LinkCutReport, LossFigures, restarts_of};
 pub use run::{FaultTargets, LinkSwitch, run_plan};

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
 /// The kinds of fault, as plans name them.
-pub const KINDS: [&str; 11] = [
+pub const KINDS: [&str; 13] = [
     "panic",
     "hang",
     "kill",
@@ -21,7 +21,14 @@ pub const KINDS: [&str; 11] = [
     "sensor_noise",
     "motor_stall",
     "link_cut",
+    "box_placed",
+    "kidnap",
 ];
+
+/// The kinds that change the simulated world rather than break a part of the robot: the
+/// standard plan (`config/faults.example.toml`, a corridor patrol that does not localize) leaves
+/// them out; the navigation tests put them in.
+pub const WORLD_EVENTS: [&str; 2] = ["box_placed", "kidnap"];
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -41,6 +48,9 @@ struct RawFault {
     until: Option<f64>,
     delay_s: Option<f64>,
     sigma_m: Option<f64>,
+    min: Option<[f64; 2]>,
+    max: Option<[f64; 2]>,
+    to: Option<[f64; 3]>,
 }
 
 /// What one fault does.
@@ -83,6 +93,22 @@ pub enum Action {
         /// The role.
         role: String,
     },
+    /// A box is put down in the simulated world (and taken away when the fault ends).
+    BoxPlaced {
+        /// Its corner with the smallest coordinates, m.
+        min: [f64; 2],
+        /// Its corner with the largest coordinates, m.
+        max: [f64; 2],
+    },
+    /// The simulated robot is picked up and set down elsewhere.
+    Kidnap {
+        /// Where, m.
+        x: f64,
+        /// .
+        y: f64,
+        /// Facing, degrees counter-clockwise from +x.
+        heading_deg: f64,
+    },
 }
 
 /// One fault of a plan, checked.
@@ -122,7 +148,8 @@ pub struct PlanTargets {
     /// The roles of the other processes this one may cut its link to (`link_cut`); empty in a
     /// single-process run.
     pub roles: Vec<String>,
-    /// Whether the robot's boards are here (sensor and motor faults).
+    /// Whether the robot's boards are here (sensor and motor faults, and the world events of
+    /// a simulated robot).
     pub boards: bool,
 }
 
@@ -342,6 +369,40 @@ fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> 
                  `orsa run` or `orsa robot --faults`"
             ));
         }
+        k @ ("box_placed" | "kidnap") if !targets.boards => {
+            return Err(format!(
+                "a '{k}' fault changes the simulated robot's world, which is not in this process: use \
+                 it with `orsa run` or `orsa robot --faults`"
+            ));
+        }
+        "box_placed" => {
+            if raw.target != "world" {
+                return Err(format!("unknown target '{}' for 'box_placed' (known: world)", raw.target));
+            }
+            let (Some(min), Some(max)) = (raw.min, raw.max) else {
+                return Err("a 'box_placed' fault needs min = [x, y] and max = [x, y] (metres)".into());
+            };
+            if !(min.iter().chain(&max).all(|v| v.is_finite()) && min[0] < max[0] && min[1] < max[1]) {
+                return Err(format!(
+                    "a box needs finite corners with min < max on both axes, not min = {min:?}, max = {max:?}"
+                ));
+            }
+            Action::BoxPlaced { min, max }
+        }
+        "kidnap" => {
+            if raw.target != "robot" {
+                return Err(format!("unknown target '{}' for 'kidnap' (known: robot)", raw.target));
+            }
+            let Some([x, y, heading_deg]) = raw.to else {
+                return Err(
+                    "a 'kidnap' fault needs to = [x, y, heading_deg]: where the robot is set down".into()
+                );
+            };
+            if !(x.is_finite() && y.is_finite() && heading_deg.is_finite()) {
+                return Err(format!("to must be finite, not [{x}, {y}, {heading_deg}]"));
+            }
+            Action::Kidnap { x, y, heading_deg }
+        }
         k @ ("sensor_stuck" | "sensor_dropout" | "sensor_noise") => {
             needs_duration(k)?;
             let ring = FaultRing::from_name(&raw.target).ok_or_else(|| {
@@ -384,8 +445,20 @@ fn check(raw: &RawFault, targets: &PlanTargets) -> Result<PlannedFault, String> 
         }
         other => return Err(format!("unknown kind '{other}' (known: {})", KINDS.join(", "))),
     };
+    let extra = |present: bool, keys: &str, kind: &str| -> Result<(), String> {
+        if present { Err(format!("{keys} only for '{kind}' faults, not for '{}'", raw.kind)) } else { Ok(()) }
+    };
+    extra(
+        (raw.min.is_some() || raw.max.is_some()) && !matches!(action, Action::BoxPlaced { .. }),
+        "min and max are",
+        "box_placed",
+    )?;
+    extra(raw.to.is_some() && !matches!(action, Action::Kidnap { .. }), "to is", "kidnap")?;
     if duration_s.is_some()
-        && matches!(action, Action::Panic { .. } | Action::Hang { .. } | Action::Kill { .. })
+        && matches!(
+            action,
+            Action::Panic { .. } | Action::Hang { .. } | Action::Kill { .. } | Action::Kidnap { .. }
+        )
     {
         return Err(format!("a '{}' fault is instantaneous: remove its duration", raw.kind));
     }
@@ -475,6 +548,48 @@ sigma_m = 0.02
             assert!(e.starts_with("plan.toml: "), "{e}");
             assert!(e.contains(expected), "{e}\n  should contain: {expected}");
         }
+    }
+
+    #[test]
+    fn world_events_parse_and_their_keys_are_checked() {
+        let ok = "[[fault]]\nat = 30\nkind = \"box_placed\"\ntarget = \"world\"\nmin = [4.0, 1.0]\nmax = [4.6, 2.0]\nduration = 60\n\n\
+                  [[fault]]\nat = 90\nkind = \"kidnap\"\ntarget = \"robot\"\nto = [12.0, 1.2, 180.0]\n";
+        let plan = FaultPlan::parse(ok, "plan.toml", &targets()).expect("world events");
+        assert_eq!(plan.faults[0].action, Action::BoxPlaced { min: [4.0, 1.0], max: [4.6, 2.0] });
+        assert_eq!(plan.faults[0].duration_s, Some(60.0));
+        assert_eq!(plan.faults[1].action, Action::Kidnap { x: 12.0, y: 1.2, heading_deg: 180.0 });
+        let head = |kind: &str, target: &str| {
+            format!("[[fault]]\nat = 1\nkind = \"{kind}\"\ntarget = \"{target}\"\n")
+        };
+        for (text, expected) in [
+            (head("box_placed", "world"), "needs min = [x, y] and max = [x, y]"),
+            (
+                head("box_placed", "door") + "min = [0, 0]\nmax = [1, 1]\n",
+                "unknown target 'door' for 'box_placed'",
+            ),
+            (head("box_placed", "world") + "min = [2, 0]\nmax = [1, 1]\n", "min < max on both axes"),
+            (head("kidnap", "robot"), "needs to = [x, y, heading_deg]"),
+            (
+                head("kidnap", "nomad200") + "to = [1, 1, 0]\n",
+                "unknown target 'nomad200' for 'kidnap' (known: robot)",
+            ),
+            (head("kidnap", "robot") + "to = [1, 1, 0]\nduration = 3\n", "instantaneous"),
+            (head("kidnap", "robot") + "to = [1, 1]\n", "line 5"),
+            (head("kill", "nomad200") + "to = [1, 1, 0]\n", "to is only for 'kidnap' faults, not for 'kill'"),
+            (
+                head("kidnap", "robot") + "to = [1, 1, 0]\nmin = [0, 0]\n",
+                "min and max are only for 'box_placed' faults",
+            ),
+        ] {
+            let e = FaultPlan::parse(&text, "plan.toml", &targets()).expect_err(&text).to_string();
+            assert!(e.contains(expected), "{e}\n  should contain: {expected}");
+        }
+        // Where the robot is not, neither is its world.
+        let e =
+            FaultPlan::parse(ok, "exec.toml", &PlanTargets::for_executive(&crate::config::Config::default()))
+                .expect_err("no world in the executive")
+                .to_string();
+        assert!(e.contains("changes the simulated robot's world, which is not in this process"), "{e}");
     }
 
     #[test]

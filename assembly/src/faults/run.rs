@@ -2,7 +2,7 @@
 //! plan names.
 
 use super::plan::{Action, FaultPlan};
-use orsa_actors::fault::{Faults, HandlerFault};
+use orsa_actors::fault::{FaultEventKind, Faults, HandlerFault};
 use orsa_hardware::faulty::BoardFaults;
 use std::time::Duration;
 
@@ -18,6 +18,9 @@ pub struct FaultTargets {
     pub boards: BoardFaults,
     /// Cuts (true) and restores (false) the link to processes of a role, where there are any.
     pub link: Option<LinkSwitch>,
+    /// The simulated world, for its events (`box_placed`, `kidnap`); `None` where the robot is
+    /// not simulated here (a replay's stand-in: what the sensors saw of them is recorded).
+    pub stage: Option<orsa_hardware::sim::SimStage>,
 }
 
 fn apply(targets: &FaultTargets, action: &Action, on: bool) {
@@ -36,6 +39,42 @@ fn apply(targets: &FaultTargets, action: &Action, on: bool) {
                 cut(role, on);
             }
         }
+        Action::BoxPlaced { min, max } => {
+            let Some(stage) = &targets.stage else { return };
+            let what = format!("box [{}, {}]-[{}, {}]", min[0], min[1], max[0], max[1]);
+            if on {
+                match stage.place_box(*min, *max) {
+                    Ok(()) => {
+                        targets.faults.note("world", FaultEventKind::Injected(format!("box_placed: {what}")))
+                    }
+                    Err(e) => {
+                        tracing::warn!("fault plan: box_placed not carried out: {e}");
+                        targets
+                            .faults
+                            .note("world", FaultEventKind::Injected(format!("box_placed refused: {e}")));
+                    }
+                }
+            } else if stage.remove_box(*min, *max) {
+                targets.faults.note("world", FaultEventKind::Recovered);
+                tracing::info!("fault plan: took the {what} away");
+            }
+        }
+        Action::Kidnap { x, y, heading_deg } if on => {
+            let Some(stage) = &targets.stage else { return };
+            match stage.carry_to(*x, *y, heading_deg.to_radians()) {
+                Ok(()) => targets.faults.note(
+                    "robot",
+                    FaultEventKind::Injected(format!(
+                        "kidnap: set down at ({x}, {y}) facing {heading_deg} deg"
+                    )),
+                ),
+                Err(e) => {
+                    tracing::warn!("fault plan: kidnap not carried out: {e}");
+                    targets.faults.note("robot", FaultEventKind::Injected(format!("kidnap refused: {e}")));
+                }
+            }
+        }
+        Action::Kidnap { .. } => {}
     }
 }
 

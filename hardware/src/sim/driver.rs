@@ -197,6 +197,12 @@ impl SimTruth {
         self.sim.lock().truth_movers()
     }
 
+    /// The handle a fault plan changes the world through (a box put down, the robot carried
+    /// elsewhere): for fault injection, never for control.
+    pub fn stage(&self) -> super::SimStage {
+        super::SimStage { sim: Arc::clone(&self.sim) }
+    }
+
     /// Any other read of the simulator, under its lock (keep `f` short: stepping waits).
     pub fn with<T>(&self, f: impl FnOnce(&SimNomad200) -> T) -> T {
         f(&self.sim.lock())

@@ -1,4 +1,5 @@
-//! What the robot can meet: the world's static shapes, plus the movers where they are now.
+//! What the robot can meet: the world's static shapes, the boxes placed in it while it runs (a
+//! fault plan's `box_placed`), plus the movers where they are now.
 //!
 //! Movers change every step (and sensors see them where they were at the instant of firing),
 //! so every query takes them as a separate slice of circles.
@@ -22,6 +23,8 @@ pub(crate) const MAX_RAYS: usize = 64;
 #[derive(Debug, Clone)]
 pub(crate) struct Scene {
     statics: Arc<Statics>,
+    /// Boxes placed since the start, each with its bounds; few, so every query reads them all.
+    placed: Vec<(Shape, Aabb)>,
 }
 
 /// Static shapes, each with its bounding box, and an index of them along x.
@@ -104,16 +107,44 @@ impl Scene {
         let mut alive = STATICS.lock();
         alive.retain(|w| w.strong_count() > 0);
         if let Some(same) = alive.iter().filter_map(Weak::upgrade).find(|s| same_bits(&s.shapes, &statics)) {
-            return Scene { statics: same };
+            return Scene { statics: same, placed: Vec::new() };
         }
         let statics = Arc::new(Statics { strips: Strips::new(&statics), shapes: statics });
         alive.push(Arc::downgrade(&statics));
-        Scene { statics }
+        Scene { statics, placed: Vec::new() }
     }
 
-    /// Every shape with its bounds: the static ones, then the movers.
+    /// Puts `b` in the scene: every query from now on meets it.
+    pub(crate) fn place(&mut self, b: Aabb) {
+        self.placed.push((Shape::Aabb(b), b));
+    }
+
+    /// Takes away a box placed as `b` (bit for bit); whether there was one.
+    pub(crate) fn unplace(&mut self, b: &Aabb) -> bool {
+        let key = (Shape::Aabb(*b), *b);
+        match self.placed.iter().position(|p| same_bits(std::slice::from_ref(p), std::slice::from_ref(&key)))
+        {
+            Some(i) => {
+                self.placed.remove(i);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The boxes placed now.
+    pub(crate) fn placed(&self) -> impl Iterator<Item = Aabb> + '_ {
+        self.placed.iter().map(|(_, b)| *b)
+    }
+
+    /// Every shape with its bounds: the static ones, the placed ones, then the movers.
     fn shapes<'a>(&'a self, movers: &'a [Circle]) -> impl Iterator<Item = (Shape, Aabb)> + 'a {
-        self.statics.shapes.iter().copied().chain(movers.iter().map(|c| (Shape::Circle(*c), c.bounds())))
+        self.statics
+            .shapes
+            .iter()
+            .chain(&self.placed)
+            .copied()
+            .chain(movers.iter().map(|c| (Shape::Circle(*c), c.bounds())))
     }
 
     /// The nearest distance at which any ray from `origin` at `axis + offsets[k]` meets a
@@ -202,6 +233,9 @@ impl Scene {
                     consider(shape, bounds, &mut reach);
                 }
             }
+        }
+        for (shape, bounds) in &self.placed {
+            consider(shape, bounds, &mut reach);
         }
         for c in movers {
             consider(&Shape::Circle(*c), &c.bounds(), &mut reach);
@@ -446,8 +480,10 @@ mod tests {
             world.discs = (0..3).map(|_| Disc { center: point(&mut rng), radius: 0.2 }).collect();
             let scene = Scene::new(&world);
             assert!(scene.statics.strips.is_some());
-            let every =
-                Scene { statics: Arc::new(Statics { shapes: scene.statics.shapes.clone(), strips: None }) };
+            let every = Scene {
+                statics: Arc::new(Statics { shapes: scene.statics.shapes.clone(), strips: None }),
+                placed: Vec::new(),
+            };
             for _ in 0..300 {
                 let origin = Point::new(rng.random_range(-15.0..75.0), rng.random_range(-4.0..6.0));
                 let axis = rng.random_range(-4.0..4.0);

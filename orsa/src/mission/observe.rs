@@ -192,6 +192,7 @@ impl RunObserver for FaultPlanRun {
             faults: stack.registry.faults(),
             boards: stack.board_faults.clone(),
             link: None,
+            stage: stack.robot.truth.as_ref().map(|t| t.stage()),
         };
         self.task = Some(tokio::spawn(crate::faults::run_plan(self.plan.clone(), targets, self.duration_s)));
         self.seen = Some((stack.registry.faults(), stack.registry.clock(), stack.board_faults.clone()));

@@ -398,6 +398,8 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
                 faults: registry.faults(),
                 boards: orsa_hardware::faulty::BoardFaults::new(rec.meta.seed),
                 link: None,
+                // The world's events are in what the robot's sensors saw, which is recorded.
+                stage: None,
             };
             let start = rec.plan_started.map(|t| clock.instant_of(Timestamp(t)));
             let end_s = rec.meta.duration_s;

@@ -141,8 +141,12 @@ pub(super) fn start_plan(
         crate::say!("executive", "[{at:.3} s] fault: {what} to {role}");
         log.lock().push((at, role.to_string(), what.to_string()));
     });
-    let targets =
-        crate::faults::FaultTargets { faults: registry.faults(), boards: boards.clone(), link: Some(link) };
+    let targets = crate::faults::FaultTargets {
+        faults: registry.faults(),
+        boards: boards.clone(),
+        link: Some(link),
+        stage: None,
+    };
     let task = tokio::spawn(crate::faults::run_plan(plan.clone(), targets, checked.duration.as_secs_f64()));
     (Some(at), Some(task))
 }

@@ -152,8 +152,15 @@ async fn run(args: RobotOptions, checked: Checked) -> anyhow::Result<crate::endi
         b.subscribe(1)?;
         base = Some(b);
 
-        (plan_started_at, plan_task) =
-            setup::start_plan(&registry, &checked, &recording, transport, &ev_tx, &boards);
+        (plan_started_at, plan_task) = setup::start_plan(
+            &registry,
+            &checked,
+            &recording,
+            transport,
+            &ev_tx,
+            &boards,
+            drive.truth.as_ref().map(|t| t.stage()),
+        );
         drop(ev_tx);
 
         let watchdog = Watchdog::new(

@@ -174,8 +174,8 @@ impl Faces {
     }
 }
 
-/// Starts the fault plan, if any, on the robot's boards, switchboard and links (the link cuts
-/// go to the watchdog as events too); when its clock started, and its task.
+/// Starts the fault plan, if any, on the robot's boards, switchboard, links (the link cuts go
+/// to the watchdog as events too) and simulated world; when its clock started, and its task.
 pub(super) fn start_plan(
     registry: &Registry,
     checked: &Checked,
@@ -183,6 +183,7 @@ pub(super) fn start_plan(
     transport: &orsa_net::ZenohTransport,
     ev_tx: &tokio::sync::mpsc::UnboundedSender<RobotEvent>,
     boards: &BoardFaults,
+    stage: Option<orsa_hardware::sim::SimStage>,
 ) -> (Option<orsa_actors::Timestamp>, Option<tokio::task::JoinHandle<usize>>) {
     let (plan, duration) = (&checked.plan, checked.duration);
     let plan_started_at = plan.as_ref().map(|_| registry.now());
@@ -201,6 +202,7 @@ pub(super) fn start_plan(
             faults: registry.faults(),
             boards: boards.clone(),
             link: Some(link),
+            stage,
         };
         tokio::spawn(crate::faults::run_plan(plan, targets, duration.map_or(1e7, |d| d.as_secs_f64())))
     });
