@@ -60,7 +60,9 @@ pub struct LocalizationFigures {
 pub struct NavigationReport {
     /// Every goal, in order.
     pub goals: Vec<GoalFigures>,
-    /// The share of goals that succeeded.
+    /// The share of goals that succeeded and were truly reached: the planner said `succeeded`
+    /// and the robot's true position was within [`SUCCESS_RADIUS_M`] of the goal (a planner
+    /// fooled by a wrong estimate does not count).
     pub success_rate: f64,
     /// Success weighted by path length.
     pub spl: f64,
@@ -81,7 +83,11 @@ impl NavigationReport {
                 g.path_m,
                 g.shortest_m.map_or("-".into(), |s| format!("{s:.2} m")),
                 g.final_error_m.map_or("-".into(), |e| format!("{e:.2} m")),
-                g.reason
+                match g.final_error_m {
+                    Some(e) if g.status == NavState::Succeeded.name() && e > SUCCESS_RADIUS_M =>
+                        format!("{} (but truly {e:.2} m off: not a success)", g.reason),
+                    _ => g.reason.clone(),
+                }
             ));
         }
         out.push_str(&format!(
@@ -99,7 +105,10 @@ impl NavigationReport {
     fn finish(&mut self) {
         let n = self.goals.len() as f64;
         if n > 0.0 {
-            let ok = |g: &GoalFigures| g.status == NavState::Succeeded.name();
+            let ok = |g: &GoalFigures| {
+                g.status == NavState::Succeeded.name()
+                    && g.final_error_m.is_none_or(|e| e <= SUCCESS_RADIUS_M)
+            };
             self.success_rate = self.goals.iter().filter(|g| ok(g)).count() as f64 / n;
             self.spl = self
                 .goals
@@ -540,5 +549,12 @@ mod tests {
         };
         r.finish();
         assert!((r.spl - 0.25).abs() < 1e-12, "{}", r.spl);
+        // Said succeeded, truly 1 m away (the estimate was wrong): not a success.
+        let mut fooled = goal("succeeded", 10.0, Some(8.0));
+        fooled.final_error_m = Some(1.0);
+        let mut r =
+            NavigationReport { goals: vec![fooled, goal("succeeded", 8.0, Some(8.0))], ..Default::default() };
+        r.finish();
+        assert_eq!((r.success_rate, r.spl), (0.5, 0.5));
     }
 }
