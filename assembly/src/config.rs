@@ -661,6 +661,11 @@ impl Config {
         self.of_kind(&["planner"]).map(|c| c.name.as_str())
     }
 
+    /// The map component (kind `map`), if the system has one: it lives in the robot's process.
+    pub fn map_server(&self) -> Option<&str> {
+        self.of_kind(&[orsa_interfaces::map::NAME]).map(|c| c.name.as_str())
+    }
+
     /// The first component of the system of one of `kinds`.
     fn of_kind(&self, kinds: &[&str]) -> Option<&crate::system::ComponentSpec> {
         self.system.components.iter().find(|c| kinds.contains(&c.kind()))

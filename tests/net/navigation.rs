@@ -79,7 +79,8 @@ fn bumps(rx: &mut mpsc::UnboundedReceiver<Update<ContactScan>>) -> (usize, usize
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn goals_from_orsa_goto_ros2_and_foxglove_reach_a_planner_in_the_executives_process() {
+async fn goals_from_orsa_goto_ros2_and_foxglove_reach_a_planner_in_the_executives_process_and_ros2_gets_the_map()
+ {
     let sys = System::new("goto");
     let report = super::links::report_path("goto-robot");
     let report_arg = report.to_str().expect("utf-8");
@@ -162,6 +163,37 @@ async fn goals_from_orsa_goto_ros2_and_foxglove_reach_a_planner_in_the_executive
     assert!(readings > 100, "bumper readings came: {readings}");
     assert_eq!(pressed, 0, "no bump on the way");
 
+    // /map, as RViz or a ROS 2 planner joining late takes it: transient local, depth 1, the
+    // world's grid cell for cell (rasterised here from the world file, as the map component does).
+    let got = super::ros2::fixture(
+        &sys,
+        "map",
+        &["--domain", "23", "--seconds", "20"],
+        Duration::from_secs(60),
+        &[&robot],
+    )
+    .await;
+    let world = orsa::hardware::world::World::from_path(WORLD).expect("the world");
+    let grid = world.occupancy_grid(orsa::system::catalog::MAP_RESOLUTION_M).expect("the grid");
+    assert_eq!(got["qos"], ":1:,1:,:,:,,", "reliable, transient local, keep last 1: {}", got["qos"]);
+    assert_eq!(got["frame_id"], "map");
+    assert_eq!(
+        (got["width"].as_u64(), got["height"].as_u64()),
+        (Some(grid.width.into()), Some(grid.height.into()))
+    );
+    assert_eq!(got["resolution"].as_f64(), Some(f64::from(grid.resolution_m as f32)));
+    assert_eq!(got["origin"], serde_json::json!([grid.origin_x_m, grid.origin_y_m, 0.0]));
+    assert_eq!(got["orientation"], serde_json::json!([0.0, 0.0, 0.0, 1.0]));
+    let mut runs: Vec<[i64; 2]> = Vec::new();
+    for &c in &grid.cells {
+        match runs.last_mut() {
+            Some(r) if r[0] == i64::from(c) => r[1] += 1,
+            _ => runs.push([i64::from(c), 1]),
+        }
+    }
+    assert!(runs.len() > 100, "a floor with walls: {} runs", runs.len());
+    assert_eq!(got["runs"], serde_json::json!(runs), "the cells, row by row from the origin");
+
     // From Foxglove, as the 3D panel's pose tool publishes one on /goal_pose: room-3, at
     // (18.0, 3.0), written from the WebSocket protocol by the Python client. The same goal in
     // the odom frame is refused with a status.
@@ -203,6 +235,7 @@ async fn goals_from_orsa_goto_ros2_and_foxglove_reach_a_planner_in_the_executive
     let r: orsa::remote::RobotReport = serde_json::from_str(&text).expect("the robot's report");
     let ros2 = r.ros2.expect("the ROS 2 face's report");
     assert_eq!((ros2.goal_pose_accepted, ros2.goal_pose_refused), (Some(1), Some(1)), "{text}");
+    assert_eq!(ros2.map_version, Some(1), "the map, once: {text}");
     t.close().await;
 }
 

@@ -852,6 +852,47 @@ def goal(node, args):
     return {"sent": 2, "subscribed": list(want)}
 
 
+def map_(node, args):
+    """Joins late, as RViz or a planner does, and takes /map as map_server's subscribers do: a
+    transient local subscription (zenoh-ext's advanced subscriber asking for history, as rmw_zenoh
+    makes one) on nav_msgs/msg/OccupancyGrid with Jazzy's type hash. Says what came: the
+    publisher's QoS, the grid's header and info, and its cells run-length encoded."""
+    ros_type = "nav_msgs/msg/OccupancyGrid"
+    got = []
+    node.tokens.append(node.token("MS", "/map", ros_type, ":1:,1:,:,:,,")[1])
+    sub = zenoh.ext.declare_advanced_subscriber(
+        node.session, data_key(node.domain, "/map", ros_type),
+        lambda sample: got.append(TS.deserialize_cdr(sample.payload.to_bytes(), ros_type)),
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1))
+    qos = subscribed_or_published(node, "/map", "MP", within=args.seconds)
+    deadline = time.monotonic() + args.seconds
+    while not got and time.monotonic() < deadline:
+        time.sleep(0.05)
+    sub.undeclare()
+    if not got:
+        fail(f"no /map within {args.seconds} s (publisher QoS {qos})")
+    m = got[-1]
+    runs = []
+    for v in m.data:
+        v = int(v)
+        if runs and runs[-1][0] == v:
+            runs[-1][1] += 1
+        else:
+            runs.append([v, 1])
+    o = m.info.origin
+    return {
+        "qos": qos,
+        "received": len(got),
+        "frame_id": m.header.frame_id,
+        "width": int(m.info.width),
+        "height": int(m.info.height),
+        "resolution": float(m.info.resolution),
+        "origin": [o.position.x, o.position.y, o.position.z],
+        "orientation": [o.orientation.x, o.orientation.y, o.orientation.z, o.orientation.w],
+        "runs": runs,
+    }
+
+
 def subscribed_or_published(node, topic, kind, within=10):
     """The QoS of the first `kind` (MP, MS) token on `topic`, once one is seen."""
     found = []
@@ -885,14 +926,15 @@ def main():
     parser.add_argument("--x", type=float, default=0.0, help="goal: x in the map, m")
     parser.add_argument("--y", type=float, default=0.0, help="goal: y in the map, m")
     parser.add_argument("--yaw", type=float, default=0.0, help="goal: the heading, rad")
-    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall", "params", "goal"])
+    parser.add_argument("mode", choices=["observe", "bad-input", "robot", "at-wall", "params", "goal", "map"])
     args = parser.parse_args()
     node = Node(args.connect, args.domain, {"observe": "fixture_observer", "bad-input": "fixture_bad",
                                              "robot": "fixture_robot", "at-wall": "fixture_teleop",
-                                             "params": "fixture_param_client", "goal": "fixture_rviz"}[args.mode])
+                                             "params": "fixture_param_client", "goal": "fixture_rviz",
+                                             "map": "fixture_map_client"}[args.mode])
     try:
         modes = {"observe": observe, "bad-input": bad_input, "robot": robot, "at-wall": at_wall, "params": params,
-                 "goal": goal}
+                 "goal": goal, "map": map_}
         result = modes[args.mode](node, args)
     finally:
         node.close()

@@ -105,6 +105,9 @@ pub enum Qos {
     Rosout,
     /// Reliable, transient local, keep last 100: `/tf_static` as tf2_ros listens to it.
     StaticTf,
+    /// Reliable, transient local, keep last 1: `/map` as Nav2's map_server publishes it (a late
+    /// joiner, RViz or a planner, gets the map at once).
+    Map,
 }
 
 impl Qos {
@@ -117,6 +120,7 @@ impl Qos {
             Qos::SensorData => "2::,5:,:,:,,",
             Qos::Rosout => ":1:,1000:,:,:,,",
             Qos::StaticTf => ":1:,100:,:,:,,",
+            Qos::Map => ":1:,1:,:,:,,",
         }
     }
 }
@@ -129,6 +133,7 @@ impl Qos {
             Qos::Default | Qos::SensorData => None,
             Qos::Rosout => Some(1000),
             Qos::StaticTf => Some(100),
+            Qos::Map => Some(1),
         }
     }
 }

@@ -316,6 +316,45 @@ pub struct TransformStamped {
     pub transform: Transform,
 }
 
+/// `nav_msgs/msg/MapMetaData`: a grid's size, cell and placement.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MapMetaData {
+    /// When the map was loaded.
+    pub map_load_time: Time,
+    /// The side of a cell, m.
+    pub resolution: f32,
+    /// Cells along x.
+    pub width: u32,
+    /// Cells along y.
+    pub height: u32,
+    /// The outer corner of cell (0, 0) in the map frame.
+    pub origin: Pose,
+}
+message!(
+    MapMetaData,
+    "nav_msgs",
+    "MapMetaData",
+    "2772d4b2000ef2b35dbaeb80fd3946c1369f817fb4f75677d916d27c17d763c8"
+);
+
+/// `nav_msgs/msg/OccupancyGrid`: what `/map` carries (map_server's, transient local). Cells row
+/// by row from the origin, -1 unknown, 0 free to 100 occupied.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct OccupancyGrid {
+    /// Header (frame `map`).
+    pub header: Header,
+    /// Size and placement.
+    pub info: MapMetaData,
+    /// The cells.
+    pub data: Vec<i8>,
+}
+message!(
+    OccupancyGrid,
+    "nav_msgs",
+    "OccupancyGrid",
+    "8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7"
+);
+
 /// `tf2_msgs/msg/TFMessage`: what `/tf` carries.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TfMessage {
@@ -338,9 +377,16 @@ mod tests {
         assert_eq!(Twist::NAME, "geometry_msgs/msg/Twist");
         assert_eq!(Twist::DDS_NAME, "geometry_msgs::msg::dds_::Twist_");
         assert_eq!(TfMessage::DDS_NAME, "tf2_msgs::msg::dds_::TFMessage_");
-        for h in
-            [Bool::HASH, LaserScan::HASH, Twist::HASH, TwistStamped::HASH, Odometry::HASH, TfMessage::HASH]
-        {
+        for h in [
+            Bool::HASH,
+            LaserScan::HASH,
+            Twist::HASH,
+            TwistStamped::HASH,
+            Odometry::HASH,
+            TfMessage::HASH,
+            OccupancyGrid::HASH,
+            MapMetaData::HASH,
+        ] {
             assert!(h.starts_with("RIHS01_") && h.len() == 7 + 64, "{h}");
             assert!(h[7..].chars().all(|c| c.is_ascii_hexdigit() && !c.is_ascii_uppercase()), "{h}");
         }

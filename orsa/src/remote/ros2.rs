@@ -10,6 +10,7 @@
 //! | `/tf` | `tf2_msgs/msg/TFMessage` | `basestate`: `odom` -> `base_link` |
 //! | `/bumper` | `std_msgs/msg/Bool` | `bumpers`: whether any bumper is pressed |
 //! | `/cmd_vel` (taken) | `geometry_msgs/msg/Twist` or `TwistStamped` | -> `teleop`: a Twist stamped on arrival, a TwistStamped by its header (zero: now) |
+//! | `/map` | `nav_msgs/msg/OccupancyGrid` | the map component's grid, transient local (where the system has one) |
 //!
 //! `orsa robot --hardware ros2` is the other way round ([`BaseLink`]): a ROS 2 robot's scan and
 //! odometry feed orsa's boards ([`Ros2Base`](orsa_hardware::ros2base::Ros2Base)) and its commands go out as TwistStamped or Twist (`ros2.base.cmd_vel_type`).
@@ -35,6 +36,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 pub mod goal;
+pub mod map;
 mod params;
 mod tf;
 pub use params::ParamServices;
@@ -56,6 +58,10 @@ pub struct Ros2Report {
     /// planner (its reason is logged), or the planner could not be reached.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub goal_pose_refused: Option<u64>,
+    /// The version of the map last published on `/map` (0: none yet), where the system has a
+    /// map component.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_version: Option<u64>,
     /// `--hardware ros2`: where the laser was placed on the base.
     #[serde(default)]
     pub laser: Option<LaserPlacement>,
@@ -102,6 +108,8 @@ pub struct FacedRobot<'a> {
     pub drift: &'a OdometryConfig,
     /// The planner that takes navigation goals (`/goal_pose`), if the system navigates.
     pub planner: Option<&'a str>,
+    /// The map component whose grid goes out on `/map`, if the system has one here.
+    pub map: Option<&'a str>,
 }
 
 /// The robot's ROS 2 face; publishing and taking commands while it lives.
@@ -115,6 +123,7 @@ pub struct RobotRos2 {
     _rosout: crate::logline::RouteGuard,
     /// `/goal_pose`, where the system has a planner that navigates.
     goals: Option<(Ros2Subscription, Arc<goal::GoalCounts>)>,
+    map: Option<map::MapTopic>,
 }
 
 /// Publishes orsa's log lines ([`crate::logline`]) on `/rosout` as `rcl_interfaces/msg/Log`,
@@ -173,7 +182,7 @@ impl RobotRos2 {
         domain: u32,
         params_of: ParamDirectory,
     ) -> anyhow::Result<Self> {
-        let FacedRobot { name: robot, params, drift, planner } = *robot;
+        let FacedRobot { name: robot, params, drift, planner, map } = *robot;
         let options = Ros2Options { domain, namespace: ros2.namespace.clone(), name: ros2.node.clone() };
         let node = transport.ros2_node(&options).await?;
         let param_services = ParamServices::serve(&node, params_of).await?;
@@ -246,9 +255,14 @@ impl RobotRos2 {
             Some(p) => Some(goal::take_goals(&node, registry, p).await?),
             None => None,
         };
+        let map = match map {
+            Some(name) => Some(map::MapTopic::start(&node, registry, name).await?),
+            None => None,
+        };
         Ok(RobotRos2 {
             node,
             goals,
+            map,
             forwarded,
             rate_refused,
             _cmd_vel: cmd_vel,
@@ -266,6 +280,7 @@ impl RobotRos2 {
             cmd_vel_rate_refused: self.rate_refused.load(Ordering::Relaxed),
             goal_pose_accepted: self.goals.as_ref().map(|(_, c)| c.accepted.load(Ordering::Relaxed)),
             goal_pose_refused: self.goals.as_ref().map(|(_, c)| c.refused.load(Ordering::Relaxed)),
+            map_version: self.map.as_ref().map(map::MapTopic::published),
             laser: None,
         }
     }

@@ -134,6 +134,8 @@ impl Faces {
                 drift: &config.sim.odometry,
                 // Goals on /goal_pose where the system has a planner and the map it plans on.
                 planner: config.navigating_planner(),
+                // /map where the system has a map component in this process.
+                map: config.map_server(),
             };
             let face = ros2::RobotRos2::start(
                 registry,
