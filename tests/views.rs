@@ -110,3 +110,35 @@ fn the_views_of_a_run_decode_and_agree_with_the_world_and_the_json_channels() {
     }
     std::fs::remove_dir_all(&d).expect("clean up");
 }
+
+/// A navigation run's recording draws where the localizer puts the robot and the path it
+/// follows: `/estimate/tf` one frame per estimate, `/plan` one path per path given, each equal to
+/// its JSON channel (checked by the Python reader, which also compares the estimate with the
+/// truth).
+#[test]
+fn a_navigation_recording_draws_the_estimate_and_the_path() {
+    let d = dir("navigation");
+    let rec = d.join("nav.mcap");
+    let world = concat!(env!("CARGO_MANIFEST_DIR"), "/worlds/office.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_orsa"))
+        .args(["run", "--quiet", "--seed", "3", "--world", world, "--goto", "room-1", "--record"])
+        .arg(&rec)
+        .output()
+        .expect("orsa runs");
+    assert!(out.status.success(), "orsa run: {}", text(&out.stderr));
+    let out = Command::new("python3")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/read_views.py"))
+        .arg(&rec)
+        .output()
+        .expect("python3 runs");
+    assert!(out.status.success(), "the views do not check out: {}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the reader prints JSON");
+    let e = &v["estimate"];
+    // An estimate per odometry update (10 Hz) over the 15-20 s to room-1.
+    assert!(e["estimates"].as_u64().is_some_and(|n| n > 100), "{v}");
+    assert!(e["rms_m"].as_f64().is_some_and(|r| r < 0.10), "{v}");
+    // At least the path to room-1 (some 5 m at 5 cm steps), and the stop at the end.
+    assert!(e["plans"].as_u64().is_some_and(|n| n >= 2), "{v}");
+    assert!(e["plan_poses"].as_u64().is_some_and(|n| n > 60), "{v}");
+    std::fs::remove_dir_all(&d).expect("clean up");
+}

@@ -281,7 +281,41 @@ def main(path):
     if counts != {movers}:
         fail(path, f"/people has {counts} entities per message, the world file {movers} people")
 
+    # The localizer's estimate and the path followed, where the system navigates: each JSON
+    # pose a frame world -> base_link_estimate at its instant, each path given a PosesInFrame
+    # through its points; the estimate compared with the truth.
+    estimate = {}
+    poses = [(t, m) for topic, msgs in json_msgs.items() if topic.endswith("/pose") for t, m in msgs]
+    if poses:
+        frames = only("/estimate/tf", "foxglove.FrameTransforms")
+        if [t for t, _ in frames] != [t for t, _ in poses]:
+            fail(path, f"/estimate/tf: {len(frames)} messages, {len(poses)} JSON poses, or at other times")
+        sq = []
+        for (t, m), (_, j) in zip(frames, poses):
+            [x] = m.transforms
+            v = j["value"]
+            got = planar(x)
+            if (x.parent_frame_id, x.child_frame_id) != ("world", "base_link_estimate") or \
+                    any(abs(a - b) > 1e-9 for a, b in zip(got, (v["x_m"], v["y_m"], v["heading_rad"]))):
+                fail(path, f"/estimate/tf at {t}: {x.parent_frame_id} -> {x.child_frame_id} at {got}, the pose says {v}")
+            i = bisect.bisect_right(times, t)
+            if 0 < i < len(times):
+                (t0, a), (t1, b) = truth[i - 1], truth[i]
+                k = (t - t0) / (t1 - t0)
+                sq.append(math.dist(got[:2], (a[0] + k * (b[0] - a[0]), a[1] + k * (b[1] - a[1]))) ** 2)
+        paths = [(t, m) for topic, msgs in json_msgs.items() if topic.endswith("/path") for t, m in msgs]
+        plans = only("/plan", "foxglove.PosesInFrame")
+        if [t for t, _ in plans] != [t for t, _ in paths]:
+            fail(path, f"/plan: {len(plans)} messages, {len(paths)} JSON paths, or at other times")
+        for (t, m), (_, j) in zip(plans, paths):
+            points = [(p.position.x, p.position.y) for p in m.poses]
+            if m.frame_id != "world" or points != [tuple(q) for q in j["value"]["points"]]:
+                fail(path, f"/plan at {t}: {len(points)} poses in {m.frame_id}, the path has {len(j['value']['points'])} points")
+        estimate = {"estimates": len(frames), "rms_m": math.sqrt(sum(sq) / len(sq)), "plans": len(plans),
+                    "plan_poses": max(len(m.poses) for _, m in plans)}
+
     print(json.dumps({
+        "estimate": estimate,
         "views": {topic: len(msgs) for topic, msgs in sorted(views.items())},
         "scan_period_ms": periods,
         "odometry_error_m": [first, last],

@@ -20,6 +20,8 @@
 //! | [`TRAJECTORY_TOPIC`] | `foxglove.PosesInFrame` | the true path so far, in `world`, every 2 s |
 //! | [`DRIVING_TOPIC`] | `foxglove.Log` | which behaviour drives, at every change |
 //! | [`EVENTS_TOPIC`] | `foxglove.Log` | every wiring and state change, parameter set, supervisor and link event (named by its topic, its JSON as the message) |
+//! | [`ESTIMATE_TF_TOPIC`] | `foxglove.FrameTransforms` | `world` -> `base_link_estimate`: the localizer's estimate (the map's frame is the world's), at every `pose` it publishes; the robot's body is drawn there too (blue outline) |
+//! | [`PLAN_TOPIC`] | `foxglove.PosesInFrame` | the path the path follower was given, in `world`, at every new one (empty: none) |
 //! | [`HEALTH_TOPIC`] | `foxglove.Log` | the sensors' health at every change (the robot pushes it every second too; the view logs only changes): a warning naming each sensor not trusted and why, info when all are healthy again |
 
 mod grid;
@@ -33,6 +35,7 @@ use orsa_actors::{Stamped, Timestamp};
 use orsa_hardware::world::World;
 use orsa_interfaces::executive::WiringChange;
 use orsa_interfaces::health::{Health, Verdict};
+use orsa_interfaces::navigation::{FollowPath, PoseEstimate};
 use orsa_interfaces::nomad200::{BaseState, DistanceScan};
 
 /// The fixed frame: the world file's coordinates.
@@ -43,6 +46,8 @@ pub const ODOM_FRAME: &str = "odom";
 pub const BASE_FRAME: &str = "base_link";
 /// The robot's body where it really is (the simulator's ground truth).
 pub const TRUTH_BASE_FRAME: &str = "base_link_truth";
+/// The robot's body where the localizer estimates it (in the map, whose frame is the world's).
+pub const ESTIMATE_BASE_FRAME: &str = "base_link_estimate";
 
 /// Walls, boxes and discs.
 pub const WORLD_TOPIC: &str = "/world";
@@ -70,6 +75,15 @@ pub const DRIVING_TOPIC: &str = "/driving";
 pub const EVENTS_TOPIC: &str = "/events";
 /// The sensors' health, at every change.
 pub const HEALTH_TOPIC: &str = "/health";
+/// The localizer's estimate, as a frame.
+pub const ESTIMATE_TF_TOPIC: &str = "/estimate/tf";
+/// The path being followed.
+pub const PLAN_TOPIC: &str = "/plan";
+
+/// The kind of component whose `pose` is the localizer's estimate.
+const LOCALIZER_KIND: &str = "localizer";
+/// The kind of component whose `path` is the path it follows.
+const PATH_FOLLOWER_KIND: &str = "pathfollow";
 
 /// Poses the trajectory holds at most; past that every other one is dropped (the oldest
 /// first is kept), so that a message stays under 11 kB however long the run. (The whole path
@@ -118,7 +132,17 @@ impl ViewSetup {
                 _ => None,
             };
         }
+        match (self.kinds.get(component).map(String::as_str), service) {
+            (Some(LOCALIZER_KIND), "pose") => return Some(Input::Estimate),
+            (Some(PATH_FOLLOWER_KIND), "path") => return Some(Input::Plan),
+            _ => {}
+        }
         (component == self.master && service == "driving").then_some(Input::Driving)
+    }
+
+    /// Whether the system has a localizer, whose estimate the views draw.
+    fn localizes(&self) -> bool {
+        self.kinds.values().any(|k| k == LOCALIZER_KIND)
     }
 }
 
@@ -186,6 +210,10 @@ pub(crate) enum Input {
     Event,
     /// The sensors' health.
     Health,
+    /// The localizer's estimate.
+    Estimate,
+    /// The path the path follower is given.
+    Plan,
 }
 
 /// The views' state on the recorder's thread.
@@ -205,7 +233,7 @@ pub(crate) struct Views {
     /// view logs it only when it changes.
     last_health: Option<String>,
     /// Inputs that did not decode, warned about once each.
-    warned: [bool; 6],
+    warned: [bool; 8],
     /// The world's map, made once.
     map: Option<foxglove::schemas::Grid>,
 }
@@ -232,7 +260,7 @@ impl Views {
             trajectory: Vec::new(),
             last_pose_ns: None,
             last_health: None,
-            warned: [false; 6],
+            warned: [false; 8],
         }
     }
 
@@ -257,6 +285,10 @@ impl Views {
             sink.declare::<LaserScan>(SONAR_TOPIC)?;
             sink.declare::<FrameTransforms>(TF_TOPIC)?;
             sink.declare::<Log>(HEALTH_TOPIC)?;
+        }
+        if self.setup.localizes() {
+            sink.declare::<FrameTransforms>(ESTIMATE_TF_TOPIC)?;
+            sink.declare::<PosesInFrame>(PLAN_TOPIC)?;
         }
         if self.setup.truth {
             sink.declare::<SceneUpdate>(PEOPLE_TOPIC)?;
@@ -323,7 +355,7 @@ impl Views {
         let kind = driving.map(|d| self.setup.kinds.get(d).map_or(d, String::as_str));
         let who = shapes::Driving { name: driving, kind, mode };
         let r = self.setup.body_radius_m;
-        let entities = if self.setup.truth {
+        let mut entities = if self.setup.truth {
             vec![
                 shapes::robot_entity("robot", TRUTH_BASE_FRAME, at, r, who, 1.0),
                 shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, who, 0.3),
@@ -331,6 +363,9 @@ impl Views {
         } else {
             vec![shapes::robot_entity("robot/odometry", BASE_FRAME, at, r, who, 1.0)]
         };
+        if self.setup.localizes() {
+            entities.push(shapes::estimate_entity("robot/estimate", ESTIMATE_BASE_FRAME, at, r));
+        }
         rec.view(ROBOT_TOPIC, at, &SceneUpdate { deletions: Vec::new(), entities })
     }
 
@@ -438,6 +473,42 @@ impl Views {
                 rec.view(DRIVING_TOPIC, at, &log)?;
                 self.last_driving = Some((at, log));
                 self.write_robot(rec, at)
+            }
+            Input::Estimate => {
+                let e = match serde_json::from_slice::<Stamped<PoseEstimate>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                let t =
+                    shapes::transform(WORLD_FRAME, ESTIMATE_BASE_FRAME, e.stamp, e.x_m, e.y_m, e.heading_rad);
+                rec.view(ESTIMATE_TF_TOPIC, at, &FrameTransforms { transforms: vec![t] })
+            }
+            Input::Plan => {
+                let path = match serde_json::from_slice::<Stamped<FollowPath>>(json) {
+                    Ok(s) => s.value,
+                    Err(e) => return undecoded(self, e),
+                };
+                // Each pose faces the next point (the last one, the goal's heading if given).
+                let n = path.points.len();
+                let poses = (0..n)
+                    .map(|i| {
+                        let [x, y] = path.points[i];
+                        let yaw = match path.points.get(i + 1) {
+                            Some([nx, ny]) => (ny - y).atan2(nx - x),
+                            None => path.heading_rad.unwrap_or_else(|| {
+                                i.checked_sub(1)
+                                    .map_or(0.0, |j| (y - path.points[j][1]).atan2(x - path.points[j][0]))
+                            }),
+                        };
+                        shapes::pose(x, y, 0.0, yaw)
+                    })
+                    .collect();
+                let plan = PosesInFrame {
+                    timestamp: Some(shapes::stamp(at)),
+                    frame_id: WORLD_FRAME.to_owned(),
+                    poses,
+                };
+                rec.view(PLAN_TOPIC, at, &plan)
             }
         }
     }

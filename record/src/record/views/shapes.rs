@@ -184,6 +184,43 @@ pub(crate) fn robot_entity(
     e
 }
 
+/// The robot's body where the localizer puts it: a blue outline (a circle at floor level and a
+/// tick to the front), frame-locked to `frame`, so that it is told apart from the solid body at
+/// the truth and the faint one at odometry.
+pub(crate) fn estimate_entity(id: &str, frame: &str, at: Timestamp, radius_m: f64) -> SceneEntity {
+    let mut e = entity(id, frame, at);
+    e.frame_locked = true;
+    let blue = rgb(0x1f, 0x77, 0xb4);
+    let n = 36;
+    let circle = (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+            Point3 { x: radius_m * a.cos(), y: radius_m * a.sin(), z: 0.02 }
+        })
+        .collect();
+    e.lines = vec![
+        LinePrimitive {
+            r#type: line_primitive::Type::LineLoop as i32,
+            pose: Some(pose(0.0, 0.0, 0.0, 0.0)),
+            thickness: 0.03,
+            scale_invariant: false,
+            points: circle,
+            color: Some(blue),
+            ..Default::default()
+        },
+        LinePrimitive {
+            r#type: line_primitive::Type::LineStrip as i32,
+            pose: Some(pose(0.0, 0.0, 0.0, 0.0)),
+            thickness: 0.03,
+            scale_invariant: false,
+            points: vec![Point3 { x: 0.0, y: 0.0, z: 0.02 }, Point3 { x: radius_m, y: 0.0, z: 0.02 }],
+            color: Some(blue),
+            ..Default::default()
+        },
+    ];
+    e
+}
+
 /// A ring's scan in the robot's frame: one range per sensor, sensor `i` at
 /// [`ring_angle_rad`]`(i)`, measured from the robot's centre (the reading plus the ring's
 /// `mount_radius_m`), its intensity 1. A sensor without a valid reading (nothing seen, or a
