@@ -323,8 +323,10 @@ async fn a_goal_behind_a_blocked_door_with_no_other_way_is_aborted_no_path() {
     assert!(g.time_s - seen_s <= 30.0, "aborted {:.1} s after the box came within reach", g.time_s - seen_s);
     assert_eq!(nav.goals[1].status, "succeeded", "{:?}", nav.goals[1]);
     assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+    // The box was put down (not refused), once.
     let faults = r.faults.as_ref().expect("a faults section");
-    assert_eq!(faults.injected.get("box_placed"), Some(&1), "{faults:?}");
+    let placed: Vec<&str> = faults.log.iter().filter(|(_, _, what)| what.contains("box_placed")).map(|(_, _, w)| w.as_str()).collect();
+    assert_eq!(placed, ["injected box_placed: box [19.45, 4.75]-[20.55, 5.25]"], "{faults:?}");
 }
 
 /// With room 3's corridor door blocked and a second way in through room 2, the goal is reached
@@ -342,4 +344,6 @@ async fn a_goal_behind_a_blocked_door_is_reached_by_another_way() {
     let shortest = g.shortest_m.expect("a shortest path");
     assert!(g.path_m > shortest + 3.0, "{g:?}: went through room 2, not the blocked door");
     assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+    let faults = r.faults.as_ref().expect("a faults section");
+    assert!(faults.log.iter().any(|(_, _, w)| w.starts_with("injected box_placed: box")), "{faults:?}");
 }

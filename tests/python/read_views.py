@@ -285,7 +285,8 @@ def main(path):
     # pose a frame world -> base_link_estimate at its instant, each path given a PosesInFrame
     # through its points; the estimate compared with the truth.
     estimate = {}
-    poses = [(t, m) for topic, msgs in json_msgs.items() if topic.endswith("/pose") for t, m in msgs]
+    poses = sorted(((t, m) for topic, msgs in json_msgs.items() if topic == "localizer/pose" for t, m in msgs),
+                   key=lambda p: p[0])
     if poses:
         frames = only("/estimate/tf", "foxglove.FrameTransforms")
         if [t for t, _ in frames] != [t for t, _ in poses]:
@@ -303,7 +304,8 @@ def main(path):
                 (t0, a), (t1, b) = truth[i - 1], truth[i]
                 k = (t - t0) / (t1 - t0)
                 sq.append(math.dist(got[:2], (a[0] + k * (b[0] - a[0]), a[1] + k * (b[1] - a[1]))) ** 2)
-        paths = [(t, m) for topic, msgs in json_msgs.items() if topic.endswith("/path") for t, m in msgs]
+        paths = sorted(((t, m) for topic, msgs in json_msgs.items() if topic == "pathfollow/path" for t, m in msgs),
+                       key=lambda p: p[0])
         plans = only("/plan", "foxglove.PosesInFrame")
         if [t for t, _ in plans] != [t for t, _ in paths]:
             fail(path, f"/plan: {len(plans)} messages, {len(paths)} JSON paths, or at other times")
@@ -311,6 +313,8 @@ def main(path):
             points = [(p.position.x, p.position.y) for p in m.poses]
             if m.frame_id != "world" or points != [tuple(q) for q in j["value"]["points"]]:
                 fail(path, f"/plan at {t}: {len(points)} poses in {m.frame_id}, the path has {len(j['value']['points'])} points")
+        if not sq or not plans:
+            fail(path, f"{len(sq)} estimates within the truth's samples, {len(plans)} paths: nothing to compare")
         estimate = {"estimates": len(frames), "rms_m": math.sqrt(sum(sq) / len(sq)), "plans": len(plans),
                     "plan_poses": max(len(m.poses) for _, m in plans)}
 

@@ -19,7 +19,7 @@ pub struct FaultTargets {
     /// Cuts (true) and restores (false) the link to processes of a role, where there are any.
     pub link: Option<LinkSwitch>,
     /// The simulated world, for its events (`box_placed`, `kidnap`); `None` where the robot is
-    /// not simulated here (a replay's stand-in: what the sensors saw of them is recorded).
+    /// not simulated (each event is then skipped with a warning).
     pub stage: Option<orsa_hardware::sim::SimStage>,
 }
 
@@ -40,7 +40,7 @@ fn apply(targets: &FaultTargets, action: &Action, on: bool) {
             }
         }
         Action::BoxPlaced { min, max } => {
-            let Some(stage) = &targets.stage else { return };
+            let Some(stage) = &targets.stage else { return not_simulated("box_placed") };
             let what = format!("box [{}, {}]-[{}, {}]", min[0], min[1], max[0], max[1]);
             if on {
                 match stage.place_box(*min, *max) {
@@ -60,7 +60,7 @@ fn apply(targets: &FaultTargets, action: &Action, on: bool) {
             }
         }
         Action::Kidnap { x, y, heading_deg } if on => {
-            let Some(stage) = &targets.stage else { return };
+            let Some(stage) = &targets.stage else { return not_simulated("kidnap") };
             match stage.carry_to(*x, *y, heading_deg.to_radians()) {
                 Ok(()) => targets.faults.note(
                     "robot",
@@ -76,6 +76,11 @@ fn apply(targets: &FaultTargets, action: &Action, on: bool) {
         }
         Action::Kidnap { .. } => {}
     }
+}
+
+/// A world event where the robot is not simulated (a real or ROS 2 robot): nothing to act on.
+fn not_simulated(kind: &str) {
+    tracing::warn!("fault plan: '{kind}' changes a simulated world, and this robot is not simulated: skipped");
 }
 
 /// Runs `plan` against `targets` on tokio's clock, from now until `end_s` simulated seconds.

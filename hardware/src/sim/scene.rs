@@ -18,8 +18,8 @@ use std::sync::{Arc, Weak};
 /// The most rays one fan may have (the configuration allows up to 64 per sensor).
 pub(crate) const MAX_RAYS: usize = 64;
 
-/// The static shapes of a world, each with its bounding box for a cheap first test: a query
-/// skips every shape whose box is out of its reach.
+/// The static shapes of a world and the boxes placed in it since the start, each with its
+/// bounding box for a cheap first test: a query skips every shape whose box is out of its reach.
 #[derive(Debug, Clone)]
 pub(crate) struct Scene {
     statics: Arc<Statics>,

@@ -48,8 +48,9 @@ pub enum StageError {
 }
 
 impl SimNomad200 {
-    /// Puts down a box from `min` to `max` (world frame, m). Refused if it would overlap the
-    /// robot's body or a mover: nobody puts a box on top of either.
+    /// Puts down a box from `min` to `max` (world frame, m). Refused if it would overlap a
+    /// mover, or the robot's body or come within its bumpers' reach: nobody puts a box on top of
+    /// either.
     pub fn place_box(&mut self, min: [f64; 2], max: [f64; 2]) -> Result<(), StageError> {
         if !(min.iter().chain(&max).all(|v| v.is_finite()) && min[0] < max[0] && min[1] < max[1]) {
             return Err(StageError::Invalid(format!(
@@ -58,7 +59,7 @@ impl SimNomad200 {
         }
         let b = Aabb::new(Point::new(min[0], min[1]), Point::new(max[0], max[1]));
         let overlaps = |c: Circle| b.distance(&c.center) < c.radius;
-        let what = if overlaps(Circle::new(self.position, self.radius + self.margin)) {
+        let what = if overlaps(Circle::new(self.position, self.radius + self.clearance())) {
             Some("robot")
         } else if self.movers.iter().map(MoverState::circle).any(overlaps) {
             Some("person")
@@ -81,6 +82,12 @@ impl SimNomad200 {
         removed
     }
 
+    /// How far a world event keeps clear of the body: its motion margin, and the bumpers'
+    /// contact margin (an event that presses a bumper would be a bump the robot did not make).
+    fn clearance(&self) -> f64 {
+        self.margin.max(self.config.bumpers.contact_margin_m)
+    }
+
     /// The boxes put down now, as (min, max).
     pub fn placed_boxes(&self) -> Vec<([f64; 2], [f64; 2])> {
         self.scene.placed().map(|b| ([b.min.x, b.min.y], [b.max.x, b.max.y])).collect()
@@ -89,7 +96,7 @@ impl SimNomad200 {
     /// Picks the robot up and sets it down at `(x, y)` facing `heading_rad` (world frame): the
     /// whole body turns, so the steering and the turret keep their angles to the base. The
     /// motors go on as they were; odometry does not see the move. Refused where the body does
-    /// not fit with its motion margin.
+    /// not fit clear of its bumpers' reach.
     pub fn carry_to(&mut self, x: f64, y: f64, heading_rad: f64) -> Result<(), StageError> {
         if !(x.is_finite() && y.is_finite() && heading_rad.is_finite()) {
             return Err(StageError::Invalid(format!(
@@ -100,7 +107,7 @@ impl SimNomad200 {
         self.scratch.clear();
         self.scratch.extend(self.movers.iter().map(MoverState::circle));
         let gap = self.scene.nearest(&self.scratch, &p).unwrap_or(f64::INFINITY);
-        if gap < self.radius + self.margin {
+        if gap < self.radius + self.clearance() {
             return Err(StageError::NoRoom { x, y, gap_m: gap, radius_m: self.radius });
         }
         let turn = heading_rad - self.steer;

@@ -36,9 +36,11 @@ pub struct GoalFigures {
     pub reason: String,
     /// How long it ran, s.
     pub time_s: f64,
-    /// What the robot drove meanwhile (true pose), m.
+    /// What the robot drove meanwhile, m: the simulator's odometer of its true motion (being
+    /// carried elsewhere is no driving).
     pub path_m: f64,
-    /// The shortest path for its body on the true map, m (`None`: there is none).
+    /// The shortest path for its body on the world file's shapes, m (`None`: there is none).
+    /// Boxes put down at run time (`box_placed`) are not in it.
     pub shortest_m: Option<f64>,
     /// How far from the target the robot truly stopped, m (`None`: it names no position).
     pub final_error_m: Option<f64>,
@@ -153,6 +155,8 @@ pub(super) struct NavigationRun {
     report: NavigationReport,
     sum2: f64,
     clearance: Option<Clearance>,
+    /// The robot's true odometer at the last tick, m (what it drove: a kidnapping adds nothing).
+    travelled_m: Option<f64>,
 }
 
 impl NavigationRun {
@@ -168,6 +172,7 @@ impl NavigationRun {
             report: NavigationReport::default(),
             sum2: 0.0,
             clearance: None,
+            travelled_m: None,
         }
     }
 
@@ -294,8 +299,12 @@ impl RunObserver for NavigationRun {
         self.sum2 += sum2;
         self.report.localization.max_m = worst;
         self.report.localization.samples += n;
+        // Driven: the simulator's odometer of the true motion, not the jumps between samples
+        // (a robot carried elsewhere drove nothing).
+        let moved = self.travelled_m.map_or(0.0, |before| t.travelled_m - before);
+        self.travelled_m = Some(t.travelled_m);
         if let Some(r) = &mut self.running {
-            r.path_m += (now.0 - r.last.0).hypot(now.1 - r.last.1);
+            r.path_m += moved;
             r.last = now;
         }
         self.drain(now);

@@ -392,13 +392,14 @@ pub async fn replay(rec: &Recording, opts: ReplayOptions) -> Result<Replayed, Re
                     Action::Panic { component } | Action::Hang { component } | Action::Kill { component }
                         if *component == rec.meta.robot)
             });
+            // Nor are the world's events: what the sensors saw of them is in the recording.
+            plan.faults.retain(|f| !crate::faults::WORLD_EVENTS.contains(&f.kind.as_str()));
             // Link cuts are not replayed: what the robot did about them is in the recording
             // (the link watchdog's events, the wiring changes) and is fed back.
             let targets = crate::faults::FaultTargets {
                 faults: registry.faults(),
                 boards: orsa_hardware::faulty::BoardFaults::new(rec.meta.seed),
                 link: None,
-                // The world's events are in what the robot's sensors saw, which is recorded.
                 stage: None,
             };
             let start = rec.plan_started.map(|t| clock.instant_of(Timestamp(t)));

@@ -11,8 +11,8 @@ use orsa_actors::{Empty, Registry, Sink, Update};
 use orsa_interfaces::map::{self as imap, KnownMap, MAP_FRAME, OccupancyGrid};
 use orsa_net::ros2::msg::{self as m, Header, MapMetaData, Pose};
 use orsa_net::ros2::{Qos, Ros2Node, Ros2Publisher};
+use parking_lot::Mutex;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 /// How long the first ask for the map may take.
@@ -23,7 +23,7 @@ pub struct MapTopic {
     _pushes: PushNewestClient<OccupancyGrid>,
     ask: tokio::task::JoinHandle<()>,
     /// The version last published (0: none yet).
-    published: Arc<AtomicU64>,
+    published: Arc<Mutex<u64>>,
 }
 
 impl Drop for MapTopic {
@@ -37,13 +37,17 @@ impl MapTopic {
     pub async fn start(node: &Ros2Node, registry: &Registry, map: &str) -> anyhow::Result<Self> {
         let publisher: Arc<Ros2Publisher<m::OccupancyGrid>> =
             Arc::new(node.publisher("map", Qos::Map).await?);
-        let published = Arc::new(AtomicU64::new(0));
+        let published = Arc::new(Mutex::new(0));
         let publish = {
             let (publisher, published) = (Arc::clone(&publisher), Arc::clone(&published));
             move |grid: &OccupancyGrid| {
-                // Only a newer grid: the push and the answer may bring the same one.
-                if published.fetch_max(grid.version, Ordering::AcqRel) < grid.version {
+                // Only a newer grid: the push and the answer may bring the same one. Published
+                // under the lock, so that an older grid never goes out after a newer one (the
+                // topic keeps only the last).
+                let mut last = published.lock();
+                if *last < grid.version {
                     publisher.publish(&ros_grid(grid), grid.stamp.0);
+                    *last = grid.version;
                 }
             }
         };
@@ -70,7 +74,7 @@ impl MapTopic {
 
     /// The version of the grid last published (0: none yet).
     pub fn published(&self) -> u64 {
-        self.published.load(Ordering::Acquire)
+        *self.published.lock()
     }
 }
 
