@@ -325,7 +325,12 @@ async fn a_goal_behind_a_blocked_door_with_no_other_way_is_aborted_no_path() {
     assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
     // The box was put down (not refused), once.
     let faults = r.faults.as_ref().expect("a faults section");
-    let placed: Vec<&str> = faults.log.iter().filter(|(_, _, what)| what.contains("box_placed")).map(|(_, _, w)| w.as_str()).collect();
+    let placed: Vec<&str> = faults
+        .log
+        .iter()
+        .filter(|(_, _, what)| what.contains("box_placed"))
+        .map(|(_, _, w)| w.as_str())
+        .collect();
     assert_eq!(placed, ["injected box_placed: box [19.45, 4.75]-[20.55, 5.25]"], "{faults:?}");
 }
 

@@ -80,7 +80,9 @@ fn apply(targets: &FaultTargets, action: &Action, on: bool) {
 
 /// A world event where the robot is not simulated (a real or ROS 2 robot): nothing to act on.
 fn not_simulated(kind: &str) {
-    tracing::warn!("fault plan: '{kind}' changes a simulated world, and this robot is not simulated: skipped");
+    tracing::warn!(
+        "fault plan: '{kind}' changes a simulated world, and this robot is not simulated: skipped"
+    );
 }
 
 /// Runs `plan` against `targets` on tokio's clock, from now until `end_s` simulated seconds.
