@@ -10,6 +10,21 @@ fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
+/// What `tests/python/read_views.py` says of the recording at `rec`, as JSON.
+fn read_views(rec: &std::path::Path) -> serde_json::Value {
+    let out = Command::new("python3")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/read_views.py"))
+        .arg(rec)
+        .output()
+        .expect("python3 runs (a Python 3.11 with `pip install -r tests/python/requirements.txt`)");
+    assert!(
+        out.status.success(),
+        "the views do not check out (is `pip install -r tests/python/requirements.txt` done?): {}",
+        text(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("the reader prints JSON")
+}
+
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("orsa-views-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).expect("temp dir");
@@ -31,17 +46,7 @@ fn the_views_of_a_run_decode_and_agree_with_the_world_and_the_json_channels() {
         .expect("orsa runs");
     assert!(out.status.success(), "orsa run: {}", text(&out.stderr));
 
-    let out = Command::new("python3")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/read_views.py"))
-        .arg(&rec)
-        .output()
-        .expect("python3 runs (a Python 3.11 with `pip install -r tests/python/requirements.txt`)");
-    assert!(
-        out.status.success(),
-        "the views do not check out (is `pip install -r tests/python/requirements.txt` done?): {}",
-        text(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the reader prints JSON");
+    let v = read_views(&rec);
     let views = &v["views"];
     for topic in [
         "/world",
@@ -126,13 +131,7 @@ fn a_navigation_recording_draws_the_estimate_and_the_path() {
         .output()
         .expect("orsa runs");
     assert!(out.status.success(), "orsa run: {}", text(&out.stderr));
-    let out = Command::new("python3")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/read_views.py"))
-        .arg(&rec)
-        .output()
-        .expect("python3 runs");
-    assert!(out.status.success(), "the views do not check out: {}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the reader prints JSON");
+    let v = read_views(&rec);
     let e = &v["estimate"];
     // An estimate per odometry update (10 Hz) over the 15-20 s to room-1.
     assert!(e["estimates"].as_u64().is_some_and(|n| n > 100), "{v}");
