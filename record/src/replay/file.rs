@@ -480,14 +480,7 @@ impl Recording {
     /// Files a control at `log_time`, with what the recording has before it: the robot's
     /// publications, and the outputs of what it acts on (see [`Recording::controls_outputs`]).
     fn control(&mut self, log_time: u64, control: Control) {
-        let touched = match &control {
-            Control::Port { component, .. }
-            | Control::State { component, .. }
-            | Control::Param { component, .. } => format!("{component}/"),
-            Control::Link(_) => {
-                format!("{}/{}", self.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name())
-            }
-        };
+        let touched = self.acts_on(&control);
         let before = (self.outputs.iter())
             .filter(|(topic, _)| topic.starts_with(touched.as_str()))
             .map(|(topic, list)| (topic.clone(), list.len()))
@@ -498,16 +491,23 @@ impl Recording {
         self.controls_early.push(false);
     }
 
-    /// The outputs of what control `j` acts on, recorded so far.
-    fn outputs_of(&self, j: usize) -> usize {
-        let touched = match &self.controls[j].1 {
+    /// The prefix of the topics of what `control` acts on: the component whose port, state or
+    /// parameters it sets (`component/`), or for the link watchdog's command the robot's
+    /// velocity commands.
+    pub(super) fn acts_on(&self, control: &Control) -> String {
+        match control {
             Control::Port { component, .. }
             | Control::State { component, .. }
             | Control::Param { component, .. } => format!("{component}/"),
             Control::Link(_) => {
                 format!("{}/{}", self.meta.robot, orsa_interfaces::nomad200::NAVIGATIONVELOCITY.name())
             }
-        };
+        }
+    }
+
+    /// The outputs of what control `j` acts on, recorded so far.
+    fn outputs_of(&self, j: usize) -> usize {
+        let touched = self.acts_on(&self.controls[j].1);
         (self.outputs.iter())
             .filter(|(topic, _)| topic.starts_with(touched.as_str()))
             .map(|(_, l)| l.len())

@@ -212,6 +212,9 @@ impl Capture {
         list.push(Recorded { log_time: stamp.as_nanos(), data });
         drop(m);
         if let Some(seq) = self.sequencer.get().and_then(std::sync::Weak::upgrade) {
+            // A control that waited for this output goes at once, before anything else runs,
+            // as it went right after it live; one that goes after the steps is the feeder's.
+            seq.apply_ready(false);
             seq.moved.notify_one();
         }
     }

@@ -16,6 +16,10 @@
 //! time: the recorder logs a change when it hears of it, which on a loaded machine can be
 //! milliseconds after the publication the step was on.
 //!
+//! Controls on one component keep their recorded order; controls on different components do
+//! not wait for each other (a state set on `wallfollow` after the steps on a scan does not hold
+//! up `centerfollow`'s wiring, which live went before its own step on that scan).
+//!
 //! A paused-clock recording is replayed at its exact instants and does not need this (see
 //! [`super::feed_controls`]).
 //!
@@ -43,9 +47,12 @@ pub(super) struct Sequencer {
     playback: Arc<Playback>,
     /// What the replayed components made so far, per topic.
     made: Arc<Mutex<super::diff::Messages>>,
-    /// The next control to apply (held while applying: a control applied from inside another
-    /// does not apply the next one twice).
-    next: Mutex<usize>,
+    /// What it acts on, per control: controls on one thing keep their recorded order, those on
+    /// different things do not wait for each other.
+    keys: Vec<String>,
+    /// Which controls are applied, and how many from the first are (held while applying: a
+    /// control applied from inside another does not apply one twice).
+    done: Mutex<Done>,
     /// Woken when an output is captured.
     pub(super) moved: Notify,
 }
@@ -73,7 +80,8 @@ impl Sequencer {
             applier: super::Applier::new(&registry, &rec.meta.robot, ask),
             playback,
             made,
-            next: Mutex::new(0),
+            keys: rec.controls.iter().map(|(_, c)| rec.acts_on(c)).collect(),
+            done: Mutex::new(Done { applied: vec![false; rec.controls.len()], prefix: 0 }),
             moved: Notify::new(),
         }
     }
@@ -98,37 +106,74 @@ impl Sequencer {
         self.outputs[j].iter().all(|(topic, n)| made.get(topic).map_or(0, Vec::len) >= *n)
     }
 
-    /// Applies, in order, every control whose place has come. Called by the stand-in before
-    /// and right after each publication (`settled` false: a control that goes after the steps
-    /// on the publication waits for [`feed`]), and by [`feed`] whenever an output is captured
-    /// or a control's time comes, once what is ready to run has run (`settled`).
+    /// Applies every control whose place has come, each after the controls recorded before it
+    /// on the same thing. Called by the stand-in before and right after each publication, and
+    /// whenever an output is captured (`settled` false: a control that goes after the steps on
+    /// the publication waits for [`feed`]), and by [`feed`] whenever an output is captured or a
+    /// control's time comes, once what is ready to run has run (`settled`).
+    ///
+    /// Controls on different things commute: a state set on `wallfollow` that waits for the
+    /// steps on a scan does not hold up `centerfollow`'s wiring, which live went before its
+    /// step on that scan.
     pub(super) fn apply_ready(&self, settled: bool) {
-        let Some(mut next) = self.next.try_lock() else { return };
-        while *next < self.controls.len() && (settled || self.early[*next]) && self.ready(*next) {
-            let j = *next;
-            let control = self.controls[j].1.clone();
-            if let Some(pending) = self.applier.apply(control) {
-                now_or_spawn(pending);
+        let Some(mut done) = self.done.try_lock() else { return };
+        let cursor = self.playback.cursor.load(Ordering::SeqCst);
+        let mut held: Vec<&str> = Vec::new();
+        let mut j = done.prefix;
+        while j < self.controls.len() && self.after[j] <= cursor {
+            if !done.applied[j] {
+                let key = self.keys[j].as_str();
+                if !held.contains(&key) && (settled || self.early[j]) && self.ready(j) {
+                    if let Some(pending) = self.applier.apply(self.controls[j].1.clone()) {
+                        now_or_spawn(pending);
+                    }
+                    done.applied[j] = true;
+                } else {
+                    held.push(key);
+                }
             }
-            *next += 1;
-            if let Some(order) = &self.playback.order {
-                order.applied(j);
-            }
+            j += 1;
+        }
+        let before = done.prefix;
+        while done.prefix < self.controls.len() && done.applied[done.prefix] {
+            done.prefix += 1;
+        }
+        if done.prefix > before
+            && let Some(order) = &self.playback.order
+        {
+            order.applied(done.prefix - 1);
         }
     }
 
-    /// The next control to apply, if any.
-    fn next(&self) -> Option<usize> {
-        let next = *self.next.lock();
-        (next < self.controls.len()).then_some(next)
+    /// The controls not yet applied whose publications are out, in order.
+    fn pending(&self) -> Vec<usize> {
+        let done = self.done.lock();
+        let cursor = self.playback.cursor.load(Ordering::SeqCst);
+        (done.prefix..self.controls.len())
+            .take_while(|&j| self.after[j] <= cursor)
+            .filter(|&j| !done.applied[j])
+            .collect()
     }
+
+    /// Whether every control is applied.
+    fn finished(&self) -> bool {
+        self.done.lock().prefix == self.controls.len()
+    }
+}
+
+/// Which controls a [`Sequencer`] has applied.
+struct Done {
+    applied: Vec<bool>,
+    /// How many from the first are applied (what the stand-in waits for before a publication).
+    prefix: usize,
 }
 
 /// Applies the controls whose place comes with an output or with their time (those that come
 /// with a publication are applied by the stand-in), until all are.
 pub(super) async fn feed(seq: Arc<Sequencer>) {
     loop {
-        if seq.next().is_some_and(|j| !seq.early[j] && seq.ready(j)) {
+        let pending = seq.pending();
+        if pending.iter().any(|&j| !seq.early[j] && seq.ready(j)) {
             // What the publications before it set going runs first (a step on the last one),
             // as it did before the control in the recording; an early control goes before.
             for _ in 0..super::SETTLE_YIELDS {
@@ -136,11 +181,16 @@ pub(super) async fn feed(seq: Arc<Sequencer>) {
             }
         }
         seq.apply_ready(true);
-        let Some(j) = seq.next() else { return };
-        let due = seq.due(j);
+        if seq.finished() {
+            return;
+        }
+        // The next time a control's time comes (those whose time has come wait for outputs or
+        // publications: they come with `moved`).
+        let now = tokio::time::Instant::now();
+        let due = seq.pending().into_iter().map(|j| seq.due(j)).filter(|&d| d > now).min();
         tokio::select! {
             () = seq.moved.notified() => {}
-            () = tokio::time::sleep_until(due), if tokio::time::Instant::now() < due => {}
+            () = tokio::time::sleep_until(due.unwrap_or(now)), if due.is_some() => {}
         }
     }
 }
