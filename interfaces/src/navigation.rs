@@ -54,6 +54,11 @@ pub struct PoseEstimate {
     pub odom_y_m: f64,
     /// `map -> odom`: heading, rad.
     pub odom_heading_rad: f64,
+    /// The localizer has noticed that what the sensors see does not fit the map from this
+    /// pose (the robot was carried elsewhere, or the estimate wandered off): it is looking for
+    /// the robot, and the pose is not to be driven on until this is false again.
+    #[serde(default)]
+    pub lost: bool,
 }
 comm_object!(PoseEstimate, "orsa.navigation.PoseEstimate/1");
 
@@ -76,8 +81,40 @@ pub struct FollowPath {
     pub points: Vec<[f64; 2]>,
     /// The heading to turn to at the end, rad, if any.
     pub heading_rad: Option<f64>,
+    /// Instead of a path (`points` empty): turn on the spot by this much, rad (positive
+    /// counter-clockwise), by odometry alone, then stop. A recovery: a robot that is lost looks
+    /// round, one that is stuck turns away; it needs no pose in the map.
+    #[serde(default)]
+    pub turn_rad: Option<f64>,
+    /// Instead of a path (`points` empty, no `turn_rad`): back up straight by this much, m, by
+    /// odometry alone and slowly, stopping short of what the range views see behind, then
+    /// stop. A recovery: a robot stuck in a door backs out of it.
+    #[serde(default)]
+    pub back_m: Option<f64>,
 }
 comm_object!(FollowPath, "orsa.navigation.FollowPath/1");
+
+impl FollowPath {
+    /// Follow `points` for goal `goal_id`, turning to `heading_rad` at the end if given.
+    pub fn along(goal_id: u64, points: Vec<[f64; 2]>, heading_rad: Option<f64>) -> Self {
+        FollowPath { goal_id, points, heading_rad, turn_rad: None, back_m: None }
+    }
+
+    /// Stop.
+    pub fn stop(goal_id: u64) -> Self {
+        FollowPath::along(goal_id, Vec::new(), None)
+    }
+
+    /// Turn on the spot by `rad`.
+    pub fn turn(goal_id: u64, rad: f64) -> Self {
+        FollowPath { turn_rad: Some(rad), ..FollowPath::stop(goal_id) }
+    }
+
+    /// Back up by `m`.
+    pub fn back(goal_id: u64, m: f64) -> Self {
+        FollowPath { back_m: Some(m), ..FollowPath::stop(goal_id) }
+    }
+}
 
 /// Where a goal goes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -300,6 +337,7 @@ mod tests {
             odom_x_m: 1.0,
             odom_y_m: 2.0,
             odom_heading_rad: std::f64::consts::FRAC_PI_2,
+            lost: false,
         };
         let (x, y, h) = e.in_map(1.0, 0.0, 0.0);
         assert!((x - 1.0).abs() < 1e-12 && (y - 3.0).abs() < 1e-12, "{x} {y}");

@@ -14,7 +14,8 @@ pub const OCCUPIED_AT: i8 = 65;
 /// Distances to the nearest occupied cell, per cell of a grid, m.
 #[derive(Debug, Clone)]
 pub struct DistanceField {
-    resolution_m: f64,
+    /// Cells per metre (lookups multiply: they are the inner loop of localization).
+    per_m: f64,
     origin: (f64, f64),
     width: u32,
     height: u32,
@@ -53,7 +54,7 @@ impl DistanceField {
         }
         let metres = d2.iter().map(|&c| (c.sqrt() * grid.resolution_m).min(max_m) as f32).collect();
         DistanceField {
-            resolution_m: grid.resolution_m,
+            per_m: 1.0 / grid.resolution_m,
             origin: (grid.origin_x_m, grid.origin_y_m),
             width: grid.width,
             height: grid.height,
@@ -65,11 +66,22 @@ impl DistanceField {
     /// The distance from the centre of the cell holding the point `(x, y)` (map frame) to the
     /// nearest occupied cell's centre, m: the cap where the grid does not reach.
     pub fn at(&self, x: f64, y: f64) -> f64 {
-        let (fx, fy) = ((x - self.origin.0) / self.resolution_m, (y - self.origin.1) / self.resolution_m);
+        let (fx, fy) = ((x - self.origin.0) * self.per_m, (y - self.origin.1) * self.per_m);
         if !(fx >= 0.0 && fy >= 0.0 && fx < f64::from(self.width) && fy < f64::from(self.height)) {
             return self.max_m;
         }
         f64::from(self.metres[fy as usize * self.width as usize + fx as usize])
+    }
+
+    /// The field with every distance `d` turned into `f(d)` (the cap too), looked up by
+    /// [`Self::at`] as before: a score per cell computed once, where a search would compute it
+    /// at every lookup.
+    pub fn mapped(&self, f: impl Fn(f64) -> f64) -> DistanceField {
+        DistanceField {
+            metres: self.metres.iter().map(|&d| f(f64::from(d)) as f32).collect(),
+            max_m: f(self.max_m),
+            ..self.clone()
+        }
     }
 
     /// The cap on distances, m.

@@ -18,6 +18,10 @@
 //!   publishing the pose in the map (`orsa_interfaces::navigation::POSE`).
 //! - [`mapserver`]: the map component: the known map and its places, pushed on `map` and
 //!   answered on `known` to a planner in any process.
+//! - [`relocalize`]: noticing that the estimate no longer fits what the sensors see (a robot
+//!   carried elsewhere), and finding the robot again by matching what it saw while turning on
+//!   the spot against the whole map (correlative scan matching), guessing where two places look
+//!   alike until moving tells them apart.
 //! - [`mcl`]: Monte Carlo localization (augmented, KLD-free: a fixed number of particles) with
 //!   the odometry motion model and the likelihood-field sensor model, and recovery from being
 //!   lost or kidnapped by particles injected at random free places while readings fit badly.
@@ -28,3 +32,4 @@ pub mod localizer;
 pub mod mapserver;
 pub mod mcl;
 pub mod plan;
+pub mod relocalize;

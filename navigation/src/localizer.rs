@@ -11,6 +11,7 @@
 //! the robot is.
 
 use crate::mcl::{Beam, Localizer, MclParams, Pose2, wrap};
+use crate::relocalize::{RelocParams, Relocalizer, Search};
 use orsa_actors::param::Invalid;
 use orsa_actors::push_newest::PushNewestServer;
 use orsa_actors::{Component, ComponentError, Ctx, Empty, Update};
@@ -114,6 +115,8 @@ pub struct LocalizationState {
     placed: bool,
     beams: Vec<Beam>,
     covariance: [f64; 9],
+    /// Judges the estimate, and finds the robot when it is lost.
+    reloc: Relocalizer,
 }
 
 /// A ring's readings as beams (no echo within its range: `None`).
@@ -157,6 +160,14 @@ impl Component for Localization {
         };
         let filter =
             Localizer::new(&self.map, mcl, self.params.seed).map_err(|e| format!("{}: {e}", ctx.name()))?;
+        let g = &self.map;
+        let bounds = [
+            g.origin_x_m,
+            g.origin_y_m,
+            g.origin_x_m + f64::from(g.width) * g.resolution_m,
+            g.origin_y_m + f64::from(g.height) * g.resolution_m,
+        ];
+        let reloc = Relocalizer::new(RelocParams::default(), filter.field(), bounds, robot.body_radius_m);
         let pose = ctx.push_newest_server(POSE)?;
         let map_odom = ctx.keep("map_odom", || Arc::new(Mutex::new(None::<Pose2>)))?;
         ctx.subscribe_timed(nomad200::BASESTATE.on(&self.robot), 1, LocalizationMsg::Base)?;
@@ -172,6 +183,7 @@ impl Component for Localization {
             placed: false,
             beams: Vec::new(),
             covariance: [0.0; 9],
+            reloc,
         })
     }
 
@@ -220,7 +232,28 @@ impl Component for Localization {
         if let Some(s) = &st.ir {
             ring_beams(s, &st.robot.infrared, &mut st.beams);
         }
-        let t = if st.filter.update(odom, &st.beams) || kept.is_none() {
+        let updated = st.filter.update(odom, &st.beams);
+        if updated {
+            st.reloc.gather(odom, &st.beams);
+            if st.reloc.search_due() {
+                self.search(st, odom)?;
+            }
+            if !st.reloc.lost() {
+                let e = st.filter.estimate();
+                if st.reloc.judge(st.filter.field(), map_to_odom(e.pose, odom)).is_some() && st.reloc.lost() {
+                    // (Lost anew, or a guess that stopped fitting.)
+                    tracing::warn!(
+                        "{}: lost: what the sensors see does not fit the map from ({:.2}, {:.2}); looking for the robot \
+                         among {} places where it fits",
+                        self.name(),
+                        e.pose.x,
+                        e.pose.y,
+                        st.reloc.candidates()
+                    );
+                }
+            }
+        }
+        let t = if updated || kept.is_none() {
             let e = st.filter.estimate();
             st.covariance = [
                 e.covariance[0][0],
@@ -249,7 +282,64 @@ impl Component for Localization {
             odom_x_m: t.x,
             odom_y_m: t.y,
             odom_heading_rad: t.theta,
+            lost: st.reloc.lost(),
         });
+        Ok(())
+    }
+}
+
+impl Localization {
+    fn name(&self) -> &'static str {
+        "localizer"
+    }
+
+    /// Searches the map for the lost robot, `odom` its odometry now; places the filter there
+    /// if the search is sure.
+    fn search(&self, st: &mut LocalizationState, odom: Pose2) -> Result<(), ComponentError> {
+        match st.reloc.search(st.filter.field(), odom) {
+            Some(Search::Found(f)) => {
+                tracing::info!(
+                    "{}: found the robot at ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit there",
+                    self.name(),
+                    f.pose.x,
+                    f.pose.y,
+                    f.pose.theta.to_degrees(),
+                    100.0 * f.agreement
+                );
+                st.filter.reset_at(f.pose, 0.1, 3f64.to_radians()).map_err(|e| e.to_string())?;
+            }
+            Some(Search::Guess(best, rival)) => {
+                tracing::info!(
+                    "{}: taking ({:.2}, {:.2}, {:.0} deg) for now: {:.0} % of the echoes fit there (score {:.3}), \
+                     and ({:.2}, {:.2}) nearly as well (score {:.3}): it must move to tell them apart",
+                    self.name(),
+                    best.pose.x,
+                    best.pose.y,
+                    best.pose.theta.to_degrees(),
+                    100.0 * best.agreement,
+                    best.score,
+                    rival.pose.x,
+                    rival.pose.y,
+                    rival.score
+                );
+                st.filter.reset_at(best.pose, 0.1, 3f64.to_radians()).map_err(|e| e.to_string())?;
+            }
+            Some(Search::Unsure(best, rival)) => {
+                tracing::info!(
+                    "{}: still looking: best ({:.2}, {:.2}) fits {:.0} % (score {:.3}), {}",
+                    self.name(),
+                    best.pose.x,
+                    best.pose.y,
+                    100.0 * best.agreement,
+                    best.score,
+                    rival.map_or("too few fit".to_string(), |r| format!(
+                        "and ({:.2}, {:.2}) nearly as well (score {:.3})",
+                        r.pose.x, r.pose.y, r.score
+                    ))
+                );
+            }
+            None => {}
+        }
         Ok(())
     }
 }

@@ -514,6 +514,11 @@ impl Localizer {
         Estimate { pose: Pose2::new(x, y, theta), covariance: cov }
     }
 
+    /// The distance field its readings are scored on.
+    pub fn field(&self) -> &DistanceField {
+        &self.field
+    }
+
     /// The particles' poses (for drawing the cloud).
     pub fn poses(&self) -> impl Iterator<Item = Pose2> + '_ {
         self.particles.iter().map(|p| p.pose)
@@ -538,4 +543,4 @@ impl Localizer {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -21,8 +21,10 @@
 //! ([`navigate`]): the planner plans the body's path on the known map from the localizer's
 //! pose, gives it to the path follower, asks the executive for the mode `navigate` (which wires
 //! the path follower to the motors), follows the goal's progress, and when the robot has made
-//! none for `stuck_s` climbs a ladder of recoveries (plan again from where it is, up to
-//! `recoveries` times) before it aborts naming why. A step that aborts is skipped, tried again
+//! none for `stuck_s` climbs a ladder of recoveries (back up 0.3 m; forget the obstacle layer
+//! and back up; turn round on the spot; each followed by a new plan from where it is, up to
+//! `recoveries` times) before it aborts naming why. While the localizer says the robot is
+//! lost, the goal holds and the robot turns on the spot until it is found (at most `lost_s`). A step that aborts is skipped, tried again
 //! once, or ends the mission (`on_abort`). The same goals come from outside on the planner's
 //! `navigate` query (`orsa goto`), with feedback and results on `navigation`
 //! (`orsa_interfaces::navigation`); a newer goal preempts the one running.
@@ -157,12 +159,16 @@ pub struct PlannerParams {
     pub arrive_deg: f64,
     /// Without coming 0.2 m closer for this long, the robot is stuck: next recovery, s.
     pub stuck_s: f64,
-    /// How many recoveries (plan again from where it is) before a goal aborts.
+    /// How many recoveries (back up, clear the layer and back up, turn round: each then plans
+    /// again from where it is) before a goal aborts.
     pub recoveries: u32,
     /// The speed the ETA assumes, m/s.
     pub cruise_m_s: f64,
     /// The least gap a path leaves between the body and what the map holds, m.
     pub clearance_m: f64,
+    /// While the localizer says the robot is lost, a goal holds (the robot turns on the spot
+    /// to look round); lost this long, it aborts, s.
+    pub lost_s: f64,
 }
 
 impl Default for PlannerParams {
@@ -178,6 +184,7 @@ impl Default for PlannerParams {
             recoveries: 3,
             cruise_m_s: 0.4,
             clearance_m: 0.05,
+            lost_s: 60.0,
         }
     }
 }
@@ -209,6 +216,7 @@ impl PlannerParams {
             ("arrive_m", self.arrive_m, 0.01, 5.0),
             ("arrive_deg", self.arrive_deg, 0.1, 180.0),
             ("stuck_s", self.stuck_s, 1.0, 3600.0),
+            ("lost_s", self.lost_s, 1.0, 3600.0),
             ("cruise_m_s", self.cruise_m_s, 0.01, 10.0),
             ("clearance_m", self.clearance_m, 0.0, 2.0),
         ] {
@@ -275,6 +283,7 @@ impl PlannerParams {
             arrive_rad: self.arrive_deg.to_radians(),
             progress_m: 0.2,
             stuck_s: self.stuck_s,
+            lost_s: self.lost_s,
         }
     }
 }
@@ -296,6 +305,14 @@ pub struct NavSetup {
     /// The least gap a path leaves, m.
     pub clearance_m: f64,
 }
+
+/// How often a lost robot is told to turn round again while the localizer looks, s (a turn
+/// at the path follower's default pace takes about 16 s).
+const LOOK_ROUND_S: f64 = 20.0;
+/// How far a stuck robot backs up, m.
+const BACK_M: f64 = 0.3;
+/// How long backing up is given, s (0.3 m at 0.1 m/s, and a margin).
+const BACK_S: f64 = 5.0;
 
 /// The planner component.
 #[derive(Debug, Clone)]
@@ -350,6 +367,11 @@ struct Active {
     cleared: bool,
     /// When feedback was last published, s.
     told_s: f64,
+    /// Since when the localizer says the robot is lost, s, and when it was last told to turn
+    /// on the spot.
+    lost: Option<(f64, f64)>,
+    /// A recovery manoeuvre under way: until when, s, and what it is.
+    recovering: Option<(f64, String)>,
 }
 
 /// What the planner keeps for navigation.
@@ -360,6 +382,8 @@ struct NavState_ {
     feedback: PushNewestServer<NavFeedback>,
     plan: PlanParams,
     pose: Option<(f64, f64, f64)>,
+    /// Whether the localizer says the robot is lost (the pose is not to be driven on).
+    lost: bool,
     stopped: bool,
     next_id: u64,
     active: Option<Active>,
@@ -505,7 +529,7 @@ impl Planner {
             self.feedback(ctx, nav, &old, NavState::Canceled, &format!("preempted by goal {id}"));
         }
         nav.path
-            .send(FollowPath { goal_id: id, points: path.clone(), heading_rad: goal.heading_rad })
+            .send(FollowPath::along(id, path.clone(), goal.heading_rad))
             .map_err(|e| format!("the path follower cannot be reached: {e}"))?;
         let left = distance_left(&path, pose.0, pose.1);
         let a = Active {
@@ -520,6 +544,8 @@ impl Planner {
             blocked_since: None,
             tried_s: secs(ctx),
             cleared: false,
+            lost: None,
+            recovering: None,
         };
         self.feedback(ctx, nav, &a, NavState::Active, "");
         nav.active = Some(a);
@@ -552,7 +578,7 @@ impl Planner {
     ) -> Result<(), ComponentError> {
         let Some(nav) = st.nav.as_mut() else { return Ok(()) };
         let Some(a) = nav.active.take() else { return Ok(()) };
-        let _ = nav.path.send(FollowPath { goal_id: a.id, points: Vec::new(), heading_rad: None });
+        let _ = nav.path.send(FollowPath::stop(a.id));
         self.feedback(ctx, nav, &a, state, reason);
         match state {
             NavState::Succeeded => tracing::info!("planner: goal {} ({}) reached", a.id, a.target),
@@ -612,6 +638,57 @@ impl Planner {
             return Ok(());
         }
         let now = secs(ctx);
+        if let Some(a) = nav.active.as_mut() {
+            // Lost: the goal holds while the robot turns on the spot (the localizer looks for
+            // it); found again, it plans from where the robot truly is.
+            match (nav.lost, a.lost) {
+                (true, _) => {
+                    let (since, turned) = a.lost.unwrap_or((now, f64::NEG_INFINITY));
+                    if now - since >= setup.judge.lost_s {
+                        let why = format!(
+                            "lost: the localizer did not find where the robot is within {:.0} s",
+                            now - since
+                        );
+                        return self.end_goal(ctx, st, NavState::Aborted, &why);
+                    }
+                    // A turn takes 2 pi / (a third of the fastest turn): about 16 s.
+                    if now - turned >= LOOK_ROUND_S {
+                        a.lost = Some((since, now));
+                        let _ = nav.path.send(FollowPath::turn(a.id, std::f64::consts::TAU));
+                        if turned == f64::NEG_INFINITY {
+                            let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                            self.feedback(
+                                ctx,
+                                nav,
+                                a,
+                                NavState::Active,
+                                "recovery: lost, turning on the spot to find where it is",
+                            );
+                        }
+                    }
+                    return Ok(());
+                }
+                (false, Some((since, _))) => {
+                    a.lost = None;
+                    // What was seen from the wrong pose is in the wrong place.
+                    nav.layer.clear_all();
+                    let what =
+                        format!("found where it is after {:.0} s lost: planned from there", now - since);
+                    return self.replan(ctx, st, pose, &what);
+                }
+                (false, None) => {}
+            }
+        }
+        // A recovery manoeuvre runs to its end, then the goal is planned again from there.
+        if let Some(a) = nav.active.as_mut()
+            && let Some((until, what)) = a.recovering.clone()
+        {
+            if now < until {
+                return Ok(());
+            }
+            a.recovering = None;
+            return self.replan(ctx, st, pose, &format!("{what}, planned again"));
+        }
         let radius = nav.plan.robot_radius_m + nav.plan.clearance_m;
         // What the near view sees that the map does not hold.
         let mut changed = false;
@@ -632,8 +709,7 @@ impl Planner {
                     a.path = path;
                     a.blocked_since = None;
                     a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
-                    let cmd =
-                        FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                    let cmd = FollowPath::along(a.id, a.path.clone(), a.goal.heading_rad);
                     let _ = nav.path.send(cmd);
                     let a = nav.active.as_ref().ok_or("planner: no goal")?;
                     self.feedback(ctx, nav, a, NavState::Active, "planned around an obstacle");
@@ -642,11 +718,7 @@ impl Planner {
                 Err(why) => {
                     if a.blocked_since.is_none() {
                         a.blocked_since = Some(now);
-                        let _ = nav.path.send(FollowPath {
-                            goal_id: a.id,
-                            points: Vec::new(),
-                            heading_rad: None,
-                        });
+                        let _ = nav.path.send(FollowPath::stop(a.id));
                         let a = nav.active.as_ref().ok_or("planner: no goal")?;
                         self.feedback(
                             ctx,
@@ -692,12 +764,31 @@ impl Planner {
                 return self.end_goal(ctx, st, NavState::Aborted, &why);
             }
             Verdict::Stuck => {
+                // The ladder: back out of where it is stuck (a door's jamb, a corner), then the
+                // same with what the layer holds forgotten, then a full turn on the spot (the
+                // rings see all round, the layer is seen afresh); each ends in a new plan.
                 a.recoveries += 1;
-                if a.recoveries == 2 {
-                    nav.layer.clear_all();
-                }
-                let what = format!("recovery {}: no progress, planned again", a.recoveries);
-                return self.replan(ctx, st, pose, &what);
+                let (cmd, what, for_s) = match a.recoveries {
+                    1 => (FollowPath::back(a.id, BACK_M), "backed up", BACK_S),
+                    2 => {
+                        nav.layer.clear_all();
+                        (FollowPath::back(a.id, BACK_M), "cleared the obstacle layer, backed up", BACK_S)
+                    }
+                    _ => (
+                        FollowPath::turn(a.id, std::f64::consts::TAU),
+                        "turned round on the spot",
+                        LOOK_ROUND_S,
+                    ),
+                };
+                let what = format!(
+                    "recovery {}: no progress for {:.0} s, {what}",
+                    a.recoveries, setup.judge.stuck_s
+                );
+                a.recovering = Some((now + for_s, what.clone()));
+                let _ = nav.path.send(cmd);
+                let a = nav.active.as_ref().ok_or("planner: no goal")?;
+                self.feedback(ctx, nav, a, NavState::Active, &format!("{what}..."));
+                return Ok(());
             }
             Verdict::Going => {
                 if now - a.told_s >= 1.0 {
@@ -728,8 +819,7 @@ impl Planner {
                 tracing::info!("planner: goal {}: {what}", a.id);
                 a.path = path;
                 a.progress.restart(distance_left(&a.path, pose.0, pose.1), now);
-                let cmd =
-                    FollowPath { goal_id: a.id, points: a.path.clone(), heading_rad: a.goal.heading_rad };
+                let cmd = FollowPath::along(a.id, a.path.clone(), a.goal.heading_rad);
                 let _ = nav.path.send(cmd);
                 let a = nav.active.as_ref().ok_or("planner: no goal")?;
                 self.feedback(ctx, nav, a, NavState::Active, what);
@@ -791,6 +881,7 @@ impl Component for Planner {
                     feedback,
                     plan,
                     pose: None,
+                    lost: false,
                     stopped: false,
                     next_id: 0,
                     active: None,
@@ -924,6 +1015,7 @@ impl Component for Planner {
                 let p = p.value;
                 let Some(nav) = st.nav.as_mut() else { return Ok(()) };
                 nav.pose = Some((p.x_m, p.y_m, p.heading_rad));
+                nav.lost = p.lost;
                 if std::mem::take(&mut nav.waiting) {
                     Self::next(ctx)?;
                 }

@@ -215,6 +215,8 @@ pub struct Judge {
     pub progress_m: f64,
     /// Without progress for this long, it is stuck, s.
     pub stuck_s: f64,
+    /// Lost (the localizer looking for the robot) for this long, a goal aborts, s.
+    pub lost_s: f64,
 }
 
 impl Progress {
@@ -306,7 +308,7 @@ mod tests {
 
     #[test]
     fn progress_tells_arrival_from_being_stuck() {
-        let judge = Judge { arrive_m: 0.15, arrive_rad: 0.17, progress_m: 0.2, stuck_s: 10.0 };
+        let judge = Judge { arrive_m: 0.15, arrive_rad: 0.17, progress_m: 0.2, stuck_s: 10.0, lost_s: 60.0 };
         let goal = GoalPose { x_m: 2.0, y_m: 0.0, heading_rad: Some(0.0) };
         let mut p = Progress::new(2.0, 0.0);
         assert_eq!(p.check(&judge, goal, (0.5, 0.0, 0.0), 1.5, false, 5.0), Verdict::Going);

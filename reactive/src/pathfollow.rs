@@ -16,6 +16,7 @@ use orsa_actors::param::{Invalid, Parameters};
 use orsa_interfaces::navigation::{FollowPath, PoseEstimate};
 use orsa_interfaces::nomad200::{NavigationVelocity, RING_SIZE};
 use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
 
 /// Parameters of path following (`[params.pathfollow]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -127,6 +128,11 @@ pub struct PathFollower {
     /// The newest odometry: x, y, heading.
     odom: Option<(f64, f64, f64)>,
     arrived: bool,
+    /// A turn on the spot: how much is left to turn, rad (signed), and the odometry heading
+    /// it was last counted from (none until odometry comes).
+    turn: Option<(f64, Option<f64>)>,
+    /// Backing up: how far is left, m, and the odometry position it was last counted from.
+    back: Option<(f64, Option<(f64, f64)>)>,
 }
 
 fn wrap(a: f64) -> f64 {
@@ -144,6 +150,8 @@ impl PathFollower {
             map_odom: None,
             odom: None,
             arrived: false,
+            turn: None,
+            back: None,
         }
     }
 
@@ -158,6 +166,24 @@ impl PathFollower {
         self.heading_rad = path.heading_rad.filter(|h| h.is_finite());
         self.progress = 0;
         self.arrived = false;
+        self.turn = path
+            .turn_rad
+            .filter(|t| t.is_finite() && self.path.is_empty())
+            .map(|t| (t.clamp(-4.0 * PI, 4.0 * PI), self.odom.map(|o| o.2)));
+        self.back = path
+            .back_m
+            .filter(|b| b.is_finite() && *b > 0.0 && self.path.is_empty() && self.turn.is_none())
+            .map(|b| (b.min(2.0), self.odom.map(|o| (o.0, o.1))));
+    }
+
+    /// Whether it is backing up (and how far is left, m).
+    pub fn backing(&self) -> Option<f64> {
+        self.back.map(|(left, _)| left)
+    }
+
+    /// Whether it is turning on the spot (and how much is left, rad).
+    pub fn turning(&self) -> Option<f64> {
+        self.turn.map(|(left, _)| left)
     }
 
     /// A new estimate of the pose in the map.
@@ -172,6 +198,23 @@ impl PathFollower {
     pub fn note_odometry(&mut self, x_m: f64, y_m: f64, heading_rad: f64) {
         if x_m.is_finite() && y_m.is_finite() && heading_rad.is_finite() {
             self.odom = Some((x_m, y_m, heading_rad));
+            if let Some((left, from)) = &mut self.turn {
+                if let Some(from) = from {
+                    // Counted towards the turn only in its own direction.
+                    let turned = wrap(heading_rad - *from);
+                    if turned.signum() == left.signum() {
+                        let after = *left - turned;
+                        *left = if after.signum() == left.signum() { after } else { 0.0 };
+                    }
+                }
+                *from = Some(heading_rad);
+            }
+            if let Some((left, from)) = &mut self.back {
+                if let Some((fx, fy)) = from {
+                    *left = (*left - (x_m - *fx).hypot(y_m - *fy)).max(0.0);
+                }
+                *from = Some((x_m, y_m));
+            }
         }
     }
 
@@ -189,6 +232,35 @@ impl PathFollower {
             offset_m: None,
             alpha_rad: 0.0,
         };
+        if let Some((left, _)) = self.turn {
+            if left == 0.0 {
+                return stop;
+            }
+            // Slowly, so that the range views see all round: at a third of the fastest turn,
+            // slowing over the last 20 degrees.
+            let w = (self.p.omega_max_rad_s / 3.0).min(0.15 + 2.0 * left.abs());
+            return PathStep {
+                cmd: NavigationVelocity { stamp, v_m_s: 0.0, omega_rad_s: left.signum() * w },
+                offset_m: None,
+                alpha_rad: left,
+            };
+        }
+        if let Some((left, _)) = self.back {
+            // Straight back, slowly, and not into what the views see behind.
+            let behind = [7, 8, 9]
+                .iter()
+                .flat_map(|&i| [near[i % RING_SIZE], far[i % RING_SIZE]])
+                .flatten()
+                .fold(f64::INFINITY, f64::min);
+            if left == 0.0 || behind < self.p.stop_m + 0.1 {
+                return stop;
+            }
+            return PathStep {
+                cmd: NavigationVelocity { stamp, v_m_s: -(0.05 + left).min(0.1), omega_rad_s: 0.0 },
+                offset_m: None,
+                alpha_rad: 0.0,
+            };
+        }
         let (Some((x, y, th)), Some(&end)) = (self.pose(), self.path.last()) else { return stop };
         let p = &self.p;
         let d_end = (end[0] - x).hypot(end[1] - y);
@@ -315,12 +387,74 @@ mod tests {
             odom_x_m: 0.0,
             odom_y_m: 0.0,
             odom_heading_rad: 0.0,
+            lost: false,
         });
         f.note_odometry(x, y, th);
     }
 
+    #[test]
+    fn a_turn_on_the_spot_turns_by_odometry_alone_and_then_stops() {
+        let mut f = PathFollower::new(PathFollowParams::default());
+        f.note_odometry(1.0, 2.0, 3.0);
+        let mut turn = path(&[], None);
+        turn.turn_rad = Some(2.0 * PI);
+        f.set_path(&turn);
+        let none = [None; RING_SIZE];
+        let mut h = 3.0;
+        let mut steps = 0;
+        loop {
+            let s = f.step(&none, &none, Timestamp(0));
+            assert_eq!(s.cmd.v_m_s, 0.0, "on the spot");
+            if s.cmd.omega_rad_s == 0.0 {
+                break;
+            }
+            assert!(s.cmd.omega_rad_s > 0.0, "counter-clockwise");
+            h = wrap(h + s.cmd.omega_rad_s * 0.1);
+            f.note_odometry(1.0, 2.0, h);
+            steps += 1;
+            assert!(steps < 1000, "it never stopped");
+        }
+        // A whole turn, at a third of the fastest rate or slower: no pose in the map was needed.
+        assert!(f.pose().is_none());
+        let turned: f64 = steps as f64 * 0.1;
+        assert!(turned >= 2.0 * PI / (PathFollowParams::default().omega_max_rad_s / 3.0), "{steps} steps");
+        assert!(wrap(h - 3.0).abs() < 0.1, "ends where it began, turned once: {h}");
+        // A path after it is followed again.
+        f.set_path(&path(&[[5.0, 5.0]], None));
+        assert_eq!(f.turning(), None);
+    }
+
+    #[test]
+    fn backing_up_goes_straight_back_by_odometry_and_stops_short_of_what_is_behind() {
+        let mut f = PathFollower::new(PathFollowParams::default());
+        f.note_odometry(0.0, 0.0, 0.0);
+        f.set_path(&FollowPath::back(1, 0.3));
+        let none = [None; RING_SIZE];
+        let mut x = 0.0;
+        let mut steps = 0;
+        loop {
+            let s = f.step(&none, &none, Timestamp(0));
+            assert_eq!(s.cmd.omega_rad_s, 0.0, "straight");
+            if s.cmd.v_m_s == 0.0 {
+                break;
+            }
+            assert!((-0.1..0.0).contains(&s.cmd.v_m_s), "slowly backwards: {}", s.cmd.v_m_s);
+            x += s.cmd.v_m_s * 0.1;
+            f.note_odometry(x, 0.0, 0.0);
+            steps += 1;
+            assert!(steps < 1000, "it never stopped");
+        }
+        assert!((x + 0.3).abs() < 0.011, "backed up 0.3 m: {x}");
+        // Something close behind stops it at once.
+        f.set_path(&FollowPath::back(1, 0.3));
+        let mut behind = [None; RING_SIZE];
+        behind[8] = Some(0.15);
+        assert_eq!(f.step(&behind, &none, Timestamp(0)).cmd.v_m_s, 0.0);
+        assert_eq!(f.step(&none, &none, Timestamp(0)).cmd.v_m_s, -0.1);
+    }
+
     fn path(points: &[[f64; 2]], heading_rad: Option<f64>) -> FollowPath {
-        FollowPath { goal_id: 1, points: points.to_vec(), heading_rad }
+        FollowPath::along(1, points.to_vec(), heading_rad)
     }
 
     const CLEAR: Ranges = [None; RING_SIZE];

@@ -8,7 +8,7 @@ use orsa_interfaces::map::OCCUPIED;
 const RES: f64 = 0.05;
 
 /// A 10 m x 6 m room with a cabinet, a pillar and a partition: no two places look alike.
-fn room() -> OccupancyGrid {
+pub(crate) fn room() -> OccupancyGrid {
     let (w, h) = (200u32 + 4, 120u32 + 4);
     let mut g = OccupancyGrid::filled(RES, w, h, (-0.1, -0.1), FREE);
     let occupy = |g: &mut OccupancyGrid, f: &dyn Fn(f64, f64) -> bool| {
@@ -31,7 +31,7 @@ fn room() -> OccupancyGrid {
 
 /// 16 beams round a 0.25 m body, as a ring reads them from `truth` (ray cast on the grid,
 /// with noise).
-fn read(g: &OccupancyGrid, truth: Pose2, rng: &mut ChaCha8Rng) -> Vec<Beam> {
+pub(crate) fn read(g: &OccupancyGrid, truth: Pose2, rng: &mut ChaCha8Rng) -> Vec<Beam> {
     (0..16)
         .map(|i| {
             let a = f64::from(i) * TAU / 16.0;

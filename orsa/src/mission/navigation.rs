@@ -49,12 +49,32 @@ pub struct GoalFigures {
 /// How well the robot knew where it was.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct LocalizationFigures {
-    /// RMS distance of the estimate from the truth, m.
+    /// RMS distance of the estimate from the truth, m, over the estimates the localizer vouched
+    /// for: those it published while it said the robot was lost (looking for it, the pose not
+    /// to be driven on) are left out, and counted in `lost_s`. Those between a kidnapping and
+    /// its noticing it are in.
     pub rms_m: f64,
-    /// The largest, m.
+    /// The largest, m (over the same estimates).
     pub max_m: f64,
     /// How many estimates were compared.
     pub samples: u64,
+    /// How long the localizer said the robot was lost, s.
+    #[serde(default)]
+    pub lost_s: f64,
+    /// Each time it said so, in order.
+    #[serde(default)]
+    pub lost: Vec<LostSpell>,
+}
+
+/// A time the localizer said the robot was lost.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LostSpell {
+    /// When it said so, s.
+    pub from_s: f64,
+    /// When it found the robot again, s (`None`: not by the end of the run).
+    pub found_s: Option<f64>,
+    /// How far from the truth its first estimate after that was, m.
+    pub error_after_m: Option<f64>,
 }
 
 /// The report's `navigation` section.
@@ -101,6 +121,17 @@ impl NavigationReport {
             self.localization.max_m,
             self.localization.samples
         ));
+        for l in &self.localization.lost {
+            out.push_str(&match (l.found_s, l.error_after_m) {
+                (Some(found), e) => format!(
+                    "\nlost at {:.1} s, found again at {found:.1} s ({:.1} s later){}",
+                    l.from_s,
+                    found - l.from_s,
+                    e.map_or(String::new(), |e| format!(", {e:.2} m off"))
+                ),
+                (None, _) => format!("\nlost at {:.1} s, not found again by the end", l.from_s),
+            });
+        }
         out
     }
 
@@ -157,6 +188,8 @@ pub(super) struct NavigationRun {
     clearance: Option<Clearance>,
     /// The robot's true odometer at the last tick, m (what it drove: a kidnapping adds nothing).
     travelled_m: Option<f64>,
+    /// Since when the localizer says the robot is lost, s.
+    lost_at: Option<f64>,
 }
 
 impl NavigationRun {
@@ -173,6 +206,7 @@ impl NavigationRun {
             sum2: 0.0,
             clearance: None,
             travelled_m: None,
+            lost_at: None,
         }
     }
 
@@ -288,6 +322,23 @@ impl RunObserver for NavigationRun {
                 }
                 _ => None,
             };
+            let at_s = p.stamp.0 as f64 * 1e-9;
+            let spells = &mut self.report.localization.lost;
+            let was_lost = spells.last().is_some_and(|l| l.found_s.is_none());
+            if p.lost {
+                if !was_lost {
+                    spells.push(LostSpell { from_s: at_s, found_s: None, error_after_m: None });
+                }
+                self.lost_at = Some(self.lost_at.unwrap_or(at_s));
+                return false;
+            }
+            if let Some(since) = self.lost_at.take() {
+                self.report.localization.lost_s += at_s - since;
+                if let Some(l) = spells.last_mut() {
+                    l.found_s = Some(at_s);
+                    l.error_after_m = at.map(|(x, y)| (p.x_m - x).hypot(p.y_m - y));
+                }
+            }
             if let Some((x, y)) = at {
                 let e = (p.x_m - x).hypot(p.y_m - y);
                 sum2 += e * e;
@@ -331,6 +382,9 @@ impl RunObserver for NavigationRun {
                 shortest_m: clearance.shortest(r.from, (r.goal[0], r.goal[1])),
                 final_error_m: Some((r.goal[0] - last.0).hypot(r.goal[1] - last.1)),
             });
+        }
+        if let Some(since) = self.lost_at.take() {
+            report.localization.lost_s += (outcome.report.sim_seconds - since).max(0.0);
         }
         let n = report.localization.samples;
         report.localization.rms_m = if n > 0 { (self.sum2 / n as f64).sqrt() } else { 0.0 };
