@@ -203,6 +203,8 @@ pub struct Relocalizer {
     lost_since: Option<u64>,
     /// Whether the robot is placed at a guess ([`Search::Guess`]).
     guessing: bool,
+    /// The update at which the guess was taken.
+    guessed_at: u64,
     searched_at: u64,
 }
 
@@ -232,6 +234,7 @@ impl Relocalizer {
             update: 0,
             lost_since: None,
             guessing: false,
+            guessed_at: 0,
             searched_at: 0,
         }
     }
@@ -254,6 +257,12 @@ impl Relocalizer {
     /// Takes an update's `beams`, read at the odometry pose `odom`.
     pub fn gather(&mut self, odom: Pose2, beams: &[Beam]) {
         self.update += 1;
+        // A guess judged sound for a whole window of gathering is taken as found: searching on
+        // (a second of one core each time) would not tell places apart that the way driven
+        // did not.
+        if self.guessing && self.update - self.guessed_at >= self.params.gather_max as u64 {
+            self.set_found();
+        }
         let u = self.update;
         self.echoes.extend(beams.iter().filter_map(|b| Echo::of(b, odom)).map(|e| (u, e)));
         self.misses.extend(beams.iter().filter_map(|b| Miss::of(b, odom)).map(|m| (u, m)));
@@ -413,6 +422,7 @@ impl Relocalizer {
             }
             Some(r) if best.agreement >= p.found_above && !self.guessing => {
                 self.guessing = true;
+                self.guessed_at = self.update;
                 Some(Search::Guess(best, r))
             }
             _ => Some(Search::Unsure(best, rival)),

@@ -115,6 +115,12 @@ fn where_two_places_look_alike_the_best_is_a_guess_until_moving_tells_them_apart
     let share = r.judge(&field, map_odom(best.pose)).expect("enough echoes");
     assert!(share > 0.9, "{share}");
     assert!(r.guessing());
+    // (A copy that goes on turning there for a whole window takes the guess as found.)
+    let mut held = r.clone();
+    for _ in 0..RelocParams::default().gather_max {
+        held.gather(end, &[]);
+    }
+    assert!(!held.lost() && !held.guessing() && !held.search_due(), "a guess that held is found");
     // ... and a guess that stops fitting (as if it drove off and saw the other corner's
     // walls elsewhere) is lost again, keeping what it gathered.
     let wrong = Pose2::new(best.pose.x + 2.0, best.pose.y + 1.0, best.pose.theta + 0.5);
