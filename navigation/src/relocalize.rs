@@ -393,11 +393,7 @@ impl Relocalizer {
         for k in 0..headings {
             let theta = wrap(k as f64 * TAU / headings as f64);
             let (s, c) = theta.sin_cos();
-            for (r, e) in rotated.iter_mut().zip(&sample) {
-                for (q, &(x, y)) in r.ends[..usize::from(e.n)].iter_mut().zip(e.ends()) {
-                    *q = (c * x - s * y, s * x + c * y);
-                }
-            }
+            turn_into(&mut rotated, &sample, s, c);
             for &(cx, cy) in &self.candidates {
                 let score = score_at(&coarse_score, &rotated, cx, cy);
                 coarse.push(Found { pose: Pose2::new(cx, cy, theta), score, agreement: 0.0 });
@@ -451,11 +447,7 @@ impl Relocalizer {
         for dk in -4..=4 {
             let theta = wrap(seed.theta + f64::from(dk) * turn);
             let (s, c) = theta.sin_cos();
-            for (r, e) in rotated.iter_mut().zip(&sample) {
-                for (q, &(x, y)) in r.ends[..usize::from(e.n)].iter_mut().zip(e.ends()) {
-                    *q = (c * x - s * y, s * x + c * y);
-                }
-            }
+            turn_into(&mut rotated, &sample, s, c);
             for dy in -4..=4 {
                 for dx in -4..=4 {
                     let (x, y) = (seed.x + f64::from(dx) * step, seed.y + f64::from(dy) * step);
@@ -478,22 +470,23 @@ impl Relocalizer {
             })
             .count();
         best.agreement = near as f64 / echoes.len().max(1) as f64;
-        let (s, c) = best.pose.theta.sin_cos();
-        let turned: Vec<Echo> = echoes
-            .iter()
-            .map(|e| {
-                let mut r = *e;
-                for (q, &(x, y)) in r.ends[..usize::from(e.n)].iter_mut().zip(e.ends()) {
-                    *q = (c * x - s * y, s * x + c * y);
-                }
-                r
-            })
-            .collect();
+        let mut turned = echoes.to_vec();
+        turn_into(&mut turned, echoes, s, c);
         best.score = score_at(fine_score, &turned, best.pose.x, best.pose.y);
         let open = misses.iter().filter(|m| m.open(field, best.pose)).count();
         best.score =
             (best.score * echoes.len() as f64 + open as f64) / (echoes.len() + misses.len()).max(1) as f64;
         best
+    }
+}
+
+/// Each of `echoes` turned by the angle whose sine and cosine are `s` and `c`, into `out` (as
+/// long as `echoes`).
+fn turn_into(out: &mut [Echo], echoes: &[Echo], s: f64, c: f64) {
+    for (r, e) in out.iter_mut().zip(echoes) {
+        for (q, &(x, y)) in r.ends[..usize::from(e.n)].iter_mut().zip(e.ends()) {
+            *q = (c * x - s * y, s * x + c * y);
+        }
     }
 }
 
