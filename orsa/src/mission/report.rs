@@ -395,7 +395,7 @@ impl Report {
         }
         let _ = write!(
             out,
-            "{} simulated s in {:.1} wall s ({:.0}x real time), {} restarts",
+            "{:.1} simulated s in {:.1} wall s ({:.0}x real time), {} restarts",
             self.sim_seconds,
             self.wall_seconds,
             if self.wall_seconds > 0.0 { self.sim_seconds / self.wall_seconds } else { 0.0 },
