@@ -52,6 +52,11 @@ pub(crate) struct RunArgs {
     /// if one was not (rejected, or given up), the report saying which and why.
     #[arg(long, value_name = "PLACE")]
     pub(crate) goto: Vec<String>,
+    /// Go to N places drawn at random from the seed where the robot's body can go on the
+    /// world, each with room about it and at least 2 m from the one before: a mission for
+    /// measuring navigation anywhere (as --goto, and after its places).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1000))]
+    pub(crate) tour: Option<u16>,
     /// The config file and the report (default out/report.json).
     #[command(flatten)]
     pub(crate) shared: Shared,
@@ -78,7 +83,19 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         Some(p) => Config::load(p)?,
         None => Config::default(),
     };
-    let config = if args.goto.is_empty() { config } else { config.with_goto(&args.goto)? };
+    let mut goto = args.goto.clone();
+    if let Some(n) = args.tour {
+        let radius_m = config.sim.robot_params(config.robot().push_periods()).body_radius_m;
+        let spec = mission::tour::TourSpec::new(usize::from(n), radius_m);
+        let places = mission::tour::tour(&world, spec, args.seed).with_context(|| format!("--tour {n}"))?;
+        say(&format!(
+            "tour of {n} places drawn from seed {}: {}",
+            args.seed,
+            places.iter().map(|(x, y)| format!("({x:.2}, {y:.2})")).collect::<Vec<_>>().join(" ")
+        ));
+        goto.extend(places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")));
+    }
+    let config = if goto.is_empty() { config } else { config.with_goto(&goto)? };
     for p in [Some(&report_path), Some(&args.plot), args.record.as_ref()].into_iter().flatten() {
         ensure_parent(p)?;
     }
@@ -123,7 +140,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     let kinds = config.system.kinds();
     let mut opts = RunOptions::new(world.clone(), label, config, args.seed, args.duration);
     opts.faults = plan;
-    opts.until_mission_ends = !args.goto.is_empty();
+    opts.until_mission_ends = !goto.is_empty();
     let b = bar.clone();
     opts.progress = Some(Arc::new(move |t| b.set_position(t.round() as u64)));
     opts.progress_every_s = (args.duration / 400.0).clamp(1.0, 30.0);
@@ -192,7 +209,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     match Outcome::of(&report.ended)? {
         // A mission of places whose time ran out before it ended did not reach them all.
         Outcome::Completed
-            if !args.goto.is_empty() && matches!(report.ended, orsa::mission::report::Ended::Completed) =>
+            if !goto.is_empty() && matches!(report.ended, orsa::mission::report::Ended::Completed) =>
         {
             say(&format!("the mission of places did not end within --duration {} s", args.duration));
             Ok(Outcome::MissionFailed)

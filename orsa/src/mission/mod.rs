@@ -16,6 +16,7 @@ pub mod navigation;
 pub mod observe;
 pub mod report;
 pub mod stack;
+pub mod tour;
 
 /// A run's recording: in the recording crate, `orsa_record::recording`.
 pub use orsa_record::recording;

@@ -397,10 +397,10 @@ impl RunObserver for NavigationRun {
 pub const SUCCESS_RADIUS_M: f64 = 0.25;
 
 /// The cell of the independent search, m.
-const CELL_M: f64 = 0.05;
+pub(super) const CELL_M: f64 = 0.05;
 
 /// Where the body fits on the true world, cell by cell (see the module docs).
-struct Clearance {
+pub(super) struct Clearance {
     shapes: Vec<Shape>,
     radius_m: f64,
     origin: (f64, f64),
@@ -411,7 +411,7 @@ struct Clearance {
 }
 
 impl Clearance {
-    fn new(world: &World, radius_m: f64, cell_m: f64) -> Self {
+    pub(super) fn new(world: &World, radius_m: f64, cell_m: f64) -> Self {
         let shapes = world.static_shapes();
         let (mut lo, mut hi) = ((f64::INFINITY, f64::INFINITY), (f64::NEG_INFINITY, f64::NEG_INFINITY));
         for s in &shapes {
@@ -432,7 +432,7 @@ impl Clearance {
         c
     }
 
-    fn centre(&self, i: usize) -> (f64, f64) {
+    pub(super) fn centre(&self, i: usize) -> (f64, f64) {
         let (ix, iy) = (i % self.width, i / self.width);
         (self.origin.0 + (ix as f64 + 0.5) * self.cell_m, self.origin.1 + (iy as f64 + 0.5) * self.cell_m)
     }
@@ -472,6 +472,44 @@ impl Clearance {
         best.map(|(_, i)| i)
     }
 
+    /// Every cell the body reaches from `from` (by the same steps as [`Clearance::shortest`]),
+    /// `None` if it does not fit there.
+    pub(super) fn reachable_from(&self, from: (f64, f64)) -> Option<Vec<usize>> {
+        let s = self.cell_near(from)?;
+        let mut seen = vec![false; self.fits.len()];
+        seen[s] = true;
+        let mut todo = vec![s];
+        let mut all = Vec::new();
+        while let Some(i) = todo.pop() {
+            all.push(i);
+            for j in self.steps(i) {
+                if !seen[j] {
+                    seen[j] = true;
+                    todo.push(j);
+                }
+            }
+        }
+        all.sort_unstable();
+        Some(all)
+    }
+
+    /// The cells one step from `i` where the body fits: the eight around it, a diagonal only
+    /// with both cells beside it free (no corner cutting).
+    fn steps(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        let (x, y) = ((i % self.width) as i64, (i / self.width) as i64);
+        [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)].into_iter().filter_map(
+            move |(dx, dy)| {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= self.width as i64 || ny >= self.height as i64 {
+                    return None;
+                }
+                let j = ny as usize * self.width + nx as usize;
+                let beside = |ax: i64, ay: i64| self.fits[ay as usize * self.width + ax as usize];
+                (self.fits[j] && (dx == 0 || dy == 0 || (beside(nx, y) && beside(x, ny)))).then_some(j)
+            },
+        )
+    }
+
     /// The shortest path for the body from `from` to `to`, m.
     fn shortest(&self, from: (f64, f64), to: (f64, f64)) -> Option<f64> {
         let (s, g) = (self.cell_near(from)?, self.cell_near(to)?);
@@ -490,19 +528,9 @@ impl Clearance {
             if d > dist[i] {
                 continue;
             }
-            let (x, y) = ((i % self.width) as i64, (i / self.width) as i64);
-            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx < 0 || ny < 0 || nx >= self.width as i64 || ny >= self.height as i64 {
-                    continue;
-                }
-                let j = ny as usize * self.width + nx as usize;
-                // A diagonal step needs both cells beside it free: no corner cutting.
-                let beside = |ax: i64, ay: i64| self.fits[ay as usize * self.width + ax as usize];
-                if !self.fits[j] || (dx != 0 && dy != 0 && !(beside(nx, y) && beside(x, ny))) {
-                    continue;
-                }
-                let nd = d + if dx != 0 && dy != 0 { diagonal } else { straight };
+            for j in self.steps(i) {
+                let diagonal_step = j % self.width != i % self.width && j / self.width != i / self.width;
+                let nd = d + if diagonal_step { diagonal } else { straight };
                 if nd < dist[j] {
                     dist[j] = nd;
                     prev[j] = i;
