@@ -168,6 +168,28 @@ impl ObstacleLayer {
         any
     }
 
+    /// The centre of the marked cell nearest `(x, y)` within `radius_m`, if there is one.
+    pub fn nearest_mark(&mut self, x: f64, y: f64, radius_m: f64) -> Option<(f64, f64)> {
+        let mut best: Option<(f64, usize)> = None;
+        self.for_cells_near(x, y, radius_m, |layer, i| {
+            if layer.marked[i] {
+                let (px, py) = layer.centre(i);
+                let d = (px - x).hypot(py - y);
+                if best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, i));
+                }
+            }
+        });
+        best.map(|(_, i)| self.centre(i))
+    }
+
+    /// The centre of cell `i`.
+    fn centre(&self, i: usize) -> (f64, f64) {
+        let g = &self.known;
+        let (ix, iy) = (i % g.width as usize, i / g.width as usize);
+        (g.origin_x_m + (ix as f64 + 0.5) * g.resolution_m, g.origin_y_m + (iy as f64 + 0.5) * g.resolution_m)
+    }
+
     /// Calls `visit` with the index of every cell whose centre is within `radius_m` of `(x, y)`.
     fn for_cells_near(&mut self, x: f64, y: f64, radius_m: f64, mut visit: impl FnMut(&mut Self, usize)) {
         let g = &self.known;

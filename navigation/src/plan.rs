@@ -65,6 +65,10 @@ pub struct Path {
     pub length_m: f64,
 }
 
+/// How far from where the robot is estimated to be a path may start, when the body does not
+/// fit there, m.
+pub const START_SNAP_M: f64 = 0.25;
+
 /// Cost units per metre: A* works on integers.
 const UNITS_PER_M: f64 = 10_000.0;
 
@@ -101,11 +105,34 @@ pub fn plan(
         grid.get(ix, iy) == Some(FREE) && field.at(x, y) > body
     };
     let start = grid.cell_of(from.0, from.1).ok_or(PlanError::Start(from.0, from.1))?;
-    // The start must hold the body (it may stand closer to something than the clearance).
-    let (sx, sy) = grid.centre(start.0, start.1);
-    if grid.get(start.0, start.1) != Some(FREE) || field.at(sx, sy) <= p.robot_radius_m {
-        return Err(PlanError::Start(from.0, from.1));
-    }
+    // The start must hold the body (it may stand closer to something than the clearance); an
+    // estimate of where the robot is can be a few centimetres into what it cannot be in (a
+    // column's edge), so the nearest cell within START_SNAP_M that holds it will do.
+    let holds = |(ix, iy): (u32, u32)| {
+        let (x, y) = grid.centre(ix, iy);
+        grid.get(ix, iy) == Some(FREE) && field.at(x, y) > p.robot_radius_m
+    };
+    let start = if holds(start) {
+        start
+    } else {
+        let span = (START_SNAP_M / grid.resolution_m).ceil() as i64;
+        let mut best: Option<(f64, (u32, u32))> = None;
+        for dy in -span..=span {
+            for dx in -span..=span {
+                let (nx, ny) = (i64::from(start.0) + dx, i64::from(start.1) + dy);
+                if nx < 0 || ny < 0 || nx >= i64::from(grid.width) || ny >= i64::from(grid.height) {
+                    continue;
+                }
+                let c = (nx as u32, ny as u32);
+                let (x, y) = grid.centre(c.0, c.1);
+                let d = (x - from.0).hypot(y - from.1);
+                if d <= START_SNAP_M && holds(c) && best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, c));
+                }
+            }
+        }
+        best.ok_or(PlanError::Start(from.0, from.1))?.1
+    };
     let goal =
         grid.cell_of(to.0, to.1).filter(|&(ix, iy)| open(ix, iy)).ok_or(PlanError::Goal(to.0, to.1))?;
     let step_cost = |ix: u32, iy: u32, diagonal: bool| {
@@ -212,10 +239,14 @@ mod tests {
         assert_eq!(plan(&g, (1.0, 0.6), (20.0, 2.0), &p), Err(PlanError::Goal(20.0, 2.0)));
         assert_eq!(plan(&g, (1.0, 0.6), (4.0, 0.5), &p), Err(PlanError::Goal(4.0, 0.5)), "in the wall");
         assert_eq!(
-            plan(&g, (0.1, 0.1), (7.0, 2.6), &p),
-            Err(PlanError::Start(0.1, 0.1)),
+            plan(&g, (0.02, 0.02), (7.0, 2.6), &p),
+            Err(PlanError::Start(0.02, 0.02)),
             "body in the corner"
         );
+        // An estimate a few centimetres into where the body cannot be plans from beside it,
+        // the path still starting where the robot is said to be.
+        let near = plan(&g, (0.12, 0.12), (7.0, 2.6), &p).expect("a path from beside the corner");
+        assert_eq!(near.points.first(), Some(&(0.12, 0.12)));
         let mut short = rooms(1.0);
         short.cells.truncate(100);
         assert!(matches!(plan(&short, (1.0, 0.6), (7.0, 2.6), &p), Err(PlanError::Grid(_))));

@@ -313,6 +313,11 @@ const LOOK_ROUND_S: f64 = 20.0;
 const BACK_M: f64 = 0.3;
 /// How long backing up is given, s (0.3 m at 0.1 m/s, and a margin).
 const BACK_S: f64 = 5.0;
+/// How far a robot backs off from something close that blocks its way, m: a person who
+/// pauses for the robot (most keep 0.6 m) walks on once it has.
+const BACK_OFF_M: f64 = 0.5;
+/// Within this of the body's inflated edge, what blocks the way is close, m.
+const BACK_OFF_NEAR_M: f64 = 0.6;
 
 /// The planner component.
 #[derive(Debug, Clone)]
@@ -365,6 +370,8 @@ struct Active {
     tried_s: f64,
     /// Whether the layer was cleared for it already (a recovery).
     cleared: bool,
+    /// Whether it backed off from something close in its way already.
+    backed_off: bool,
     /// When feedback was last published, s.
     told_s: f64,
     /// Since when the localizer says the robot is lost, s, and when it was last told to turn
@@ -544,6 +551,7 @@ impl Planner {
             blocked_since: None,
             tried_s: secs(ctx),
             cleared: false,
+            backed_off: false,
             lost: None,
             recovering: None,
         };
@@ -579,6 +587,12 @@ impl Planner {
         let Some(nav) = st.nav.as_mut() else { return Ok(()) };
         let Some(a) = nav.active.take() else { return Ok(()) };
         let _ = nav.path.send(FollowPath::stop(a.id));
+        if state == NavState::Aborted {
+            // What blocked it may be gone by the next goal (a person who stood in a door), and
+            // marks no beam passes again would hold every later goal there: the next starts on
+            // the known map, and what is still there is seen again.
+            nav.layer.clear_all();
+        }
         self.feedback(ctx, nav, &a, state, reason);
         match state {
             NavState::Succeeded => tracing::info!("planner: goal {} ({}) reached", a.id, a.target),
@@ -718,14 +732,25 @@ impl Planner {
                 Err(why) => {
                     if a.blocked_since.is_none() {
                         a.blocked_since = Some(now);
-                        let _ = nav.path.send(FollowPath::stop(a.id));
+                        // Something close in the way (a person, who may be waiting for the
+                        // robot as it waits for them): back off once a goal, to give it room,
+                        // and wait there.
+                        let close =
+                            nav.layer.nearest_mark(pose.0, pose.1, radius + BACK_OFF_NEAR_M).is_some();
+                        let (cmd, what) = if close && !a.backed_off {
+                            a.backed_off = true;
+                            (FollowPath::back(a.id, BACK_OFF_M), format!(", backed off {BACK_OFF_M} m"))
+                        } else {
+                            (FollowPath::stop(a.id), String::new())
+                        };
+                        let _ = nav.path.send(cmd);
                         let a = nav.active.as_ref().ok_or("planner: no goal")?;
                         self.feedback(
                             ctx,
                             nav,
                             a,
                             NavState::Active,
-                            &format!("recovery: waiting for a way ({why})"),
+                            &format!("recovery: waiting for a way ({why}){what}"),
                         );
                         return Ok(());
                     }
@@ -737,8 +762,13 @@ impl Planner {
                 return Ok(());
             }
             if a.cleared {
+                let seen = nav
+                    .layer
+                    .nearest_mark(pose.0, pose.1, 3.0)
+                    .map(|(x, y)| format!(", something seen at ({x:.2}, {y:.2})"))
+                    .unwrap_or_default();
                 let why = format!(
-                    "no path: the way to ({:.2}, {:.2}) is blocked (seen from ({:.2}, {:.2}) for {:.0} s)",
+                    "no path: the way to ({:.2}, {:.2}) is blocked (seen from ({:.2}, {:.2}) for {:.0} s{seen})",
                     a.goal.x_m,
                     a.goal.y_m,
                     pose.0,
