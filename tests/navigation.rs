@@ -164,6 +164,32 @@ async fn the_office_mission_reaches_every_place_and_reports_it() {
     assert_eq!(again.navigation, r.navigation);
 }
 
+/// A random tour (`orsa run --tour`): places drawn where the body reaches on the true world,
+/// not where the world's author put them, reached one after another.
+#[tokio::test(start_paused = true)]
+async fn random_tours_of_the_office_floor_reach_every_place() {
+    let path = format!("{}/worlds/office.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
+    for seed in 1..=2 {
+        let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(6, radius_m), seed)
+            .expect("a tour");
+        let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+        let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
+        let r = goto_mission("office", &targets, seed).await;
+        let nav = r.navigation.as_ref().expect("a navigation section");
+        println!("seed {seed}:\n{}", nav.table());
+        assert_eq!(nav.goals.len(), 6);
+        for g in &nav.goals {
+            assert_eq!(g.status, "succeeded", "seed {seed}: {g:?}");
+            assert!(g.final_error_m.is_some_and(|e| e < 0.25), "seed {seed}: {g:?}");
+        }
+        assert!(nav.spl >= 0.85, "seed {seed}: SPL {}", nav.spl);
+        assert!(nav.localization.rms_m <= 0.10, "seed {seed}: {:?}", nav.localization);
+        assert_eq!(r.bumps, 0, "seed {seed}: {:?}", r.bumps_at);
+    }
+}
+
 #[tokio::test(start_paused = true)]
 async fn goals_to_no_place_are_rejected_at_once_naming_why_and_the_mission_goes_on() {
     let r = goto_mission("office", &["kitchen", "100,100", "0.02,3", "room-1"], 2).await;
