@@ -26,10 +26,15 @@ WORLDS = ["office", "suite", "loop", "lshape", "narrow", "hall"]
 
 
 def seeds(text):
-    if "-" in text:
-        a, b = text.split("-", 1)
-        return list(range(int(a), int(b) + 1))
-    return [int(s) for s in text.split(",")]
+    """`1-10`, `1,3,5` or both: `1-3,7`."""
+    out = []
+    for part in text.split(","):
+        if "-" in part:
+            a, b = part.split("-", 1)
+            out.extend(range(int(a), int(b) + 1))
+        else:
+            out.append(int(part))
+    return out
 
 
 def run(orsa, world, seed, places, out):
@@ -78,7 +83,7 @@ def main():
                 failed.append(f"{world} seed {seed}: {error}")
             else:
                 results[(world, seed)] = report
-    print(f"random tours of {a.places} places, seeds {a.seeds[0]}-{a.seeds[-1]}\n")
+    print(f"random tours of {a.places} places, seeds {', '.join(map(str, a.seeds))}\n")
     print("| world | runs | goals reached | SPL (mean) | localization RMS (mean) | bumps | real time |")
     print("|---|---|---|---|---|---|---|")
     for w in a.worlds:

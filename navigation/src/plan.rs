@@ -112,10 +112,13 @@ pub fn plan(
         let (x, y) = grid.centre(ix, iy);
         grid.get(ix, iy) == Some(FREE) && field.at(x, y) > p.robot_radius_m
     };
-    let start = if holds(start) {
+    let snapped = !holds(start);
+    let start = if !snapped {
         start
     } else {
-        let span = (START_SNAP_M / grid.resolution_m).ceil() as i64;
+        // (No farther than the body's radius: never to the far side of a thin wall.)
+        let snap_m = START_SNAP_M.min(p.robot_radius_m);
+        let span = (snap_m / grid.resolution_m).ceil() as i64;
         let mut best: Option<(f64, (u32, u32))> = None;
         for dy in -span..=span {
             for dx in -span..=span {
@@ -126,7 +129,7 @@ pub fn plan(
                 let c = (nx as u32, ny as u32);
                 let (x, y) = grid.centre(c.0, c.1);
                 let d = (x - from.0).hypot(y - from.1);
-                if d <= START_SNAP_M && holds(c) && best.is_none_or(|(b, _)| d < b) {
+                if d <= snap_m && holds(c) && best.is_none_or(|(b, _)| d < b) {
                     best = Some((d, c));
                 }
             }
@@ -175,8 +178,14 @@ pub fn plan(
     let (cells, _) = pathfinding::directed::astar::astar(&start, successors, heuristic, |c| *c == goal)
         .ok_or(PlanError::NoPath(from.0, from.1, to.0, to.1))?;
     let mut points = vec![from];
+    // From a snapped start, first to the cell the body fits in, then on.
+    let first = usize::from(!snapped);
     points.extend(
-        cells.iter().skip(1).take(cells.len().saturating_sub(2)).map(|&(ix, iy)| grid.centre(ix, iy)),
+        cells
+            .iter()
+            .skip(first)
+            .take(cells.len().saturating_sub(1 + first))
+            .map(|&(ix, iy)| grid.centre(ix, iy)),
     );
     points.push(to);
     let length_m = points.windows(2).map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1)).sum();
@@ -247,6 +256,11 @@ mod tests {
         // the path still starting where the robot is said to be.
         let near = plan(&g, (0.12, 0.12), (7.0, 2.6), &p).expect("a path from beside the corner");
         assert_eq!(near.points.first(), Some(&(0.12, 0.12)));
+        // Its first leg goes to where the body fits, then on from there.
+        let field = DistanceField::of(&g, 1.0);
+        let second = near.points[1];
+        assert!(field.at(second.0, second.1) > p.robot_radius_m, "{second:?}");
+        assert!((second.0 - 0.12).hypot(second.1 - 0.12) <= START_SNAP_M + 1e-9, "{second:?}");
         let mut short = rooms(1.0);
         short.cells.truncate(100);
         assert!(matches!(plan(&short, (1.0, 0.6), (7.0, 2.6), &p), Err(PlanError::Grid(_))));

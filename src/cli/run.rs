@@ -54,7 +54,8 @@ pub(crate) struct RunArgs {
     pub(crate) goto: Vec<String>,
     /// Go to N places drawn at random from the seed where the robot's body can go on the
     /// world, each with room about it and at least 2 m from the one before: a mission for
-    /// measuring navigation anywhere (as --goto, and after its places).
+    /// measuring navigation anywhere (as --goto, and after its places; the first is drawn 2 m
+    /// from the start, not from the last --goto).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1000))]
     pub(crate) tour: Option<u16>,
     /// The config file and the report (default out/report.json).

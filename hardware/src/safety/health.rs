@@ -135,9 +135,13 @@ fn neighbours(bearings: &[f64]) -> Vec<[usize; 3]> {
     }
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
     let gap = |k: usize| (order[(k + 1) % n].0 - order[k].0).rem_euclid(tau);
-    let mut gaps: Vec<f64> = (0..n).map(gap).collect();
+    // (Sensors listed twice at one bearing are not a ring's spacing.)
+    let mut gaps: Vec<f64> = (0..n).map(gap).filter(|g| *g > 1e-6).collect();
+    if gaps.is_empty() {
+        return Vec::new();
+    }
     gaps.sort_by(f64::total_cmp);
-    let typical = gaps[n / 2];
+    let typical = gaps[gaps.len() / 2];
     let joined = |k: usize| gap(k) <= 1.5 * typical;
     (0..n)
         .filter(|&k| joined((k + n - 1) % n) && joined(k))
@@ -831,6 +835,11 @@ mod tests {
         let shuffled = [ring[3], ring[0], ring[2], ring[1]];
         assert_eq!(neighbours(&shuffled), vec![[1, 3, 2], [3, 2, 0]]);
         assert!(neighbours(&ring[..2]).is_empty());
+        // Every bearing listed twice: the spacing is still the ring's.
+        let twice: Vec<f64> = ring.iter().chain(&ring).copied().collect();
+        let threes = neighbours(&twice);
+        assert!(threes.iter().any(|t| t.contains(&0) && (t.contains(&1) || t.contains(&17))), "{threes:?}");
+        assert!(neighbours(&[0.5; 8]).is_empty());
     }
 
     #[test]
