@@ -10,11 +10,8 @@
 //!   when the robot turns, and real readings carry noise (a noiseless simulator driving exactly
 //!   parallel to walls could look stuck; this judge is for sensors that have noise). Standing still, a stuck ring cannot be
 //!   told from a good one, and need not be: nothing moves towards anything;
-//! - **dead**: no valid reading at all while either the other view (trusted) sees a surface well
-//!   within this view's range (three angularly neighbouring sensors, the middle one's beam
-//!   flanked on both sides, read it: a wall or a box, which this view's beams between them must
-//!   see too; a thin door jamb or a table leg one wide cone catches may lie between two narrow
-//!   beams), or this view itself saw two such things a moment ago
+//! - **dead**: no valid reading at all while either the other view (trusted) sees at least two
+//!   things well within this view's range, or this view itself saw two such things a moment ago
 //!   and the robot has barely moved since (walls do not vanish between two scans); for
 //!   `dead_after_s`. No echo where nothing is in range is healthy. A view judged dead is
 //!   healthy again once it reads something, or once the other view, trusted, sees nothing
@@ -107,10 +104,8 @@ impl HealthParams {
 }
 
 /// What the judge needs to know of a range view.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewSpec {
-    /// Sensor `i` faces `bearings_rad[i]` counter-clockwise from the front.
-    pub bearings_rad: Vec<f64>,
     /// Its scan period, s.
     pub period_s: f64,
     /// Its shortest valid reading, m.
@@ -120,34 +115,6 @@ pub struct ViewSpec {
 }
 
 const NS: f64 = 1e-9;
-
-/// The sensors of a view with `bearings` in threes `[before, middle, after]` of angular
-/// neighbours: sorted by bearing, two sensors are neighbours when no wider gap than 1.5 times
-/// the ring's typical one (its median) parts them, across the back too for a full ring. A
-/// fan (a laser's 270 degrees) has no three across its blind side.
-fn neighbours(bearings: &[f64]) -> Vec<[usize; 3]> {
-    let tau = std::f64::consts::TAU;
-    let mut order: Vec<(f64, usize)> =
-        bearings.iter().enumerate().map(|(i, b)| (b.rem_euclid(tau), i)).collect();
-    let n = order.len();
-    if n < 3 {
-        return Vec::new();
-    }
-    order.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let gap = |k: usize| (order[(k + 1) % n].0 - order[k].0).rem_euclid(tau);
-    // (Sensors listed twice at one bearing are not a ring's spacing.)
-    let mut gaps: Vec<f64> = (0..n).map(gap).filter(|g| *g > 1e-6).collect();
-    if gaps.is_empty() {
-        return Vec::new();
-    }
-    gaps.sort_by(f64::total_cmp);
-    let typical = gaps[gaps.len() / 2];
-    let joined = |k: usize| gap(k) <= 1.5 * typical;
-    (0..n)
-        .filter(|&k| joined((k + n - 1) % n) && joined(k))
-        .map(|k| [order[(k + n - 1) % n].1, order[k].1, order[(k + 1) % n].1])
-        .collect()
-}
 
 fn secs(a: Timestamp, b: Timestamp) -> f64 {
     b.0.saturating_sub(a.0) as f64 * NS
@@ -319,8 +286,6 @@ impl Scatter {
 pub struct Judge {
     params: HealthParams,
     specs: [ViewSpec; 2],
-    /// Per view, its sensors in threes of angular neighbours (see [`neighbours`]).
-    threes: [Vec<[usize; 3]>; 2],
     bumper_period_s: f64,
     views: [ViewState; 2],
     bumpers: Judged,
@@ -343,11 +308,9 @@ impl Judge {
     /// A judge of two range views (`infrared`, `sonar`) and bumpers pushed every
     /// `bumper_period_s`.
     pub fn new(params: HealthParams, specs: [ViewSpec; 2], bumper_period_s: f64) -> Self {
-        let threes = [neighbours(&specs[0].bearings_rad), neighbours(&specs[1].bearings_rad)];
         Judge {
             params,
             specs,
-            threes,
             bumper_period_s,
             views: Default::default(),
             bumpers: Judged::default(),
@@ -437,22 +400,20 @@ impl Judge {
             return;
         }
         let p = self.params.clone();
-        let spec = &self.specs[v];
+        let spec = self.specs[v];
         let well_within = |d: f64, s: &ViewSpec| d >= s.min_range_m + 0.05 && d <= 0.8 * s.max_range_m;
         let sees_two =
             |r: &[Option<f64>], s: &ViewSpec| r.iter().flatten().filter(|d| well_within(**d, s)).count() >= 2;
-        // Whether the other view is trusted and fresh, and then whether it sees a surface well
+        // Whether the other view is trusted and fresh, and then whether it sees two things well
         // within this one's range, or nothing within it at all (this one's silence agrees).
         let (other_sees, other_sees_nothing) = {
-            let (o, o_spec) = (&self.views[1 - v], &self.specs[1 - v]);
-            let within = |i: usize| o.last.get(i).copied().flatten().is_some_and(|d| well_within(d, spec));
-            let surface = self.threes[1 - v].iter().any(|three| three.iter().all(|&i| within(i)));
+            let (o, o_spec) = (&self.views[1 - v], self.specs[1 - v]);
             let vouches = o.judged.verdict == Verdict::Healthy
                 && o.stamp.is_some_and(|t| secs(t, now) <= 2.0 * o_spec.period_s.max(spec.period_s));
             // (Only a view that reaches as far can say so.)
             let nothing = o_spec.max_range_m >= spec.max_range_m
                 && o.last.iter().flatten().all(|d| *d > spec.max_range_m);
-            (vouches && surface, vouches && nothing)
+            (vouches && sees_two(&o.last, &spec), vouches && nothing)
         };
         let (travel, turn) = (self.travel, self.turn);
         let st = &mut self.views[v];
@@ -486,7 +447,7 @@ impl Judge {
             }
         }
         // Dead.
-        if sees_two(&now_readings, spec) {
+        if sees_two(&now_readings, &spec) {
             st.last_saw = Some((travel, now));
         }
         // Alive: it reads something, or reads nothing where the other view sees nothing either.
@@ -697,9 +658,8 @@ mod tests {
     }
 
     fn judge() -> Judge {
-        let ring: Vec<f64> = (0..16).map(|i| i as f64 * std::f64::consts::TAU / 16.0).collect();
-        let ir = ViewSpec { bearings_rad: ring.clone(), period_s: 0.04, min_range_m: 0.0, max_range_m: 0.6 };
-        let sonar = ViewSpec { bearings_rad: ring, period_s: 0.064, min_range_m: 0.3, max_range_m: 6.0 };
+        let ir = ViewSpec { period_s: 0.04, min_range_m: 0.0, max_range_m: 0.6 };
+        let sonar = ViewSpec { period_s: 0.064, min_range_m: 0.3, max_range_m: 6.0 };
         Judge::new(HealthParams::default(), [ir, sonar], 0.03)
     }
 
@@ -792,54 +752,13 @@ mod tests {
 
     #[test]
     fn a_ring_with_nothing_valid_while_the_other_sees_walls_within_its_range_is_dead() {
-        // Sonar sees a wall at 0.40-0.45 m across three neighbouring cones, well within the
-        // infrared's 0.6 m.
-        let wall = [(3, 0.45), (4, 0.40), (5, 0.44), (0, 3.0)];
-        let j = sonar_sees_the_infrared_nothing(&wall);
+        // Sonar sees walls at 0.40-0.45 m, well within the infrared's 0.6 m.
+        let j = sonar_sees_the_infrared_nothing(&[(4, 0.40), (12, 0.45), (0, 3.0)]);
         assert_eq!(j.health().verdict("infrared"), Verdict::Dead, "{:?}", j.health());
         assert!(j.view_trusted(1));
-        // The same across the ring's seam (sensors 15, 0 and 1 face the front).
-        let j = sonar_sees_the_infrared_nothing(&[(15, 0.42), (0, 0.40), (1, 0.43)]);
-        assert_eq!(j.health().verdict("infrared"), Verdict::Dead, "{:?}", j.health());
         // With the walls beyond its range, nothing valid is healthy.
-        let j = sonar_sees_the_infrared_nothing(&[(3, 1.2), (4, 1.1), (5, 1.2), (12, 1.2)]);
+        let j = sonar_sees_the_infrared_nothing(&[(4, 1.1), (12, 1.2)]);
         assert!(j.all_trusted(), "{:?}", j.health());
-    }
-
-    #[test]
-    fn narrow_beams_that_pass_between_what_wide_cones_catch_are_not_dead() {
-        // In a door: each jamb in one cone (or two), nothing in three neighbouring ones. The
-        // infrared's narrow beams may all pass between them, and its silence proves nothing.
-        for jambs in [&[(4, 0.30), (12, 0.32)][..], &[(3, 0.33), (4, 0.30), (12, 0.32), (13, 0.35)]] {
-            let j = sonar_sees_the_infrared_nothing(jambs);
-            assert!(j.all_trusted(), "{jambs:?}: {:?}", j.health());
-        }
-        // Three neighbours, one of them beyond the infrared's reach: no surface it must see.
-        let j = sonar_sees_the_infrared_nothing(&[(3, 0.9), (4, 0.30), (5, 0.33)]);
-        assert!(j.all_trusted(), "{:?}", j.health());
-    }
-
-    #[test]
-    fn neighbours_wrap_round_a_full_ring_and_not_across_a_fans_blind_side() {
-        let ring: Vec<f64> = (0..16).map(|i| i as f64 * std::f64::consts::TAU / 16.0).collect();
-        let threes = neighbours(&ring);
-        assert_eq!(threes.len(), 16);
-        assert!(threes.contains(&[15, 0, 1]) && threes.contains(&[14, 15, 0]));
-        // A 270 degree fan of 10 beams, listed from the right, with the back blind.
-        let fan: Vec<f64> = (0..10).map(|i| (-135.0 + 30.0 * i as f64).to_radians()).collect();
-        let threes = neighbours(&fan);
-        assert_eq!(threes.len(), 8, "{threes:?}");
-        assert!(threes.iter().all(|t| t[1] != 0 && t[1] != 9), "{threes:?}");
-        assert!(threes.contains(&[0, 1, 2]) && threes.contains(&[7, 8, 9]));
-        // Listed in any order, by bearing.
-        let shuffled = [ring[3], ring[0], ring[2], ring[1]];
-        assert_eq!(neighbours(&shuffled), vec![[1, 3, 2], [3, 2, 0]]);
-        assert!(neighbours(&ring[..2]).is_empty());
-        // Every bearing listed twice: the spacing is still the ring's.
-        let twice: Vec<f64> = ring.iter().chain(&ring).copied().collect();
-        let threes = neighbours(&twice);
-        assert!(threes.iter().any(|t| t.contains(&0) && (t.contains(&1) || t.contains(&17))), "{threes:?}");
-        assert!(neighbours(&[0.5; 8]).is_empty());
     }
 
     #[test]
@@ -849,9 +768,8 @@ mod tests {
         let walls = |k: u64| {
             let n = ((k * 7) % 5) as f64 * 0.002;
             let mut so = vec![None; 16];
-            so[3] = Some(0.44 - n);
             so[4] = Some(0.40 + n);
-            so[5] = Some(0.45 - n);
+            so[12] = Some(0.45 - n);
             so
         };
         fn step(j: &mut Judge, k: &mut u64, so: Option<Vec<Option<f64>>>, ir: &[Option<f64>]) {
