@@ -3,6 +3,7 @@
 //! plan's pace, and the last hour drives as the first did.
 //!
 //! Its own test binary, with a single test, so the process's memory (`VmRSS`) is this run's.
+//! About two minutes of one core: a long test, run by `.ci/long` beside the others.
 //! The figures and tolerances below are from the measured run of `docs/faults.md`, "Soak".
 
 use orsa::config::Config;
@@ -39,7 +40,8 @@ fn share(h: &HourFigures, who: &str) -> f64 {
 }
 
 #[tokio::test(start_paused = true)]
-async fn a_day_under_the_standard_plan_piles_nothing_up_and_drives_its_last_hour_as_its_first() {
+#[ignore = "a simulated day under the standard plan, about two minutes: run by .ci/long"]
+async fn long_a_day_under_the_standard_plan_piles_nothing_up_and_drives_its_last_hour_as_its_first() {
     // The plan's ~70,000 injected panics would each print a message (and a backtrace with
     // RUST_BACKTRACE set), which the test harness keeps in this process's memory under
     // `cargo test`: that would be the harness growing, not orsa. Only they are silenced.
