@@ -5,7 +5,7 @@ use super::SafetyParams;
 use orsa_actors::Timestamp;
 use orsa_interfaces::nomad200::{DistanceReading, DistanceScan, RING_SIZE, RingParams, RobotParams};
 use orsa_interfaces::range::sector_coverage;
-use std::f64::consts::{FRAC_PI_4, PI, TAU};
+use std::f64::consts::{PI, TAU};
 
 /// Why the monitor limited a command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,9 +97,9 @@ pub struct Beams {
     sensors: Vec<Beam>,
     /// Per sensor: the unit direction of its axis.
     axes: Vec<(f64, f64)>,
-    /// Per sensor: the octants its beam reaches into (bit `k`: bearings from `k` to `k + 1`
-    /// times 45 degrees, seen from the centre).
-    octants: Vec<u8>,
+    /// Per sensor: the sectors its beam reaches into (bit `k`: sector `k` of [`sector`], seen
+    /// from the centre).
+    sectors: Vec<u32>,
     /// The cosine of half a beam's width.
     cos_half: f64,
     /// The shortest range a reading vouches for, m: nothing closer is seen free.
@@ -132,25 +132,26 @@ impl Beams {
             })
             .collect();
         let axes = view.angles_rad.iter().map(|a| (a.cos(), a.sin())).collect();
-        // The octants (of bearing from the centre) each beam reaches into: a point in a beam
+        // The sectors (of bearing from the centre) each beam reaches into: a point in a beam
         // lies within half the beam of its axis, seen from the centre (the beam starts on the
-        // axis, outwards). The margin keeps a point on an octant's edge in both.
-        let octants = view
+        // axis, outwards). Bearings are sampled across the beam and its margins closer than
+        // the narrowest sector (about 7 degrees), so none it touches is missed; the margin
+        // keeps a point on a sector's edge in both.
+        let sectors = view
             .angles_rad
             .iter()
             .map(|a| {
-                let of = |b: f64| ((b.rem_euclid(TAU) / FRAC_PI_4) as usize).min(7);
-                let mut set = 0u8;
-                let steps = 8;
+                let width = view.beam_width_rad + 2.0 * SECTOR_MARGIN;
+                let steps = (width / 1f64.to_radians()).ceil().max(1.0) as usize;
+                let mut set = 0u32;
                 for k in 0..=steps {
-                    let b = a - half - OCTANT_MARGIN
-                        + (view.beam_width_rad + 2.0 * OCTANT_MARGIN) * k as f64 / steps as f64;
-                    set |= 1 << of(b);
+                    let b = a - half - SECTOR_MARGIN + width * k as f64 / steps as f64;
+                    set |= 1 << sector((b.cos(), b.sin()));
                 }
                 set
             })
             .collect();
-        Beams { sensors, axes, octants, cos_half: half.cos(), min_range_m: view.min_range_m }
+        Beams { sensors, axes, sectors, cos_half: half.cos(), min_range_m: view.min_range_m }
     }
 
     /// What `scan` sees free, set out for testing many points against it (see [`Sight`]).
@@ -164,8 +165,8 @@ impl Beams {
     pub fn add_to(&self, sight: &mut Sight, scan: &DistanceScan) {
         for r in &scan.readings {
             let i = usize::from(r.sensor_id);
-            let (Some(((ox, oy), _)), Some(&(ax, ay)), Some(&octants)) =
-                (self.sensors.get(i), self.axes.get(i), self.octants.get(i))
+            let (Some(((ox, oy), _)), Some(&(ax, ay)), Some(&sectors)) =
+                (self.sensors.get(i), self.axes.get(i), self.sectors.get(i))
             else {
                 continue;
             };
@@ -174,8 +175,8 @@ impl Beams {
                 continue;
             }
             sight.newest = sight.newest.max(Some(r.stamp));
-            for (k, of) in sight.by_octant.iter_mut().enumerate() {
-                if octants & (1 << k) != 0 {
+            for (k, of) in sight.by_sector.iter_mut().enumerate() {
+                if sectors & (1 << k) != 0 {
                     of.push(sight.rays.len() as u16);
                 }
             }
@@ -211,8 +212,8 @@ impl Beams {
 #[derive(Debug, Clone, Default)]
 pub struct Sight {
     rays: Vec<Ray>,
-    /// Per octant of bearing from the centre, the rays whose beams reach into it.
-    by_octant: [Vec<u16>; 8],
+    /// Per sector of bearing from the centre ([`sector`]), the rays whose beams reach into it.
+    by_sector: [Vec<u16>; SECTORS],
     /// The newest stamp among them.
     newest: Option<Timestamp>,
 }
@@ -242,7 +243,7 @@ impl Sight {
     /// Forgets every reading, keeping its buffers.
     pub fn clear(&mut self) {
         self.rays.clear();
-        self.by_octant.iter_mut().for_each(Vec::clear);
+        self.by_sector.iter_mut().for_each(Vec::clear);
         self.newest = None;
     }
 
@@ -260,40 +261,46 @@ impl Sight {
     /// reading's beam, beyond the shortest range it vouches for and more than
     /// [`CLEAR_MARGIN_M`] short of what it read there.
     pub fn clears(&self, since: Timestamp, p: (f64, f64)) -> bool {
-        self.by_octant[octant(p)].iter().any(|&i| {
+        self.by_sector[sector(p)].iter().any(|&i| {
             let ray = &self.rays[usize::from(i)];
+            if ray.stamp <= since {
+                return false;
+            }
             let ((ox, oy), (ax, ay)) = (ray.origin, ray.axis);
             let (vx, vy) = (p.0 - ox, p.1 - oy);
             let d2 = vx * vx + vy * vy;
             let along = vx * ax + vy * ay;
             let (lo, hi, c) = (ray.lo, ray.hi, ray.cos_half);
-            ray.stamp > since && d2 > lo * lo && d2 < hi * hi && along > 0.0 && along * along >= d2 * c * c
+            d2 > lo * lo && d2 < hi * hi && along > 0.0 && along * along >= d2 * c * c
         })
     }
 }
 
-/// How far beyond a beam's edge (rad) the octants it reaches into are counted.
-const OCTANT_MARGIN: f64 = 0.01;
+/// How far beyond a beam's edge (rad) the sectors it reaches into are counted.
+const SECTOR_MARGIN: f64 = 0.01;
 
-/// The octant of the bearing of `p` from the centre: `k` for bearings from `k` to `k + 1`
-/// times 45 degrees, counter-clockwise from the front (a point on an edge in either).
-fn octant(p: (f64, f64)) -> usize {
+/// How many sectors of bearing [`Sight`] sorts its rays into: a point is tested only against
+/// the rays of its own (on a ring of 16 with 25-degree sonar cones, about 5 of 32 instead of 10
+/// of 32 with octants).
+const SECTORS: usize = 32;
+
+/// The sector of the bearing of `p` from the centre, counter-clockwise from the front: the
+/// bearing's diamond angle (a monotonic stand-in for the angle from 0 to 4 that needs no
+/// trigonometry) in `SECTORS` equal parts, each 7 to 14 degrees wide.
+fn sector(p: (f64, f64)) -> usize {
     let (x, y) = p;
-    if y >= 0.0 {
-        if x > 0.0 {
-            if y < x { 0 } else { 1 }
-        } else if y > -x {
-            2
-        } else {
-            3
-        }
-    } else if x < 0.0 {
-        if -y < -x { 4 } else { 5 }
-    } else if -y > x {
-        6
-    } else {
-        7
+    let l1 = x.abs() + y.abs();
+    if l1 == 0.0 || !l1.is_finite() {
+        return 0;
     }
+    let d = if y >= 0.0 {
+        if x >= 0.0 { y / l1 } else { 1.0 - x / l1 }
+    } else if x < 0.0 {
+        2.0 - y / l1
+    } else {
+        3.0 + x / l1
+    };
+    ((d * (SECTORS as f64 / 4.0)) as usize).min(SECTORS - 1)
 }
 
 /// What the monitor knows of the robot, and decides from one look at its sensors.
@@ -495,11 +502,11 @@ mod tests {
         }
     }
 
-    /// Testing a point only against the rays of its octant clears exactly what testing it
+    /// Testing a point only against the rays of its sector clears exactly what testing it
     /// against every ray does, on rings of 16 and of 5 (uneven) with wide and narrow beams,
-    /// including points on the octants' edges.
+    /// including points on the sectors' edges.
     #[test]
-    fn a_point_is_cleared_by_the_rays_of_its_octant_as_by_all() {
+    fn a_point_is_cleared_by_the_rays_of_its_sector_as_by_all() {
         use orsa_interfaces::nomad200::{DistanceReading, Ring};
         let every = |s: &Sight, since: Timestamp, p: (f64, f64)| {
             s.rays.iter().any(|ray| {
@@ -546,15 +553,17 @@ mod tests {
                     let th = k as f64 / 40_000.0 * TAU;
                     let r = 0.2 + (k % 53) as f64 * 0.04;
                     let mut points = vec![(r * th.cos(), r * th.sin())];
-                    if k < 8 {
-                        let edge = k as f64 * FRAC_PI_4;
-                        points.extend([
-                            (r * edge.cos(), r * edge.sin()),
-                            (r, r),
-                            (-r, r),
-                            (0.0, -r),
-                            (-r, 0.0),
-                        ]);
+                    if k < SECTORS {
+                        // The edge between sectors k - 1 and k, on the diamond.
+                        let d = k as f64 * 4.0 / SECTORS as f64;
+                        let t = d.fract();
+                        let edge = match d as usize {
+                            0 => (1.0 - t, t),
+                            1 => (-t, 1.0 - t),
+                            2 => (t - 1.0, -t),
+                            _ => (t, t - 1.0),
+                        };
+                        points.extend([(r * edge.0, r * edge.1), (r, r), (-r, r), (0.0, -r), (-r, 0.0)]);
                     }
                     for p in points {
                         let want = every(&sight, Timestamp(12), p);
@@ -571,6 +580,27 @@ mod tests {
             }
         }
         assert!(cleared > tried / 20 && cleared < tried, "{cleared} of {tried} cleared");
+    }
+
+    /// Sectors follow the bearing round, counter-clockwise from the front, each 7 to 14
+    /// degrees wide.
+    #[test]
+    fn sectors_follow_the_bearing_round() {
+        let (mut last, mut start) = (0, 0.0);
+        let steps = 36_000;
+        for k in 0..steps {
+            let b = k as f64 / steps as f64 * TAU;
+            let s = sector((b.cos(), b.sin()));
+            if s != last {
+                assert_eq!(s, (last + 1) % SECTORS, "at {b} rad");
+                let width = (b - start).to_degrees();
+                assert!(last == 0 || (7.0..14.1).contains(&width), "sector {last}: {width} degrees");
+                (last, start) = (s, b);
+            }
+        }
+        assert_eq!(last, SECTORS - 1, "round to the front again");
+        assert_eq!(sector((0.0, 0.0)), 0);
+        assert_eq!(sector((f64::NAN, 1.0)), 0);
     }
 
     /// Braking at `a` after `t` from the speed allowed covers exactly the free distance.
