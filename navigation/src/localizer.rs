@@ -161,6 +161,12 @@ fn beams_moved(
         let echo = r.valid && r.distance_m.is_finite() && r.distance_m < ring.max_range_m;
         let mut origin = (ring.mount_radius_m * a.cos(), ring.mount_radius_m * a.sin());
         let mut angle_rad = a;
+        let then = moved.map(|(trail, _)| (trail.poses.is_empty(), trail.at(r.stamp)));
+        // A reading older than the whole trail cannot be placed: it is left out (with no trail
+        // yet, every reading is taken where the robot is).
+        if let Some((false, None)) = then {
+            continue;
+        }
         if let Some((trail, now)) = moved
             && let Some(then) = trail.at(r.stamp)
             && then != now
@@ -204,10 +210,14 @@ impl OdometryTrail {
     }
 
     /// The odometry pose at `t`: interpolated between the two around it (the turn the short
-    /// way), the nearest end's outside them; `None` before the first.
+    /// way), the newest after the last; `None` before the first (older than the trail: where
+    /// the robot was then is not known) or with none.
     pub fn at(&self, t: Timestamp) -> Option<Pose2> {
         let (first, last) = (self.poses.front()?, self.poses.back()?);
-        if t <= first.0 {
+        if t < first.0 {
+            return None;
+        }
+        if t == first.0 {
             return Some(first.1);
         }
         if t >= last.0 {
@@ -468,7 +478,8 @@ mod tests {
         let mid = trail.at(Timestamp(150 * MS)).expect("a pose");
         assert!((mid.x - 1.25).abs() < 1e-12 && (mid.y - 2.1).abs() < 1e-12, "{mid:?}");
         assert!((mid.theta - wrap(3.0 + (TAU - 6.0) / 2.0)).abs() < 1e-12, "the short way round: {mid:?}");
-        assert_eq!(trail.at(Timestamp(0)), Some(then));
+        assert_eq!(trail.at(Timestamp(100 * MS)), Some(then));
+        assert_eq!(trail.at(Timestamp(99 * MS)), None, "older than the trail");
         assert_eq!(trail.at(Timestamp(900 * MS)), Some(now));
         assert_eq!(OdometryTrail::default().at(Timestamp(0)), None);
 
@@ -506,5 +517,14 @@ mod tests {
         // Without the trail it would be a quarter of a metre off.
         let naive = end(now, &taken[1]);
         assert!((naive.0 - want.0).hypot(naive.1 - want.1) > 0.25, "{naive:?} {want:?}");
+        // A reading older than the trail is left out; with no trail yet, every reading is
+        // taken where the robot is.
+        let old = DistanceScan { readings: vec![reading(0, 200), reading(1, 50)], ..scan.clone() };
+        moved.clear();
+        ring_beams_at(&old, &ring, &trail, now, &mut moved);
+        assert_eq!(moved, taken[..1], "the reading from before the trail is left out");
+        moved.clear();
+        ring_beams_at(&old, &ring, &OdometryTrail::default(), now, &mut moved);
+        assert_eq!(moved.len(), 2);
     }
 }
