@@ -170,12 +170,24 @@ impl ObstacleLayer {
 
     /// The centre of the marked cell nearest `(x, y)` within `radius_m`, if there is one.
     pub fn nearest_mark(&mut self, x: f64, y: f64, radius_m: f64) -> Option<(f64, f64)> {
+        self.nearest_mark_where(x, y, radius_m, |_| true)
+    }
+
+    /// The centre of the nearest marked cell within `radius_m` of `(x, y)` whose centre `keep`
+    /// accepts (say, one ahead of the robot), if any.
+    pub fn nearest_mark_where(
+        &mut self,
+        x: f64,
+        y: f64,
+        radius_m: f64,
+        keep: impl Fn((f64, f64)) -> bool,
+    ) -> Option<(f64, f64)> {
         let mut best: Option<(f64, usize)> = None;
         self.for_cells_near(x, y, radius_m, |layer, i| {
             if layer.marked[i] {
                 let (px, py) = layer.centre(i);
                 let d = (px - x).hypot(py - y);
-                if best.is_none_or(|(b, _)| d < b) {
+                if best.is_none_or(|(b, _)| d < b) && keep((px, py)) {
                     best = Some((d, i));
                 }
             }
@@ -256,6 +268,19 @@ mod tests {
 
     fn ahead(range_m: Option<f64>) -> Beam {
         Beam { origin: (0.0, 0.0), angle_rad: 0.0, half_width_rad: 0.0, range_m, max_range_m: 3.0 }
+    }
+
+    #[test]
+    fn the_nearest_mark_is_found_among_those_kept() {
+        let mut layer = ObstacleLayer::new(known(), 2.0, 0.1).expect("valid");
+        let robot = Pose2::new(1.5, 1.0, 0.0);
+        let behind = Beam { angle_rad: std::f64::consts::PI, ..ahead(Some(0.3)) };
+        assert!(layer.observe(robot, &[ahead(Some(0.8)), behind]));
+        let near = layer.nearest_mark(1.5, 1.0, 1.0).expect("marks");
+        assert!((near.0 - 1.2).abs() < 0.05, "the one behind is nearest: {near:?}");
+        let ahead_only = layer.nearest_mark_where(1.5, 1.0, 1.0, |(x, _)| x > 1.5).expect("ahead");
+        assert!((ahead_only.0 - 2.3).abs() < 0.05, "{ahead_only:?}");
+        assert_eq!(layer.nearest_mark_where(1.5, 1.0, 0.5, |(x, _)| x > 1.5), None, "beyond the radius");
     }
 
     #[test]

@@ -732,11 +732,15 @@ impl Planner {
                 Err(why) => {
                     if a.blocked_since.is_none() {
                         a.blocked_since = Some(now);
-                        // Something close in the way (a person, who may be waiting for the
-                        // robot as it waits for them): back off once a goal, to give it room,
-                        // and wait there.
-                        let close =
-                            nav.layer.nearest_mark(pose.0, pose.1, radius + BACK_OFF_NEAR_M).is_some();
+                        // Something close ahead in the way (a person, who may be waiting for
+                        // the robot as it waits for them): back off once a goal, to give it
+                        // room, and wait there. Backing away from what is behind would not.
+                        let (s, c) = pose.2.sin_cos();
+                        let ahead = |(x, y): (f64, f64)| (x - pose.0) * c + (y - pose.1) * s > 0.0;
+                        let close = nav
+                            .layer
+                            .nearest_mark_where(pose.0, pose.1, radius + BACK_OFF_NEAR_M, ahead)
+                            .is_some();
                         let (cmd, what) = if close && !a.backed_off {
                             a.backed_off = true;
                             (FollowPath::back(a.id, BACK_OFF_M), format!(", backed off {BACK_OFF_M} m"))
