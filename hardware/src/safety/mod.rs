@@ -113,6 +113,9 @@ impl<S: SensorBoard + 'static, M: MotorBoard + 'static> Guarded<S, M> {
         let period = Duration::from_secs_f64(params.period_s);
         let judge = params.health.enabled.then(|| {
             let spec = |r: &RingParams, push_s: f64| ViewSpec {
+                bearings_rad: r.angles_rad.clone(),
+                mount_radius_m: r.mount_radius_m,
+                beam_width_rad: r.beam_width_rad,
                 period_s: (r.fire_period_s * r.angles_rad.len() as f64).max(push_s),
                 min_range_m: r.min_range_m,
                 max_range_m: r.max_range_m,
