@@ -134,6 +134,11 @@ pub struct Mover {
     /// Seconds before it starts walking.
     #[serde(default)]
     pub start_delay: f64,
+    /// Seconds it waits for the robot before it gives up and turns back the way it came (an
+    /// orsa extension of the shared schema). Absent: it waits for as long as the robot is there,
+    /// so a head-on meeting in a passage too narrow for both lasts until the robot leaves.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub patience: Option<f64>,
 }
 
 fn default_yield_distance() -> f64 {

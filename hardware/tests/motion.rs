@@ -229,6 +229,7 @@ fn cluttered_room() -> impl Strategy<Value = World> {
                     path: vec![[x, y], [6.0 - x, 6.0 - y]],
                     yield_distance: 0.05 + a / 4.0,
                     start_delay: 0.0,
+                    patience: None,
                 }),
             }
             let shapes = candidate.static_shapes();

@@ -3,7 +3,10 @@
 //! A mover stands at the start of its path until its start delay has passed, then walks at its
 //! speed, turning back at each end. It pauses while the gap between its edge and the robot's
 //! edge is below its yield distance, and it never steps into the robot: a step that would bring
-//! it closer than a hair to the robot is not taken. So any contact is the robot's doing.
+//! it closer than a hair to the robot is not taken. So any contact is the robot's doing. A mover
+//! with a patience gives up waiting after that long, as people do: it turns back the way it came
+//! and walks away from the robot (a step that would not take it away is not taken while the
+//! robot is that close), and walks its path as before once it is clear of the robot.
 //! Movers ignore walls, obstacles and each other; a world's author keeps their paths clear.
 
 use crate::geometry::{self, Circle, Point, Shape};
@@ -30,6 +33,12 @@ pub(crate) struct MoverState {
     speed: f64,
     yield_distance: f64,
     start_delay_ns: u64,
+    /// How long it waits for the robot before it turns back; `None`: for ever.
+    patience_ns: Option<u64>,
+    /// How long it has been within its yield distance of the robot.
+    waited_ns: u64,
+    /// Whether it has turned back since it came within its yield distance.
+    turned_back: bool,
     path: Vec<Point>,
     /// Arc length at each path point, from 0 to `length`.
     at: Vec<f64>,
@@ -58,6 +67,9 @@ impl MoverState {
             speed: m.speed,
             yield_distance: m.yield_distance,
             start_delay_ns: super::config::nanos(m.start_delay),
+            patience_ns: m.patience.map(super::config::nanos),
+            waited_ns: 0,
+            turned_back: false,
             path,
             at,
             length: sum,
@@ -126,12 +138,28 @@ impl MoverState {
             return;
         }
         let gap = (self.position - robot.center).norm() - self.radius - robot.radius;
-        if gap < self.yield_distance {
-            self.yielding = true;
-            return;
+        let close = gap < self.yield_distance;
+        if close {
+            self.waited_ns = self.waited_ns.saturating_add(walk_ns);
+            if self.patience_ns.is_none_or(|p| self.waited_ns < p) {
+                self.yielding = true;
+                return;
+            }
+            if !self.turned_back {
+                self.turned_back = true;
+                self.forward = !self.forward;
+            }
+        } else {
+            self.waited_ns = 0;
+            self.turned_back = false;
         }
         let (s, forward) = self.walk(self.s, self.forward, self.speed * walk_ns as f64 * 1e-9);
         let next = self.point_at(s);
+        if close && (next - robot.center).norm() <= (self.position - robot.center).norm() {
+            // Out of patience, but the way back leads no farther from the robot: wait on.
+            self.yielding = true;
+            return;
+        }
         let room = geometry::max_travel_fraction(
             &Shape::Circle(*robot),
             &self.position,
@@ -152,7 +180,12 @@ mod tests {
     use super::*;
 
     fn mover(path: Vec<[f64; 2]>, speed: f64) -> MoverState {
-        MoverState::new(&Mover { radius: 0.25, speed, path, yield_distance: 0.6, start_delay: 1.0 })
+        MoverState::new(&Mover { radius: 0.25, speed, path, yield_distance: 0.6, start_delay: 1.0, patience: None })
+    }
+
+    fn patient(path: Vec<[f64; 2]>, speed: f64, patience: f64) -> MoverState {
+        let m = Mover { radius: 0.25, speed, path, yield_distance: 0.6, start_delay: 0.0, patience: Some(patience) };
+        MoverState::new(&m)
     }
 
     const FAR: Circle = Circle { center: Point::new(100.0, 100.0), radius: 0.25 };
@@ -192,6 +225,44 @@ mod tests {
         run(&mut m, 20.0, 21.0, &FAR);
         assert!(!m.truth().yielding);
         assert!(m.position().x > 2.0);
+    }
+
+    #[test]
+    fn a_patient_mover_waits_its_patience_then_turns_back_and_walks_away() {
+        let mut m = patient(vec![[0.0, 0.0], [10.0, 0.0]], 1.0, 5.0);
+        let robot = Circle::new(Point::new(3.0, 0.0), 0.25);
+        // It walks up to the robot (about 1.9 s) and waits there.
+        run(&mut m, 0.0, 4.0, &robot);
+        let stopped = m.position();
+        assert!(m.truth().yielding);
+        run(&mut m, 4.0, 6.5, &robot);
+        assert_eq!(m.position(), stopped, "still waiting, within its patience");
+        // Five seconds of waiting are up by t = 7: it turns back and walks away.
+        run(&mut m, 6.5, 8.0, &robot);
+        assert!(!m.truth().yielding);
+        assert!(m.position().x < stopped.x - 0.5, "walked back: {} from {}", m.position(), stopped);
+        run(&mut m, 8.0, 8.5, &robot);
+        assert!(m.position().x < 1.0, "{}", m.position());
+        // Clear of the robot it walks its path as before: to the start (t = 8.9), then towards
+        // the robot again (there by t = 10.8), and waits there once more for its whole patience.
+        run(&mut m, 8.5, 12.0, &robot);
+        assert!(m.truth().yielding && (m.position() - stopped).norm() < 0.02, "{}", m.position());
+        run(&mut m, 12.0, 15.5, &robot);
+        assert!((m.position() - stopped).norm() < 0.02, "waits its patience again: {}", m.position());
+        run(&mut m, 15.5, 16.5, &robot);
+        assert!(m.position().x < stopped.x - 0.3, "and turns back again: {}", m.position());
+    }
+
+    #[test]
+    fn a_mover_out_of_patience_never_steps_towards_the_robot() {
+        // At the end of its path, the way back leads towards the robot behind it: it waits on.
+        let mut m = patient(vec![[0.0, 0.0], [2.0, 0.0]], 1.0, 1.0);
+        let robot = Circle::new(Point::new(-0.9, 0.0), 0.25);
+        let start = m.position();
+        for t in 0..400 {
+            m.step(t * 10_000_000, (t + 1) * 10_000_000, &robot, 1e-6);
+            assert!((m.position() - robot.center).norm() >= (start - robot.center).norm() - 1e-9);
+        }
     }
 
     #[test]

@@ -99,6 +99,10 @@ fn sizes_and_speeds_must_be_in_range() {
     assert_names(&msg, ":10:18", "movers[0].yield_distance", "must be > 0, got -1");
     let msg = error_of(&format!("{MOVER}start_delay = -2\n"));
     assert_names(&msg, ":10:15", "movers[0].start_delay", "must be >= 0, got -2");
+    let msg = error_of(&format!("{MOVER}patience = 0\n"));
+    assert_names(&msg, ":10:12", "movers[0].patience", "must be > 0, got 0");
+    let w = World::from_str(&format!("{HEAD}{MOVER}patience = 8.5\n"), "ok.toml").expect("a patience loads");
+    assert_eq!(w.movers[0].patience, Some(8.5));
     let msg = error_of(&MOVER.replace("radius = 0.25", "radius = -0.25"));
     assert_names(&msg, ":7:10", "movers[0].radius", "must be > 0");
     // A mover that stands still is fine.

@@ -57,7 +57,11 @@ fn mover(path: &KeyPath, m: &Mover) -> Check {
     non_negative(path.k("speed"), m.speed, "a mover's speed")?;
     polyline(path.k("path"), &m.path, "a mover's path")?;
     positive(path.k("yield_distance"), m.yield_distance, "a mover's yield_distance")?;
-    non_negative(path.k("start_delay"), m.start_delay, "a mover's start_delay")
+    non_negative(path.k("start_delay"), m.start_delay, "a mover's start_delay")?;
+    match m.patience {
+        Some(p) => positive(path.k("patience"), p, "a mover's patience"),
+        None => Ok(()),
+    }
 }
 
 /// Whether `name` is a place's name: letters, digits, `-` and `_`, at least one.

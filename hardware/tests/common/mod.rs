@@ -45,7 +45,7 @@ pub fn disc(center: [f64; 2], radius: f64) -> Disc {
 }
 
 pub fn standing_person(at: [f64; 2], radius: f64) -> Mover {
-    Mover { radius, speed: 0.0, path: vec![at, at], yield_distance: 0.6, start_delay: 0.0 }
+    Mover { radius, speed: 0.0, path: vec![at, at], yield_distance: 0.6, start_delay: 0.0, patience: None }
 }
 
 /// A noiseless simulator of `world`.
