@@ -180,11 +180,25 @@ mod tests {
     use super::*;
 
     fn mover(path: Vec<[f64; 2]>, speed: f64) -> MoverState {
-        MoverState::new(&Mover { radius: 0.25, speed, path, yield_distance: 0.6, start_delay: 1.0, patience: None })
+        MoverState::new(&Mover {
+            radius: 0.25,
+            speed,
+            path,
+            yield_distance: 0.6,
+            start_delay: 1.0,
+            patience: None,
+        })
     }
 
     fn patient(path: Vec<[f64; 2]>, speed: f64, patience: f64) -> MoverState {
-        let m = Mover { radius: 0.25, speed, path, yield_distance: 0.6, start_delay: 0.0, patience: Some(patience) };
+        let m = Mover {
+            radius: 0.25,
+            speed,
+            path,
+            yield_distance: 0.6,
+            start_delay: 0.0,
+            patience: Some(patience),
+        };
         MoverState::new(&m)
     }
 
