@@ -190,6 +190,30 @@ async fn random_tours_of_the_office_floor_reach_every_place() {
     }
 }
 
+/// The hall looks nearly the same turned half round about its middle. People walking close
+/// once made the filter's fit dip, and particles redrawn at random on the mirror image won: on
+/// seeds 5 and 9 the estimate settled 10 m off and two goals in six were truly reached (the
+/// planner said all six). Now a dip starts the relocalizer's search, which keeps the track.
+#[tokio::test(start_paused = true)]
+async fn random_tours_of_the_hall_keep_the_robot_off_its_mirror_image() {
+    let path = format!("{}/worlds/hall.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
+    for seed in [5, 9] {
+        let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(6, radius_m), seed)
+            .expect("a tour");
+        let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+        let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
+        let r = goto_mission("hall", &targets, seed).await;
+        let nav = r.navigation.as_ref().expect("a navigation section");
+        println!("seed {seed}:\n{}", nav.table());
+        assert_eq!(nav.goals.len(), 6);
+        assert_eq!(nav.success_rate, 1.0, "seed {seed}: {:?}", nav.goals);
+        assert!(nav.localization.rms_m <= 0.10, "seed {seed}: {:?}", nav.localization);
+        assert_eq!(r.bumps, 0, "seed {seed}: {:?}", r.bumps_at);
+    }
+}
+
 #[tokio::test(start_paused = true)]
 async fn goals_to_no_place_are_rejected_at_once_naming_why_and_the_mission_goes_on() {
     let r = goto_mission("office", &["kitchen", "100,100", "0.02,3", "room-1"], 2).await;
@@ -386,9 +410,14 @@ async fn a_goal_behind_a_blocked_door_is_reached_by_another_way() {
 }
 
 /// A robot carried from the corridor into room 4 on its way to room 3 (its odometry unaware)
-/// notices within seconds, turns on the spot, is found again (from room 4's middle, the pillar,
-/// the desk and two walls look alike turned about the pillar: on seeds 2 and 3 it is placed at
-/// its best guess and confirmed as it drives out), and reaches room 3, then room 5.
+/// notices within seconds (its readings fit the map less than half as well as they did), turns
+/// on the spot, is found again or placed at its best guess, and reaches room 3, then room 5.
+/// From room 4's middle the pillar, the desk and two walls look alike turned about the pillar:
+/// the search cannot tell the two apart from one spot, so it places the robot at the better of
+/// the two (a guess) and confirms or corrects it as the robot drives out. On seed 3 the better
+/// is the wrong one, by 0.001 of score, and driving out corrects it; reaching room 3 truly
+/// (within 0.25 m of the truth) shows it was. A later spell (people close making the readings fit
+/// badly for a moment) must end where the robot truly is.
 #[tokio::test(start_paused = true)]
 async fn a_kidnapped_robot_is_found_again_and_reaches_its_goals() {
     const KIDNAP_S: f64 = 20.0;
@@ -419,9 +448,15 @@ async fn a_kidnapped_robot_is_found_again_and_reaches_its_goals() {
             "seed {seed}: found {:.1} s after the kidnapping",
             found - KIDNAP_S
         );
-        assert!(first.error_after_m.is_some_and(|e| e < 0.25), "seed {seed}: {first:?}");
-        // Lost once: the guess, where there was one, held.
-        assert_eq!(l.lost.len(), 1, "seed {seed}: {l:?}");
+        // Found where it is, or placed at the twin and corrected on the way to room 3.
+        let room_3 = &nav.goals[0];
+        assert!(
+            first.error_after_m.is_some_and(|e| e < 0.25) || room_3.final_error_m.is_some_and(|e| e < 0.25),
+            "seed {seed}: {first:?}, {room_3:?}"
+        );
+        for later in &l.lost[1..] {
+            assert!(later.error_after_m.is_some_and(|e| e < 0.25), "seed {seed}: {later:?}");
+        }
         assert_eq!(nav.success_rate, 1.0, "seed {seed}: truly reached both: {:?}", nav.goals);
         assert_eq!(r.bumps, 0, "seed {seed}: {:?}", r.bumps_at);
     }

@@ -45,6 +45,20 @@ pub struct LocalizerParams {
     /// but after a kidnapping the filter then holds a wrong pose well enough that the
     /// relocalizer's judge, whose thresholds were chosen without it, notices it 40 s late.
     pub timed_readings: bool,
+    /// The filter redraws particles at random free places while its short-term fit is below
+    /// this share of its long-term one (augmented MCL's recovery, [`MclParams::recovery_ratio`]).
+    /// 0 by default: a lost robot is found by the relocalizer's search, which looks at the whole
+    /// map at once and takes a pose only when it is sure. Particles redrawn at random let the
+    /// filter jump by itself: in the hall, which looks nearly the same turned round, a dip of the
+    /// fit (people close) drew particles onto its mirror image, which fit as well and won
+    /// (random tours: the hall 80.5 % of goals truly reached at 0.5, 98.5 % at 0).
+    pub recovery_ratio: f64,
+    /// The robot is taken to be lost (and looked for) when the filter's short-term fit falls
+    /// below this share of its long-term one: the dip that used to redraw particles at random
+    /// now starts the relocalizer's search, which keeps the track if it still fits (people
+    /// close) and finds the robot elsewhere if it does not (kidnapped). 0: never (the
+    /// relocalizer's judge alone).
+    pub lost_fit_ratio: f64,
 }
 
 impl Default for LocalizerParams {
@@ -57,6 +71,8 @@ impl Default for LocalizerParams {
             update_min_m: 0.05,
             update_min_deg: 10.0,
             timed_readings: false,
+            recovery_ratio: 0.0,
+            lost_fit_ratio: 0.5,
         }
     }
 }
@@ -81,6 +97,12 @@ impl LocalizerParams {
         }
         if !(self.update_min_deg.is_finite() && (0.0..=180.0).contains(&self.update_min_deg)) {
             return Err(Invalid::new("localizer.update_min_deg", "must be from 0 to 180 degrees"));
+        }
+        if !(self.recovery_ratio.is_finite() && (0.0..=1.0).contains(&self.recovery_ratio)) {
+            return Err(Invalid::new("localizer.recovery_ratio", "must be from 0 to 1"));
+        }
+        if !(self.lost_fit_ratio.is_finite() && (0.0..=1.0).contains(&self.lost_fit_ratio)) {
+            return Err(Invalid::new("localizer.lost_fit_ratio", "must be from 0 to 1"));
         }
         Ok(())
     }
@@ -256,6 +278,7 @@ impl Component for Localization {
             particles: self.params.particles,
             update_min_m: self.params.update_min_m,
             update_min_rad: self.params.update_min_deg.to_radians(),
+            recovery_ratio: self.params.recovery_ratio,
             ..MclParams::default()
         };
         let filter =
@@ -343,6 +366,20 @@ impl Component for Localization {
             if st.reloc.search_due() {
                 self.search(st, odom)?;
             }
+            let (fast, slow) = st.filter.fit();
+            if !st.reloc.lost() && !st.reloc.guessing() && fast < self.params.lost_fit_ratio * slow {
+                let e = st.filter.estimate();
+                st.reloc.set_lost_from(map_to_odom(e.pose, odom));
+                tracing::warn!(
+                    "{}: lost: the readings fit the map from ({:.2}, {:.2}) less than {:.0} % as well as they have \
+                     been; looking for the robot among {} places where it fits",
+                    self.name(),
+                    e.pose.x,
+                    e.pose.y,
+                    100.0 * self.params.lost_fit_ratio,
+                    st.reloc.candidates()
+                );
+            }
             if !st.reloc.lost() {
                 let e = st.filter.estimate();
                 if st.reloc.judge(st.filter.field(), map_to_odom(e.pose, odom)).is_some() && st.reloc.lost() {
@@ -405,6 +442,18 @@ impl Localization {
             Some(Search::Found(f)) => {
                 tracing::info!(
                     "{}: found the robot at ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit there",
+                    self.name(),
+                    f.pose.x,
+                    f.pose.y,
+                    f.pose.theta.to_degrees(),
+                    100.0 * f.agreement
+                );
+                st.filter.reset_at(f.pose, 0.1, 3f64.to_radians()).map_err(|e| e.to_string())?;
+            }
+            Some(Search::Kept(f)) => {
+                tracing::info!(
+                    "{}: found the robot where it was tracked, at ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit \
+                     there, and nowhere else surely better",
                     self.name(),
                     f.pose.x,
                     f.pose.y,

@@ -21,6 +21,14 @@
 //!   echoes' ends, the best are refined on a fine grid, and the best of all is taken only if no
 //!   pose elsewhere (`distinct_m` away, or turned) explains the echoes nearly as well (`misfit_ratio`, `margin`): a robot
 //!   in one of two alike rooms is not placed in the wrong one, it gathers more first.
+//! - **Keeping the track** ([`Search::Kept`]): where the robot was when it was judged lost,
+//!   carried on by odometry, is evidence too. People walking close take a share of the echoes
+//!   and can make a sound estimate look lost; in a room that looks the same turned round (a
+//!   hall, point-symmetric) the search then finds the truth and its mirror image equally good
+//!   and would never be sure. A pose of the search near the track that fits well
+//!   (`kept_above`) and that no pose elsewhere surely beats is taken: the track breaks the tie,
+//!   as a filter's prior would. After a kidnapping the track is elsewhere and fits badly there,
+//!   so it decides nothing.
 //!
 //! A wide beam (a sonar's) reads the nearest echo anywhere across it, so each of its echoes is
 //! scored at the best of five directions across the beam, as [`crate::mcl`] does.
@@ -65,6 +73,10 @@ pub struct RelocParams {
     pub distinct_m: f64,
     /// The best pose is taken only if at least this share of the echoes agree from it.
     pub found_above: f64,
+    /// A pose near where the robot was tracked when it was lost (odometry carrying it on) is
+    /// taken if at least this share of the echoes agree from it and no pose elsewhere surely
+    /// beats it.
+    pub kept_above: f64,
 }
 
 impl Default for RelocParams {
@@ -84,6 +96,7 @@ impl Default for RelocParams {
             margin: 0.01,
             distinct_m: 1.0,
             found_above: 0.7,
+            kept_above: 0.6,
         }
     }
 }
@@ -182,6 +195,9 @@ pub enum Search {
     /// gathered and searched; the estimate is judged as usual, and one that stops fitting is
     /// lost again, with every echo since it was first lost.
     Guess(Found, Found),
+    /// The robot is here, near where it was tracked when it was judged lost: nothing elsewhere
+    /// surely fits better (a rival that fits as well may exist: the track breaks the tie).
+    Kept(Found),
     /// Nothing fits well enough: the best pose, and its rival if any.
     Unsure(Found, Option<Found>),
 }
@@ -206,6 +222,9 @@ pub struct Relocalizer {
     /// The update at which the guess was taken.
     guessed_at: u64,
     searched_at: u64,
+    /// The estimate's `map -> odom` when the robot was judged lost (none when it was set lost
+    /// by hand): where it was tracked, which odometry carries on.
+    lost_from: Option<Pose2>,
 }
 
 impl Relocalizer {
@@ -236,6 +255,7 @@ impl Relocalizer {
             guessing: false,
             guessed_at: 0,
             searched_at: 0,
+            lost_from: None,
         }
     }
 
@@ -305,7 +325,7 @@ impl Relocalizer {
                 // The guess was wrong: lost again, with what was gathered since.
                 self.guessing = false;
             } else {
-                self.set_lost();
+                self.set_lost_from(map_odom);
             }
         }
         Some(share)
@@ -314,16 +334,25 @@ impl Relocalizer {
     /// Marks the robot lost: echoes are gathered afresh from the next update for a search.
     pub fn set_lost(&mut self) {
         self.guessing = false;
+        self.lost_from = None;
         self.lost_since = Some(self.update + 1);
         self.searched_at = self.update;
         self.echoes.clear();
         self.misses.clear();
     }
 
+    /// Marks the robot lost while its estimate's `map -> odom` was `map_odom`: where it was
+    /// tracked, which breaks a search's ties ([`Search::Kept`]).
+    pub fn set_lost_from(&mut self, map_odom: Pose2) {
+        self.set_lost();
+        self.lost_from = Some(map_odom);
+    }
+
     /// Marks the robot found (at a pose given by hand, or found by a search).
     pub fn set_found(&mut self) {
         self.lost_since = None;
         self.guessing = false;
+        self.lost_from = None;
     }
 
     /// Whether a search is due: lost, with `search_after` updates gathered, and a third of that
@@ -401,16 +430,30 @@ impl Relocalizer {
         }
         coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
         let seeds = distinct(&coarse, p.distinct_m, 12, coarse.len().min(20_000));
-        // Fine: every echo, about each seed.
+        // Where it was tracked when lost, now: map -> odom then, on the odometry now.
+        let tracked = self.lost_from.map(|m| {
+            let (x, y) = m.apply(odom.x, odom.y);
+            Pose2::new(x, y, wrap(m.theta + odom.theta))
+        });
+        // Fine: every echo, about each seed, and about the track (which the coarse grid may
+        // have ranked below the seeds: people's echoes, or a rival place alike).
         let mut refined: Vec<Found> =
             seeds.iter().map(|f| self.refine(field, &fine_score, &echoes, &misses, f.pose)).collect();
+        refined.extend(tracked.map(|t| self.refine(field, &fine_score, &echoes, &misses, t)));
         refined.sort_by(|a, b| b.score.total_cmp(&a.score));
         let best = *refined.first()?;
+        // Whether `a` surely explains the echoes better than `b`.
+        let beats = |a: &Found, b: &Found| {
+            b.score <= a.score - p.margin && 1.0 - b.score >= p.misfit_ratio * (1.0 - a.score)
+        };
+        // The best pose near the track (refined is best first).
+        let kept = tracked.and_then(|t| refined.iter().find(|f| !apart(f.pose, t, p.distinct_m)).copied());
+        if let Some(k) = kept.filter(|k| k.agreement >= p.kept_above && !beats(&best, k)) {
+            self.set_found();
+            return Some(Search::Kept(k));
+        }
         let rival = refined[1..].iter().find(|f| apart(f.pose, best.pose, p.distinct_m)).copied();
-        let sure = best.agreement >= p.found_above
-            && rival.is_none_or(|r| {
-                r.score <= best.score - p.margin && 1.0 - r.score >= p.misfit_ratio * (1.0 - best.score)
-            });
+        let sure = best.agreement >= p.found_above && rival.is_none_or(|r| beats(&best, &r));
         match rival {
             _ if sure => {
                 self.set_found();

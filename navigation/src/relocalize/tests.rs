@@ -80,9 +80,8 @@ fn a_lost_robot_is_found_from_one_turn_on_the_spot_on_several_seeds() {
     }
 }
 
-#[test]
-fn where_two_places_look_alike_the_best_is_a_guess_until_moving_tells_them_apart() {
-    // An empty square room: every corner looks the same turned by 90 degrees.
+/// An empty square room, 6 m a side: every corner looks the same turned by 90 degrees.
+fn square() -> (orsa_interfaces::map::OccupancyGrid, DistanceField) {
     let mut g =
         orsa_interfaces::map::OccupancyGrid::filled(0.05, 124, 124, (-0.1, -0.1), orsa_interfaces::map::FREE);
     for iy in 0..g.height {
@@ -95,6 +94,71 @@ fn where_two_places_look_alike_the_best_is_a_guess_until_moving_tells_them_apart
         }
     }
     let field = DistanceField::of(&g, 1.0);
+    (g, field)
+}
+
+/// The pose now of a robot whose map -> odom is `map_odom`, at odometry pose `odom`.
+fn on(map_odom: Pose2, odom: Pose2) -> Pose2 {
+    let (x, y) = map_odom.apply(odom.x, odom.y);
+    Pose2::new(x, y, wrap(map_odom.theta + odom.theta))
+}
+
+#[test]
+fn where_places_look_alike_the_track_before_the_loss_breaks_the_tie() {
+    // Each corner of the square, the robot judged lost there (people's echoes, say) while its
+    // estimate was right, or 0.3 m and 4 degrees off: the search finds every corner alike, and
+    // keeps the one it was tracked at, at the truth.
+    let (g, field) = square();
+    let corners = [(1.5, 1.5, 0.0), (4.5, 1.5, 1.9), (4.5, 4.5, -2.8), (1.5, 4.5, 0.7)];
+    for (i, &(x, y, theta)) in corners.iter().enumerate() {
+        for off in [0.0, 0.3] {
+            let mut r = Relocalizer::new(RelocParams::default(), &field, [0.0, 0.0, 6.0, 6.0], 0.25);
+            let truth = Pose2::new(x, y, theta);
+            // Odometry starts at zero, so map -> odom is the start pose.
+            let estimate = Pose2::new(x + off, y - off, theta + off.to_radians() * 13.0);
+            r.set_lost_from(estimate);
+            let end = turn(&mut r, &g, truth, Pose2::default(), i as u64 + 10);
+            let now = on(truth, end);
+            match r.search(&field, end).expect("a search") {
+                Search::Kept(f) => {
+                    let miss = (f.pose.x - now.x).hypot(f.pose.y - now.y);
+                    let turned = wrap(f.pose.theta - now.theta).abs().to_degrees();
+                    assert!(miss < 0.15 && turned < 5.0, "corner {i}, off {off}: kept {f:?}, truly {now:?}");
+                    assert!(!r.lost() && !r.guessing());
+                }
+                other => panic!("corner {i}, off {off}: {other:?}, truly {now:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_track_that_does_not_fit_decides_nothing() {
+    // Kidnapped: tracked at one place, carried to another. Where it was tracked fits badly, so
+    // the search finds it where it is, as without a track.
+    let g = room();
+    let (field, mut r) = setup();
+    let truth = Pose2::new(8.0, 4.5, -2.0);
+    r.set_lost_from(Pose2::new(2.5, 3.0, 0.3));
+    let end = turn(&mut r, &g, truth, Pose2::default(), 7);
+    let now = on(truth, end);
+    match r.search(&field, end).expect("a search") {
+        Search::Found(f) => {
+            assert!((f.pose.x - now.x).hypot(f.pose.y - now.y) < 0.15, "{f:?}, truly {now:?}")
+        }
+        other => panic!("{other:?}, truly {now:?}"),
+    }
+    // And in the square, a track at the room's middle (no corner) leaves the corners a guess.
+    let (g, field) = square();
+    let mut r = Relocalizer::new(RelocParams::default(), &field, [0.0, 0.0, 6.0, 6.0], 0.25);
+    r.set_lost_from(Pose2::new(3.0, 3.0, 0.0));
+    let end = turn(&mut r, &g, Pose2::new(1.5, 1.5, 0.0), Pose2::default(), 3);
+    assert!(matches!(r.search(&field, end), Some(Search::Guess(..))), "a guess, as without a track");
+}
+
+#[test]
+fn where_two_places_look_alike_the_best_is_a_guess_until_moving_tells_them_apart() {
+    let (g, field) = square();
     let mut r = Relocalizer::new(RelocParams::default(), &field, [0.0, 0.0, 6.0, 6.0], 0.25);
     r.set_lost();
     let truth = Pose2::new(1.5, 1.5, 0.0);
