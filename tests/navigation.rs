@@ -136,6 +136,19 @@ async fn goto_mission(file: &str, targets: &[&str], seed: u64) -> orsa::mission:
     orsa::mission::run(o).await.expect("a report").report
 }
 
+/// [`goto_mission`] to `n` places drawn at random from `seed` where the body reaches on the
+/// world `file` (`orsa run --tour`).
+async fn tour_mission(file: &str, n: usize, seed: u64) -> orsa::mission::report::Report {
+    let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
+    let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(n, radius_m), seed)
+        .expect("a tour");
+    let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+    let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
+    goto_mission(file, &targets, seed).await
+}
+
 #[tokio::test(start_paused = true)]
 async fn the_office_mission_reaches_every_place_and_reports_it() {
     let r = goto_mission("office", &["room-3", "room-5", "dock"], 1).await;
@@ -168,15 +181,8 @@ async fn the_office_mission_reaches_every_place_and_reports_it() {
 /// not where the world's author put them, reached one after another.
 #[tokio::test(start_paused = true)]
 async fn random_tours_of_the_office_floor_reach_every_place() {
-    let path = format!("{}/worlds/office.toml", env!("CARGO_MANIFEST_DIR"));
-    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
-    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
     for seed in 1..=2 {
-        let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(6, radius_m), seed)
-            .expect("a tour");
-        let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
-        let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
-        let r = goto_mission("office", &targets, seed).await;
+        let r = tour_mission("office", 6, seed).await;
         let nav = r.navigation.as_ref().expect("a navigation section");
         println!("seed {seed}:\n{}", nav.table());
         assert_eq!(nav.goals.len(), 6);
@@ -196,15 +202,8 @@ async fn random_tours_of_the_office_floor_reach_every_place() {
 /// planner said all six). Now a dip starts the relocalizer's search, which keeps the track.
 #[tokio::test(start_paused = true)]
 async fn random_tours_of_the_hall_keep_the_robot_off_its_mirror_image() {
-    let path = format!("{}/worlds/hall.toml", env!("CARGO_MANIFEST_DIR"));
-    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
-    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
     for seed in [5, 9] {
-        let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(6, radius_m), seed)
-            .expect("a tour");
-        let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
-        let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
-        let r = goto_mission("hall", &targets, seed).await;
+        let r = tour_mission("hall", 6, seed).await;
         let nav = r.navigation.as_ref().expect("a navigation section");
         println!("seed {seed}:\n{}", nav.table());
         assert_eq!(nav.goals.len(), 6);
