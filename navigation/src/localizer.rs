@@ -439,21 +439,13 @@ impl Localization {
     /// if the search is sure.
     fn search(&self, st: &mut LocalizationState, odom: Pose2) -> Result<(), ComponentError> {
         match st.reloc.search(st.filter.field(), odom) {
-            Some(Search::Found(f)) => {
+            Some(found @ (Search::Found(f) | Search::Kept(f))) => {
+                let (where_, why) = match found {
+                    Search::Kept(_) => ("where it was tracked, at", ", and nowhere else surely better"),
+                    _ => ("at", ""),
+                };
                 tracing::info!(
-                    "{}: found the robot at ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit there",
-                    self.name(),
-                    f.pose.x,
-                    f.pose.y,
-                    f.pose.theta.to_degrees(),
-                    100.0 * f.agreement
-                );
-                st.filter.reset_at(f.pose, 0.1, 3f64.to_radians()).map_err(|e| e.to_string())?;
-            }
-            Some(Search::Kept(f)) => {
-                tracing::info!(
-                    "{}: found the robot where it was tracked, at ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit \
-                     there, and nowhere else surely better",
+                    "{}: found the robot {where_} ({:.2}, {:.2}, {:.0} deg): {:.0} % of the echoes fit there{why}",
                     self.name(),
                     f.pose.x,
                     f.pose.y,
