@@ -209,9 +209,22 @@ fn orsa_run_goto_exits_with_4_when_a_place_is_not_reached() {
     let (code, report, err) = run("reached", &["room-1"]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(report["ended"]["result"], "completed", "{}", report["ended"]);
+    // The plot draws the path planned, the estimate and the goal, reached (green).
+    let plot = |name: &str| std::fs::read_to_string(d.join(format!("{name}.svg"))).expect("plot written");
+    let svg = plot("reached");
+    for class in ["planned", "estimate", "place"] {
+        assert!(svg.contains(&format!("class=\"{class}\"")), "no {class} in the plot");
+    }
+    let goals: Vec<&str> = svg.lines().filter(|l| l.contains(r#"class="goal""#)).collect();
+    assert!(goals.len() == 1 && goals[0].contains("#1a9850"), "{goals:?}");
+    assert!(svg.contains("1 of 1 goals reached"), "the headline counts the goal");
     // Out of time before the place: the run ends with its time, and the place was not reached.
     let (code, report, err) = run_for("short", &["room-5"], "5");
     assert_eq!(code, Some(4), "{err}");
     assert_eq!(report["ended"]["how"], "completed", "{}", report["ended"]);
     assert!(err.contains("did not end within --duration 5 s"), "{err}");
+    let svg = plot("short");
+    let goals: Vec<&str> = svg.lines().filter(|l| l.contains(r#"class="goal""#)).collect();
+    assert!(goals.len() == 1 && goals[0].contains("#d62728"), "missed, in red: {goals:?}");
+    assert!(svg.contains("0 of 1 goals reached"), "the headline counts the goal");
 }

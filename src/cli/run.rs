@@ -181,7 +181,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
     std::fs::write(&report_path, json)
         .with_context(|| format!("{}: cannot write the report", report_path.display()))?;
     let plot = PlotData {
-        title: format!("{} · seed {} · {:.0} s", world.name, args.seed, args.duration),
+        title: format!("{} · seed {} · {:.0} s", world.name, args.seed, report.sim_seconds),
         world: &world,
         trajectory: metrics
             .trajectory
@@ -193,6 +193,7 @@ pub(crate) fn run_mission(args: RunArgs) -> anyhow::Result<Outcome> {
         bumps: metrics.bump_points.iter().map(|&(t_s, x_m, y_m)| Bump { t_s, x_m, y_m }).collect(),
         targets: Targets::default(),
         kinds,
+        navigation: metrics.navigation.clone(),
     };
     write_plot(&args.plot, &plot)?;
     say(&format!("report: {}\nplot:   {}", report_path.display(), args.plot.display()));

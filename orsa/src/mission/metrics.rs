@@ -109,6 +109,8 @@ pub struct Metrics {
     pub bump_points: Vec<(f64, f64, f64)>,
     /// The behaviour driving at each bump (parallel to `bump_points`).
     pub bump_drivers: Vec<Option<String>>,
+    /// A navigation run's goals, paths planned and estimates, for the plot.
+    pub navigation: Option<orsa_record::plot::NavigationTrace>,
 }
 
 /// The label of "no behaviour wired".

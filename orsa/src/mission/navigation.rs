@@ -18,6 +18,7 @@ use orsa_actors::{Sink, Update};
 use orsa_hardware::geometry::{Point, Shape};
 use orsa_hardware::world::World;
 use orsa_interfaces::navigation::{self, NavFeedback, NavState, PoseEstimate};
+use orsa_record::plot::{GoalMark, NavigationTrace};
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -44,6 +45,14 @@ pub struct GoalFigures {
     pub shortest_m: Option<f64>,
     /// How far from the target the robot truly stopped, m (`None`: it names no position).
     pub final_error_m: Option<f64>,
+}
+
+impl GoalFigures {
+    /// Whether the goal counts as reached: the planner said `succeeded` and the robot's true
+    /// position was within [`SUCCESS_RADIUS_M`] of it.
+    pub fn reached(&self) -> bool {
+        self.status == NavState::Succeeded.name() && self.final_error_m.is_none_or(|e| e <= SUCCESS_RADIUS_M)
+    }
 }
 
 /// How well the robot knew where it was.
@@ -138,10 +147,7 @@ impl NavigationReport {
     fn finish(&mut self) {
         let n = self.goals.len() as f64;
         if n > 0.0 {
-            let ok = |g: &GoalFigures| {
-                g.status == NavState::Succeeded.name()
-                    && g.final_error_m.is_none_or(|e| e <= SUCCESS_RADIUS_M)
-            };
+            let ok = GoalFigures::reached;
             self.success_rate = self.goals.iter().filter(|g| ok(g)).count() as f64 / n;
             self.spl = self
                 .goals
@@ -190,6 +196,8 @@ pub(super) struct NavigationRun {
     travelled_m: Option<f64>,
     /// Since when the localizer says the robot is lost, s.
     lost_at: Option<f64>,
+    /// What the plot draws.
+    trace: NavigationTrace,
 }
 
 impl NavigationRun {
@@ -207,6 +215,7 @@ impl NavigationRun {
             clearance: None,
             travelled_m: None,
             lost_at: None,
+            trace: NavigationTrace { error_target_m: LOCALIZATION_TARGET_M, ..Default::default() },
         }
     }
 
@@ -226,7 +235,7 @@ impl NavigationRun {
                 .shortest(from, (g[0], g[1])),
             None => None,
         };
-        self.report.goals.push(GoalFigures {
+        let figures = GoalFigures {
             id: f.id,
             target,
             status: f.state.name().into(),
@@ -237,7 +246,17 @@ impl NavigationRun {
             final_error_m: goal
                 .filter(|_| f.state != NavState::Rejected)
                 .map(|g| (g[0] - now.0).hypot(g[1] - now.1)),
-        });
+        };
+        self.mark(&figures, goal);
+        self.report.goals.push(figures);
+    }
+
+    /// Marks a goal that named a position on the plot.
+    fn mark(&mut self, g: &GoalFigures, at: Option<[f64; 2]>) {
+        if let Some(at) = at.filter(|_| g.status != NavState::Rejected.name()) {
+            let label = g.target.clone();
+            self.trace.goals.push(GoalMark { label, x_m: at[0], y_m: at[1], reached: g.reached() });
+        }
     }
 
     /// Takes the goals' feedback that came, the robot being at `now`.
@@ -249,6 +268,9 @@ impl NavigationRun {
             }
         }
         for f in updates {
+            if !f.path.is_empty() && self.trace.paths.last() != Some(&f.path) {
+                self.trace.paths.push(f.path.clone());
+            }
             if f.state == NavState::Active {
                 if self.running.as_ref().is_none_or(|r| r.id != f.id)
                     && let Some(goal) = f.goal
@@ -306,6 +328,7 @@ impl RunObserver for NavigationRun {
             }
         }
         let truth = &self.truth;
+        let trace = &mut self.trace;
         let (mut sum2, mut worst, mut n) = (0.0, self.report.localization.max_m, 0);
         self.pending.retain(|p| {
             if p.stamp.0 > t.stamp.0 {
@@ -344,7 +367,9 @@ impl RunObserver for NavigationRun {
                 sum2 += e * e;
                 worst = worst.max(e);
                 n += 1;
+                trace.error.push((at_s, e));
             }
+            trace.estimate.push((at_s, p.x_m, p.y_m));
             false
         });
         self.sum2 += sum2;
@@ -372,7 +397,7 @@ impl RunObserver for NavigationRun {
             let last = r.last;
             let clearance =
                 self.clearance.get_or_insert_with(|| Clearance::new(&self.world, self.radius_m, CELL_M));
-            report.goals.push(GoalFigures {
+            let figures = GoalFigures {
                 id: r.id,
                 target: r.target,
                 status: NavState::Active.name().into(),
@@ -381,7 +406,9 @@ impl RunObserver for NavigationRun {
                 path_m: r.path_m,
                 shortest_m: clearance.shortest(r.from, (r.goal[0], r.goal[1])),
                 final_error_m: Some((r.goal[0] - last.0).hypot(r.goal[1] - last.1)),
-            });
+            };
+            self.mark(&figures, Some(r.goal));
+            report.goals.push(figures);
         }
         if let Some(since) = self.lost_at.take() {
             report.localization.lost_s += (outcome.report.sim_seconds - since).max(0.0);
@@ -390,11 +417,15 @@ impl RunObserver for NavigationRun {
         report.localization.rms_m = if n > 0 { (self.sum2 / n as f64).sqrt() } else { 0.0 };
         report.finish();
         outcome.report.navigation = Some(report);
+        outcome.metrics.navigation = Some(std::mem::take(&mut self.trace));
     }
 }
 
 /// A goal is reached within this distance of it (the definition), m.
 pub const SUCCESS_RADIUS_M: f64 = 0.25;
+
+/// The localization RMS aimed for (the target), m: the plot's target line.
+pub const LOCALIZATION_TARGET_M: f64 = 0.10;
 
 /// The cell of the independent search, m.
 pub(super) const CELL_M: f64 = 0.05;

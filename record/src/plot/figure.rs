@@ -3,6 +3,7 @@
 use super::axis::{self, Scale};
 use super::canvas::{Anchor, Canvas, Font, TextMode, polyline_data};
 use super::headline::{self, NONE_LABEL};
+use super::navigation;
 use super::series::{PANEL_HEIGHT, Panel, STRIP_HEIGHT, TimeAxis, strip};
 use super::{PlotData, WIDTH_PX, decimate};
 use std::fmt::Write;
@@ -27,49 +28,88 @@ pub(crate) fn draw(data: &PlotData<'_>, mode: TextMode) -> String {
     let plot_width = width - LEFT - RIGHT;
     let map = MapFrame::fit(data, plot_width, 110.0);
     let legend_y = map.bottom() + 90.0;
-    let strip_top = legend_y + 34.0;
-    let panel1 = strip_top + STRIP_HEIGHT + 56.0;
-    let panel2 = panel1 + PANEL_HEIGHT + 78.0;
-    let height = (panel2 + PANEL_HEIGHT + 76.0).ceil();
+    // A navigation run's entries take a second legend row.
+    let legend_rows = if data.navigation.is_some() { 2.0 } else { 1.0 };
+    let strip_top = legend_y + 34.0 * legend_rows;
+
+    let behaviours = headline::behaviours(data);
+    let others = headline::other_names(data, &behaviours);
+    let colour = |b: Option<&str>| headline::colour(data, b, &others);
+    // The time series, stacked under the strip. A navigation run leaves out a behaviour's
+    // panel when that behaviour never drove, and adds the localization error's.
+    let navigating = data.navigation.is_some();
+    let mut panels = Vec::new();
+    if !navigating || !data.offset.is_empty() {
+        panels.push((
+            "offset",
+            Panel {
+                top: 0.0,
+                caption: "Centre following: offset from the corridor centre",
+                y_label: "offset (m)",
+                points: &data.offset,
+                target: data.targets.offset_m,
+                symmetric: true,
+                colour: colour(Some("centerfollow")),
+                empty: "no samples: centre following never drove",
+            },
+        ));
+    }
+    if !navigating || !data.clearance.is_empty() {
+        panels.push((
+            "clearance",
+            Panel {
+                top: 0.0,
+                caption: "Wall following: clearance to the followed wall",
+                y_label: "clearance (m)",
+                points: &data.clearance,
+                target: data.targets.clearance_m,
+                symmetric: false,
+                colour: colour(Some("wallfollow")),
+                empty: "no samples: wall following never drove",
+            },
+        ));
+    }
+    if let Some(nav) = &data.navigation {
+        panels.push((
+            "localization",
+            Panel {
+                top: 0.0,
+                caption: "Localization: the estimate's distance from the true pose",
+                y_label: "error (m)",
+                points: &nav.error,
+                target: nav.error_target_m,
+                symmetric: false,
+                colour: navigation::ESTIMATE_COLOUR,
+                empty: "no estimates: the localizer published none it vouched for",
+            },
+        ));
+    }
+    let mut top = strip_top + STRIP_HEIGHT + 56.0;
+    for (_, panel) in &mut panels {
+        panel.top = top;
+        top += PANEL_HEIGHT + 78.0;
+    }
+    let last_bottom = top - 78.0;
+    let height = (last_bottom + 76.0).ceil();
 
     let mut c = Canvas::new(width, height, mode);
     let title = if data.title.is_empty() { &data.world.name } else { &data.title };
     c.text(LEFT, 46.0, Font::new(28.0).bold(), title);
     c.text(LEFT, 80.0, Font::new(19.0).colour("#444"), &headline::line(data));
 
-    let behaviours = headline::behaviours(data);
-    let others = headline::other_names(data, &behaviours);
-    let colour = |b: Option<&str>| headline::colour(data, b, &others);
-
     map.draw(&mut c, data, &colour);
     legend(&mut c, legend_y, &behaviours, &colour);
+    if navigating {
+        navigation_legend(&mut c, legend_y + 34.0);
+    }
 
     let time = TimeAxis::of(data, LEFT, LEFT + plot_width);
     strip(&mut c, data, &time, strip_top, &behaviours, &colour);
-    let offset = Panel {
-        top: panel1,
-        caption: "Centre following: offset from the corridor centre",
-        y_label: "offset (m)",
-        points: &data.offset,
-        target: data.targets.offset_m,
-        symmetric: true,
-        colour: colour(Some("centerfollow")),
-        empty: "no samples: centre following never drove",
-    };
-    offset.draw(&mut c, data, &time, "offset");
-    let clearance = Panel {
-        top: panel2,
-        caption: "Wall following: clearance to the followed wall",
-        y_label: "clearance (m)",
-        points: &data.clearance,
-        target: data.targets.clearance_m,
-        symmetric: false,
-        colour: colour(Some("wallfollow")),
-        empty: "no samples: wall following never drove",
-    };
-    clearance.draw(&mut c, data, &time, "clearance");
+    for (id, panel) in &panels {
+        panel.draw(&mut c, data, &time, id);
+    }
     let unit = if time.minutes { "time (min)" } else { "time (s)" };
-    c.text(LEFT + plot_width / 2.0, panel2 + PANEL_HEIGHT + 56.0, LABEL.anchor(Anchor::Middle), unit);
+    c.text(LEFT + plot_width / 2.0, last_bottom + 56.0, LABEL.anchor(Anchor::Middle), unit);
     c.finish()
 }
 
@@ -100,6 +140,7 @@ impl MapFrame {
             .flat_map(|m| m.path.iter().map(move |p| (p, m.radius)))
             .for_each(|(p, r)| add(p[0], p[1], r));
         data.trajectory.iter().for_each(|s| add(s.x_m, s.y_m, 0.0));
+        w.places.iter().for_each(|p| add(p.x, p.y, 0.0));
         if !b[0].is_finite() {
             b = [0.0, 0.0, 1.0, 1.0];
         }
@@ -195,6 +236,9 @@ impl MapFrame {
                 self.m(1.6)
             );
         }
+        if let Some(nav) = &data.navigation {
+            navigation::draw_on_map(c, nav, &|px| self.m(px), min_step);
+        }
         let mut d = String::new();
         let r = self.m(6.0);
         for b in data.bumps.iter().filter(|b| b.x_m.is_finite() && b.y_m.is_finite()) {
@@ -220,6 +264,11 @@ impl MapFrame {
             );
         }
         c.raw("</g>\n");
+        // Names are drawn upright, outside the flipped group.
+        for p in &w.places {
+            let (x, y) = (self.left + (p.x - x0) * s, self.top + (y1 - p.y) * s);
+            navigation::place(c, x, y, &p.name);
+        }
     }
 
     /// Ticks and labels in metres on the bottom and left edges.
@@ -245,6 +294,40 @@ impl MapFrame {
         let _ = writeln!(c.out(), r##"<path d="{d}" stroke="#555" stroke-width="1"/>"##);
         c.text((self.left + self.right()) / 2.0, bottom + 50.0, LABEL.anchor(Anchor::Middle), "x (m)");
         c.text(self.left - 52.0, (self.top + bottom) / 2.0, LABEL.anchor(Anchor::Middle).vertical(), "y (m)");
+    }
+}
+
+/// The second legend row of a navigation run.
+fn navigation_legend(c: &mut Canvas, y: f64) {
+    use navigation::{ESTIMATE_COLOUR, PATH_COLOUR, PLACE_COLOUR, REACHED_COLOUR};
+    let font = Font::new(17.0);
+    let mid = y - 6.0;
+    let goal = |x: f64, fill: &str| {
+        format!(
+            r#"<circle cx="{:.1}" cy="{mid:.1}" r="8" fill="{fill}" fill-opacity="0.35" stroke="{fill}" stroke-width="1.5"/>"#,
+            x + 14.0
+        )
+    };
+    let mut x = LEFT;
+    for label in ["path planned", "estimated pose", "goal reached", "goal missed", "place"] {
+        let swatch = match label {
+            "path planned" => format!(
+                r#"<path d="M{x:.1} {mid:.1}h28" stroke="{PATH_COLOUR}" stroke-width="1.4" stroke-dasharray="7 4"/>"#
+            ),
+            "estimated pose" => {
+                format!(r#"<path d="M{x:.1} {mid:.1}h28" stroke="{ESTIMATE_COLOUR}" stroke-width="1.2"/>"#)
+            }
+            "goal reached" => goal(x, REACHED_COLOUR),
+            "goal missed" => goal(x, BUMP_COLOUR),
+            _ => format!(
+                r#"<path d="M{:.1} {:.1}l5 5l-5 5l-5 -5z" fill="{PLACE_COLOUR}"/>"#,
+                x + 14.0,
+                mid - 5.0
+            ),
+        };
+        let _ = writeln!(c.out(), r#"<g class="legend">{swatch}</g>"#);
+        c.text(x + 38.0, y, font, label);
+        x += 38.0 + font.width(label) + 34.0;
     }
 }
 

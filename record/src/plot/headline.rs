@@ -107,6 +107,14 @@ pub(crate) fn line(data: &PlotData<'_>) -> String {
         let mean = clearances.iter().sum::<f64>() / clearances.len() as f64;
         parts.push(format!("clearance mean {mean:.3} m, RMS error {rms:.3} m"));
     }
+    if let Some(nav) = &data.navigation {
+        let reached = nav.goals.iter().filter(|g| g.reached).count();
+        parts.push(format!("{reached} of {} goals reached", nav.goals.len()));
+        let errors: Vec<f64> = nav.error.iter().map(|p| p.1).collect();
+        if let Some(rms) = rms(&errors) {
+            parts.push(format!("localization RMS {rms:.3} m"));
+        }
+    }
     parts.join(" · ")
 }
 

@@ -5,9 +5,12 @@
 //!   the data (distance, time per behaviour, bumps, offset and clearance errors);
 //! - the world map at equal x/y scale in metres (walls, boxes, discs, people's paths dashed) with
 //!   the robot's trajectory coloured by the behaviour driving it and bumps marked with a red x;
+//!   the world's places; in a navigation run also the paths planned, the localizer's estimate
+//!   and the goals, reached or missed (module `navigation`);
 //! - a strip showing which behaviour drove when;
 //! - the offset from the corridor centre over time while centre following, and the clearance to
-//!   the followed wall over time while wall following, each with its target line.
+//!   the followed wall over time while wall following, each with its target line; in a
+//!   navigation run a third: the estimate's distance from the true pose.
 //!
 //! Long runs are decimated for drawing (module `decimate`) so that an hour at 10 Hz stays well under a
 //! few MB of SVG. PNGs are rasterised with resvg at [`WIDTH_PX`] px wide; resvg is built without
@@ -19,9 +22,11 @@ mod decimate;
 mod figure;
 mod font;
 mod headline;
+mod navigation;
 mod series;
 mod whatif;
 
+pub use navigation::{GoalMark, NavigationTrace};
 pub use whatif::{WhatIfPlot, render_what_if_svg, write_what_if};
 
 #[cfg(test)]
@@ -92,6 +97,8 @@ pub struct PlotData<'a> {
     /// Each behaviour's kind by its name (a name not here is its own kind): colours and the
     /// legend's order follow the kind, so a `wallfollow` named otherwise is still orange.
     pub kinds: std::collections::BTreeMap<String, String>,
+    /// What navigation adds (places are drawn from the world whether or not there is any).
+    pub navigation: Option<NavigationTrace>,
 }
 
 /// What went wrong while writing a plot; every variant names the file.

@@ -28,6 +28,7 @@ impl TimeAxis {
             .map(|s| s.t_s)
             .chain(data.offset.iter().chain(&data.clearance).map(|p| p.0))
             .chain(data.bumps.iter().map(|b| b.t_s))
+            .chain(data.navigation.iter().flat_map(|n| n.error.iter().map(|p| p.0)))
             .filter(|t| t.is_finite());
         let (t0, t1) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
         let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (0.0, 1.0) };

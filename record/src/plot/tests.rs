@@ -19,6 +19,7 @@ fn synthetic_run(world: &World, duration_s: f64, hz: f64) -> PlotData<'_> {
         bumps: Vec::new(),
         targets: Targets::default(),
         kinds: Default::default(),
+        navigation: None,
     };
     for i in 0..n {
         let t = i as f64 * dt;
@@ -176,6 +177,7 @@ fn an_empty_run_still_draws_the_world() {
         bumps: Vec::new(),
         targets: Targets::default(),
         kinds: Default::default(),
+        navigation: None,
     };
     let svg = render_svg(&data);
     usvg::Tree::from_str(&svg, &usvg::Options::default()).expect("SVG");
@@ -217,4 +219,94 @@ fn a_behaviour_named_otherwise_keeps_the_colour_of_its_kind() {
         known.matches("#ff7f0e").count() > unknown.matches("#ff7f0e").count(),
         "its path is drawn in wall following's colour"
     );
+}
+
+/// The office world shipped with the project, which has places.
+fn office() -> World {
+    World::from_path(Path::new(env!("CARGO_MANIFEST_DIR")).join("../worlds/office.toml"))
+        .expect("office loads")
+}
+
+/// A navigation run in the office: the robot drives from the dock to room-3's place in a
+/// straight line, the estimate 5 cm beside it, a replan halfway, one goal reached and one missed.
+fn navigation_run(world: &World) -> PlotData<'_> {
+    let dock = world.place("dock").expect("dock");
+    let room = world.place("room-3").expect("room-3");
+    let mut data = PlotData {
+        title: "office · seed 1 · tour".into(),
+        world,
+        trajectory: Vec::new(),
+        offset: Vec::new(),
+        clearance: Vec::new(),
+        bumps: Vec::new(),
+        targets: Targets::default(),
+        kinds: Default::default(),
+        navigation: Some(NavigationTrace { error_target_m: 0.10, ..Default::default() }),
+    };
+    let nav = data.navigation.as_mut().expect("set above");
+    for i in 0..=200 {
+        let f = i as f64 / 200.0;
+        let (x, y, t) = (dock.x + f * (room.x - dock.x), dock.y + f * (room.y - dock.y), i as f64 * 0.1);
+        data.trajectory.push(TrajectorySample {
+            t_s: t,
+            x_m: x,
+            y_m: y,
+            behaviour: Some("pathfollow".into()),
+        });
+        nav.estimate.push((t, x + 0.05, y));
+        nav.error.push((t, 0.05));
+    }
+    let mid = ((dock.x + room.x) / 2.0, (dock.y + room.y) / 2.0);
+    nav.paths.push(vec![[dock.x, dock.y], [room.x, room.y]]);
+    nav.paths.push(vec![[mid.0, mid.1], [room.x, room.y]]);
+    nav.goals.push(GoalMark { label: "room-3".into(), x_m: room.x, y_m: room.y, reached: true });
+    nav.goals.push(GoalMark { label: "1,1".into(), x_m: 1.0, y_m: 1.0, reached: false });
+    data
+}
+
+#[test]
+fn a_navigation_run_draws_places_paths_estimate_goals_and_the_error_panel() {
+    let world = office();
+    let data = navigation_run(&world);
+    let svg = render_svg(&data);
+    usvg::Tree::from_str(&svg, &usvg::Options::default()).expect("well-formed SVG");
+    for p in &world.places {
+        assert!(svg.contains(&format!(">{}</text>", p.name)), "place {} not named", p.name);
+    }
+    assert_eq!(svg.matches(r#"class="place""#).count(), world.places.len());
+    // Two planned paths, one path element with two pieces.
+    let planned = svg.lines().find(|l| l.contains(r#"class="planned""#)).expect("planned paths drawn");
+    assert_eq!(planned.matches('M').count(), 2, "{planned}");
+    assert!(svg.contains(r#"class="estimate""#));
+    assert_eq!(svg.matches(r#"class="goal""#).count(), 2);
+    assert!(svg.contains(navigation::REACHED_COLOUR) && svg.contains(figure::BUMP_COLOUR));
+    // Neither behaviour of the corridor drove: their panels give way to the localization
+    // error's, with its target.
+    assert_eq!(svg.matches(r#"class="target""#).count(), 1);
+    assert!(!svg.contains("never drove"), "no empty behaviour panels");
+    assert!(svg.contains("target 0.10 m") || svg.contains("target 0.1 m"), "the error target");
+    assert!(svg.contains("distance from the true pose"), "the error panel's caption");
+    assert!(svg.contains("1 of 2 goals reached"), "the headline counts goals");
+    assert!(svg.contains("localization RMS 0.050 m"), "the headline's RMS");
+    for label in ["path planned", "estimated pose", "goal reached", "goal missed"] {
+        assert!(svg.contains(&format!(">{label}<")), "no legend entry {label:?}");
+    }
+    // Where centre following drove too, its panel is there as well.
+    let mut with_offset = data.clone();
+    with_offset.offset.push((1.0, 0.02));
+    assert_eq!(render_svg(&with_offset).matches(r#"class="target""#).count(), 2);
+    // A figure without navigation has none of it, and both behaviour panels, if empty.
+    let plain = PlotData { navigation: None, ..data.clone() };
+    let plain_svg = render_svg(&plain);
+    assert!(!plain_svg.contains(r#"class="planned""#) && !plain_svg.contains(r#"class="goal""#));
+    assert_eq!(plain_svg.matches(r#"class="target""#).count(), 2);
+    assert!(plain_svg.contains("centre following never drove"));
+}
+
+/// Writes /tmp/plot_nav.png from the synthetic navigation run, to look at.
+#[test]
+#[ignore = "writes to /tmp for a person to look at"]
+fn write_navigation_plot_check() {
+    let world = office();
+    write_plot(Path::new("/tmp/plot_nav.png"), &navigation_run(&world)).expect("PNG");
 }
