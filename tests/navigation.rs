@@ -126,10 +126,20 @@ fn paths_from_the_start_reach_every_place_of_every_shipped_world_clear_of_everyt
 
 /// Runs `orsa run --world worlds/FILE.toml --goto ...` on the paused clock: its report.
 async fn goto_mission(file: &str, targets: &[&str], seed: u64) -> orsa::mission::report::Report {
+    goto_mission_of(orsa::config::Config::default(), file, targets, seed).await
+}
+
+/// [`goto_mission`] on the robot and system of `config` (`orsa run --config ...`).
+async fn goto_mission_of(
+    config: orsa::config::Config,
+    file: &str,
+    targets: &[&str],
+    seed: u64,
+) -> orsa::mission::report::Report {
     let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
     let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
     let targets: Vec<String> = targets.iter().map(|t| t.to_string()).collect();
-    let config = orsa::config::Config::default().with_goto(&targets).expect("a config with the places");
+    let config = config.with_goto(&targets).expect("a config with the places");
     let mut o = orsa::mission::RunOptions::new(world, file, config, seed, 900.0);
     o.keep_series = false;
     o.until_mission_ends = true;
@@ -175,6 +185,40 @@ async fn the_office_mission_reaches_every_place_and_reports_it() {
     // The same seed, the same run.
     let again = goto_mission("office", &["room-3", "room-5", "dock"], 1).await;
     assert_eq!(again.navigation, r.navigation);
+}
+
+/// The differential-drive robot with a planar laser (config/diffbot.toml) is sent to places by
+/// the same navigation code, which reads its laser through the sensor geometry it describes:
+/// a tour drawn for its 0.70 m body on the office floor, every place truly reached, localized
+/// within the 0.10 m RMS, without a bump.
+#[tokio::test(start_paused = true)]
+async fn the_laser_robot_is_sent_to_places_by_the_same_navigation() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/config/diffbot.toml");
+    let config = orsa::config::Config::load(std::path::Path::new(file)).unwrap_or_else(|e| panic!("{e}"));
+    let radius_m = config.sim.robot_params(config.robot().push_periods()).body_radius_m;
+    assert_eq!(radius_m, 0.35, "the diffbot's body");
+    let path = format!("{}/worlds/office.toml", env!("CARGO_MANIFEST_DIR"));
+    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
+    let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(5, radius_m), 1)
+        .expect("a tour");
+    let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+    let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
+    let r = goto_mission_of(config, "office", &targets, 1).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}", nav.table());
+    assert_eq!(nav.goals.len(), 5);
+    for g in &nav.goals {
+        assert_eq!(g.status, "succeeded", "{g:?}");
+        assert!(g.final_error_m.is_some_and(|e| e < 0.25), "{g:?}");
+    }
+    assert!(nav.spl >= 0.85, "SPL {}", nav.spl);
+    assert!(nav.localization.samples > 500 && nav.localization.rms_m <= 0.10, "{:?}", nav.localization);
+    assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+    // It was the laser robot that drove: its server, under its own name, took the velocities
+    // and pushed the laser's two views.
+    let services: Vec<&String> = r.delivery.services.keys().collect();
+    assert!(services.iter().any(|s| s.starts_with("diffbot/")), "no diffbot service: {services:?}");
+    assert!(!services.iter().any(|s| s.starts_with("nomad200/")), "a Nomad 200 in the run: {services:?}");
 }
 
 /// A random tour (`orsa run --tour`): places drawn where the body reaches on the true world,
