@@ -244,6 +244,11 @@ pub struct Localizer {
     last_odom: Option<Pose2>,
     /// How many updates were made.
     updates: u64,
+    /// Per farthest range a beam reads (its bits), the field turned into the log score of a
+    /// beam's end in each cell: the score depends only on the distance there and the range, so
+    /// it is computed once per cell rather than for every beam of every particle at every update
+    /// (made at a range's first use).
+    scores: Vec<(u64, DistanceField)>,
 }
 
 /// `a` wrapped into (-pi, pi].
@@ -278,6 +283,7 @@ impl Localizer {
             w_fast: 0.0,
             last_odom: None,
             updates: 0,
+            scores: Vec::new(),
         };
         l.reset_global();
         Ok(l)
@@ -382,12 +388,9 @@ impl Localizer {
         if hits.is_empty() {
             return;
         }
-        let p = &self.params;
-        let sigma = p.sigma_hit_m;
-        let norm = 1.0 / (sigma * (2.0 * PI).sqrt());
         // Where each echo falls in the body's frame, along each direction across its beam:
         // the same for every particle, so the trigonometry is done once per update.
-        let ends: Vec<(f64, Vec<(f64, f64)>)> = hits
+        let ends: Vec<(usize, Vec<(f64, f64)>)> = hits
             .iter()
             .map(|b| {
                 let r = b.range_m.unwrap_or(b.max_range_m);
@@ -397,9 +400,10 @@ impl Localizer {
                 } else {
                     (-2..=2).map(|k| end(b.angle_rad + b.half_width_rad * f64::from(k) / 2.0)).collect()
                 };
-                (b.max_range_m, points)
+                (self.score_field(b.max_range_m), points)
             })
             .collect();
+        let p = &self.params;
         let logs: Vec<f64> = self
             .particles
             .iter()
@@ -407,15 +411,7 @@ impl Localizer {
                 let pose = part.pose;
                 let (sin, cos) = pose.theta.sin_cos();
                 ends.iter()
-                    .map(|(max_range_m, points)| {
-                        let d = self.beam_fit(pose, sin, cos, points);
-                        let z = d / sigma;
-                        // Floored: one reading no model explains must not rule a particle out
-                        // for good (a log of 0 would make every weight NaN).
-                        (p.z_hit * norm * (-0.5 * z * z).exp() + p.z_rand / max_range_m)
-                            .max(f64::MIN_POSITIVE)
-                            .ln()
-                    })
+                    .map(|(score, points)| self.beam_score(&self.scores[*score].1, pose, sin, cos, points))
                     .sum::<f64>()
                     + part.weight.ln()
             })
@@ -482,14 +478,43 @@ impl Localizer {
         self.particles = next;
     }
 
-    /// How far from the map's nearest obstacle an echo falls, seen from `pose` (whose heading's
-    /// sine and cosine are given), m: at the one of its possible `points` (body frame) nearest
-    /// one. (The rotation is [`Pose2::apply`]'s, with the trigonometry done once per pose.)
-    fn beam_fit(&self, pose: Pose2, sin: f64, cos: f64, points: &[(f64, f64)]) -> f64 {
+    /// The log score of an echo seen from `pose` (whose heading's sine and cosine are given),
+    /// on the `score` field of its beam's range: at the one of its possible `points` (body
+    /// frame) that scores best, i.e. falls nearest an obstacle. (The rotation is
+    /// [`Pose2::apply`]'s, with the trigonometry done once per pose.)
+    fn beam_score(
+        &self,
+        score: &DistanceField,
+        pose: Pose2,
+        sin: f64,
+        cos: f64,
+        points: &[(f64, f64)],
+    ) -> f64 {
         points
             .iter()
-            .map(|&(px, py)| self.field.at(pose.x + cos * px - sin * py, pose.y + sin * px + cos * py))
-            .fold(f64::INFINITY, f64::min)
+            .map(|&(px, py)| score.at(pose.x + cos * px - sin * py, pose.y + sin * px + cos * py))
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// The index in `scores` of the score field of beams reading up to `max_range_m`, made if
+    /// it is the first: per cell, the log of `z_hit` of a normal of `sigma_hit_m` at the
+    /// distance to the nearest obstacle plus `z_rand` spread over the range.
+    fn score_field(&mut self, max_range_m: f64) -> usize {
+        let key = max_range_m.to_bits();
+        if let Some(i) = self.scores.iter().position(|(k, _)| *k == key) {
+            return i;
+        }
+        let p = &self.params;
+        let (sigma, z_hit, z_rand) = (p.sigma_hit_m, p.z_hit, p.z_rand);
+        let norm = 1.0 / (sigma * (2.0 * PI).sqrt());
+        let field = self.field.mapped(|d| {
+            let z = d / sigma;
+            // Floored: one reading no model explains must not rule a particle out for good (a
+            // log of 0 would make every weight NaN).
+            (z_hit * norm * (-0.5 * z * z).exp() + z_rand / max_range_m).max(f64::MIN_POSITIVE).ln()
+        });
+        self.scores.push((key, field));
+        self.scores.len() - 1
     }
 
     /// The particles' weighted mean pose and covariance.
