@@ -21,8 +21,9 @@
 //!   a box). A thin thing a wide cone catches (a door jamb, a table leg) may lie anywhere
 //!   across the cone, between two narrow beams: in a 1 m door the sonar sees both jambs
 //!   within the infrared's range while every infrared beam passes them by. Or this view itself
-//!   saw two such things a moment ago
-//!   and the robot has barely moved since (walls do not vanish between two scans); for
+//!   saw two such things in the scan before, every reading vanished at once, and the robot
+//!   has barely moved since (walls do not vanish between two scans; a person walking off a
+//!   robot that waits for them leaves its range over several scans); for
 //!   `dead_after_s`. No echo where nothing is in range is healthy. A view judged dead is
 //!   healthy again once it reads something, or once the other view, trusted, sees nothing
 //!   within its range either, for `recover_s`: not merely because nothing checks it any more;
@@ -378,6 +379,10 @@ struct ViewState {
     stuck_on: Vec<Option<f64>>,
     /// The motion and time when the view last saw two things well within its range.
     last_saw: Option<(f64, Timestamp)>,
+    /// Whether its readings vanished at once: the scan before one that read nothing valid saw
+    /// two things well within its range, and none since read anything (a valid reading clears
+    /// it).
+    vanished: bool,
     /// When the evidence that it is dead began.
     dead_from: Option<Timestamp>,
     /// When it last read something valid.
@@ -626,11 +631,18 @@ impl Judge {
         if sees_two(&now_readings, spec) {
             st.last_saw = Some((travel, now));
         }
+        if valid > 0 {
+            st.vanished = false;
+        } else if sees_two(&st.last, spec) {
+            st.vanished = true;
+        }
         // Alive: it reads something, or reads nothing where the other view sees nothing either.
         let mut dead_sign = (valid > 0 || other_sees_nothing).then_some(true);
         if valid == 0 {
+            // (Everything it saw gone from one scan to the next: a person walking off the
+            // robot thins out of range over several scans, at their pace, first.)
             let saw_a_moment_ago =
-                st.last_saw.is_some_and(|(t0, at)| travel - t0 < 0.1 && secs(at, now) < 2.0);
+                st.vanished && st.last_saw.is_some_and(|(t0, at)| travel - t0 < 0.1 && secs(at, now) < 2.0);
             if other_sees || saw_a_moment_ago {
                 dead_sign = Some(false);
                 let from = *st.dead_from.get_or_insert(now);
@@ -1197,6 +1209,30 @@ mod tests {
         }
         assert!(j.view_trusted(0));
         assert!(!j.view_vouched(0));
+    }
+
+    /// Suite, seed 9 of the random tours: the robot stood in a 1 m door waiting for a person,
+    /// who walked off; the infrared's readings of them went out of range and the sonar saw only
+    /// the jambs, which narrow beams may pass between. Judged dead on "it saw two things a
+    /// moment ago", the ring stayed dead (nothing it must meet, nothing read) and the robot
+    /// stood for the rest of the run. Readings that leave over several scans are no death.
+    #[test]
+    fn a_person_walking_off_a_standing_robot_is_no_dead_ring() {
+        let mut j = judge();
+        for k in 0..60u64 {
+            let t = k * 40;
+            j.note_motion(0.0, 0.0, 0.0, Timestamp(t * MS));
+            // Two beams on someone 0.30 m off, who walks off at 0.7 m/s from k = 20 (2.8 cm a
+            // scan): out of the 0.6 m range about eleven scans later.
+            let d = 0.30 + 0.028 * k.saturating_sub(20) as f64;
+            let mut r = vec![None; 16];
+            if d <= 0.6 {
+                r[3] = Some(d);
+                r[4] = Some(d + 0.02);
+            }
+            j.note_scan(0, &scan(Ring::Infrared, t, &r));
+        }
+        assert_eq!(j.health().verdict("infrared"), Verdict::Healthy, "{:?}", j.health());
     }
 
     #[test]
