@@ -240,6 +240,26 @@ async fn random_tours_of_the_office_floor_reach_every_place() {
     }
 }
 
+/// People close to the robot in the office's room 5 make the filter's fit dip (a false alarm):
+/// the robot turns on the spot and the relocalizer searches. Its echoes, a person among them,
+/// then fit the truth (0.86 of score) less well than two alike places 8 m off in rooms 1 and 2
+/// (0.93 each). Taking the better of those as a guess put the estimate 8.3 m off for 20 s
+/// (RMS 0.47 m over the tour). Beaten only by places unsure of themselves, the track is kept.
+#[tokio::test(start_paused = true)]
+async fn a_false_alarm_among_people_keeps_the_track_rather_than_guess_a_twin_room() {
+    let r = tour_mission("office", 20, 1).await;
+    let nav = r.navigation.as_ref().expect("a navigation section");
+    println!("{}", nav.table());
+    let l = &nav.localization;
+    assert!(!l.lost.is_empty(), "no false alarm on this tour any more: the test needs another seed ({l:?})");
+    for spell in &l.lost {
+        assert!(spell.error_after_m.is_some_and(|e| e < 0.25), "{spell:?}");
+    }
+    assert!(l.rms_m <= 0.10, "{l:?}");
+    assert_eq!(nav.success_rate, 1.0, "{}", nav.table());
+    assert_eq!(r.bumps, 0, "{:?}", r.bumps_at);
+}
+
 /// The hall looks nearly the same turned half round about its middle. People walking close
 /// once made the filter's fit dip, and particles redrawn at random on the mirror image won: on
 /// seeds 5 and 9 the estimate settled 10 m off and two goals in six were truly reached (the
