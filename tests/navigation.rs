@@ -149,14 +149,24 @@ async fn goto_mission_of(
 /// [`goto_mission`] to `n` places drawn at random from `seed` where the body reaches on the
 /// world `file` (`orsa run --tour`).
 async fn tour_mission(file: &str, n: usize, seed: u64) -> orsa::mission::report::Report {
+    tour_mission_of(orsa::config::Config::default(), file, n, seed).await
+}
+
+/// [`tour_mission`] on the robot and system of `config`, the places drawn for its body.
+async fn tour_mission_of(
+    config: orsa::config::Config,
+    file: &str,
+    n: usize,
+    seed: u64,
+) -> orsa::mission::report::Report {
     let path = format!("{}/worlds/{file}.toml", env!("CARGO_MANIFEST_DIR"));
     let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
-    let radius_m = SimConfig::default().robot_params(PushPeriods::default()).body_radius_m;
+    let radius_m = config.sim.robot_params(config.robot().push_periods()).body_radius_m;
     let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(n, radius_m), seed)
         .expect("a tour");
     let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
     let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
-    goto_mission(file, &targets, seed).await
+    goto_mission_of(config, file, &targets, seed).await
 }
 
 #[tokio::test(start_paused = true)]
@@ -197,13 +207,7 @@ async fn the_laser_robot_is_sent_to_places_by_the_same_navigation() {
     let config = orsa::config::Config::load(std::path::Path::new(file)).unwrap_or_else(|e| panic!("{e}"));
     let radius_m = config.sim.robot_params(config.robot().push_periods()).body_radius_m;
     assert_eq!(radius_m, 0.35, "the diffbot's body");
-    let path = format!("{}/worlds/office.toml", env!("CARGO_MANIFEST_DIR"));
-    let world = World::from_path(&path).unwrap_or_else(|e| panic!("{e}"));
-    let places = orsa::mission::tour::tour(&world, orsa::mission::tour::TourSpec::new(5, radius_m), 1)
-        .expect("a tour");
-    let targets: Vec<String> = places.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
-    let targets: Vec<&str> = targets.iter().map(String::as_str).collect();
-    let r = goto_mission_of(config, "office", &targets, 1).await;
+    let r = tour_mission_of(config, "office", 5, 1).await;
     let nav = r.navigation.as_ref().expect("a navigation section");
     println!("{}", nav.table());
     assert_eq!(nav.goals.len(), 5);
